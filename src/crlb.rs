@@ -1,0 +1,52 @@
+//! Cramér–Rao bound of β, k and r for a scenario: the Fisher information of the full
+//! problem (every unknown, SRP as coloured noise whitened), from noise-free signals of
+//! the scenario's maneuver and the estimator's own noise model.
+
+use crate::commander::Commander;
+use crate::estimate::{EstimatorConfig, JointEstimator};
+use crate::estimate::joint::{P_BETA, P_R};
+use crate::fee::FrontEnd;
+use crate::model::plant::{Plant, PlantNoise};
+use crate::scenario::{k_from_beta, Scenario};
+
+/// 1σ bounds per IS [same units as the parameters].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Crlb {
+    pub beta: [[f64; 3]; 2],
+    pub k: [[f64; 3]; 2],
+    pub com_offset_m: [[f64; 3]; 2],
+}
+
+pub fn crlb(s: &Scenario) -> Option<Crlb> {
+    let priors = s.priors();
+    let mut cfg = EstimatorConfig::from_scenario(s, &priors);
+    cfg.solve_every = u64::MAX;
+    let mut est = JointEstimator::new(cfg);
+    let mut cmd = Commander::new(s);
+    let mut plant = Plant::new(s, s.seed, PlantNoise::NONE);
+    let mut fee = FrontEnd::new(s, s.seed, false);
+    for tick in 0..s.n_samples() {
+        let c = cmd.step(tick);
+        let truth = plant.step(tick, &c.torque_cmd_b);
+        est.step(&fee.step(&truth));
+    }
+    let mut beta = [[0.0; 3]; 2];
+    let mut r = [[0.0; 3]; 2];
+    for (i, is) in s.inertial_sensor.iter().enumerate() {
+        beta[i] = is.beta;
+        r[i] = is.com_offset_m;
+    }
+    // Nuisances at their noise-free best fit, β and r at the truth.
+    let p = est.params_with(&beta, &r);
+    let p = est.nuisance_fit(p);
+    let sigma = est.fisher_sigma(&p)?;
+    let mut out = Crlb::default();
+    for (i, is) in s.inertial_sensor.iter().enumerate() {
+        for a in 0..3 {
+            out.beta[i][a] = sigma[P_BETA + 3 * i + a];
+            out.com_offset_m[i][a] = sigma[P_R + 3 * i + a];
+        }
+        out.k[i] = k_from_beta(&is.geometry_m, &out.beta[i]);
+    }
+    Some(out)
+}

@@ -1,0 +1,15 @@
+//! In-orbit calibration of the Taiji inertial sensors (Liu et al. 2025, SPEC.md):
+//! the plant, front-end electronics, commander and estimators as plain stage types
+//! with fixed-size inputs and outputs, so they run in one process or as separate
+//! processes over iceoryx2 shared memory.
+pub mod campaign;
+pub mod commander;
+pub mod crlb;
+pub mod estimate;
+pub mod fee;
+pub mod model;
+pub mod montecarlo;
+pub mod msg;
+pub mod report;
+pub mod rng;
+pub mod scenario;

@@ -1,0 +1,138 @@
+//! The plant: spacecraft attitude, thrusters, SRP and the TM accelerations of eq. 15.
+
+use super::attitude::RigidBody;
+use super::noise::{white_sigma, PowerLawBank};
+use super::thruster::Thrusters;
+use crate::msg::{Header, TruthState};
+use crate::rng::{gauss, stream, Rng, Stream};
+use crate::scenario::Scenario;
+use nalgebra::{Matrix3, Vector3};
+
+/// Integration sub-steps per output sample (100 Hz internal for 10 Hz output).
+pub const SUBSTEPS: usize = 10;
+
+/// Noise switches; all on in a real run, off for the Cramér–Rao bound's noise-free signals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantNoise {
+    pub torque: bool,
+    pub thruster_nonideal: bool,
+    pub srp: bool,
+    pub force: bool,
+}
+
+impl PlantNoise {
+    pub const ALL: PlantNoise = PlantNoise { torque: true, thruster_nonideal: true, srp: true, force: true };
+    pub const NONE: PlantNoise = PlantNoise { torque: false, thruster_nonideal: false, srp: false, force: false };
+}
+
+#[derive(Debug, Clone)]
+pub struct Plant {
+    body: RigidBody,
+    thrusters: Thrusters,
+    srp_bank: PowerLawBank,
+    rng_torque: Rng,
+    rng_edges: Rng,
+    rng_srp: Rng,
+    rng_force: Rng,
+    r_tm_b: [Vector3<f64>; 2],
+    sun_n: Vector3<f64>,
+    g0: f64,
+    torque_sigma: f64,
+    force_sigma: f64,
+    noise: PlantNoise,
+    fs: f64,
+    seq: u64,
+}
+
+impl Plant {
+    pub fn new(s: &Scenario, seed: u64, noise: PlantNoise) -> Self {
+        let inertia = Matrix3::from_fn(|i, j| s.spacecraft.inertia_kg_m2[i][j]);
+        let fs = s.sample_rate_hz;
+        let h = 1.0 / (fs * SUBSTEPS as f64);
+        let mut thr_params = s.thruster.clone();
+        if !noise.thruster_nonideal {
+            thr_params.edge_jitter_s = 0.0;
+            thr_params.amplitude_jitter_rel = 0.0;
+        }
+        let mut srp_bank = PowerLawBank::new(s.srp.asd_at_3mhz, 3e-3, 2.0 / 3.0, fs);
+        let mut rng_srp = stream(seed, Stream::Srp);
+        srp_bank.init_stationary(&mut rng_srp);
+        let mut r_tm_b = [Vector3::zeros(); 2];
+        for (i, is) in s.inertial_sensor.iter().enumerate() {
+            r_tm_b[i] = Vector3::from(is.com_offset_m);
+        }
+        Plant {
+            body: RigidBody::new(inertia),
+            thrusters: Thrusters::new(&thr_params),
+            srp_bank,
+            rng_torque: stream(seed, Stream::ThrusterTorque),
+            rng_edges: stream(seed, Stream::ThrusterEdges),
+            rng_srp,
+            rng_force: stream(seed, Stream::ThrusterForce),
+            r_tm_b,
+            sun_n: Vector3::from(s.sun_unit()),
+            g0: s.srp.dc_m_s2,
+            torque_sigma: if noise.torque { s.thruster.torque_noise_nm_rthz / (2.0 * h).sqrt() } else { 0.0 },
+            force_sigma: if noise.force {
+                white_sigma(s.thruster.force_noise_n_rthz / s.spacecraft.mass_kg, fs)
+            } else {
+                0.0
+            },
+            noise,
+            fs,
+            seq: 0,
+        }
+    }
+
+    /// Advance one output interval under `cmd` (the commander's torque for `tick`).
+    pub fn step(&mut self, tick: u64, torque_cmd_b: &[f64; 3]) -> TruthState {
+        let dt = 1.0 / self.fs;
+        let h = dt / SUBSTEPS as f64;
+        let t0 = tick as f64 * dt;
+        self.thrusters.command(t0, torque_cmd_b, &mut self.rng_edges);
+        let omega_start = self.body.omega_b;
+        let mut a_couple = [Vector3::zeros(); 2];
+        let mut sun_b = Vector3::zeros();
+        let mut torque_sum = Vector3::zeros();
+        for k in 0..SUBSTEPS {
+            let mut tau = Vector3::from(self.thrusters.mean_over(t0 + k as f64 * h, h));
+            if self.torque_sigma > 0.0 {
+                for a in 0..3 {
+                    tau[a] += self.torque_sigma * gauss(&mut self.rng_torque);
+                }
+            }
+            let w_a = self.body.omega_b;
+            self.body.step(&tau, h);
+            let w_b = self.body.omega_b;
+            let wd = (w_b - w_a) / h;
+            let w_mid = (w_a + w_b) * 0.5;
+            for (acc, r) in a_couple.iter_mut().zip(&self.r_tm_b) {
+                *acc += super::attitude::coupling_acceleration(&w_mid, &wd, r);
+            }
+            sun_b += self.body.q_bn.inverse_transform_vector(&self.sun_n);
+            torque_sum += tau;
+        }
+        let n = SUBSTEPS as f64;
+        let delta = if self.noise.srp { self.srp_bank.next(&mut self.rng_srp) } else { 0.0 };
+        let mut a_srp = sun_b / n * (self.g0 + delta);
+        if self.force_sigma > 0.0 {
+            for a in 0..3 {
+                a_srp[a] += self.force_sigma * gauss(&mut self.rng_force);
+            }
+        }
+        let q = self.body.q_bn.quaternion();
+        let a_tm: [[f64; 3]; 2] = std::array::from_fn(|i| (a_couple[i] / n + a_srp).into());
+        let out = TruthState {
+            header: Header::at(self.seq, tick, self.fs),
+            q_bn: [q.w, q.i, q.j, q.k],
+            omega_b: self.body.omega_b.into(),
+            omega_dot_b: ((self.body.omega_b - omega_start) / dt).into(),
+            a_tm_b: a_tm,
+            a_srp_b: a_srp.into(),
+            torque_b: (torque_sum / n).into(),
+            torque_cmd_b: *torque_cmd_b,
+        };
+        self.seq += 1;
+        out
+    }
+}

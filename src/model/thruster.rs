@@ -1,0 +1,142 @@
+//! Micro-thruster torque model (§3.1 of the paper, SPEC §2): first-order response,
+//! edge timing jitter (duty-cycle change), amplitude jitter per half period and
+//! overshoot decaying after each edge. Torque noise is added by the plant.
+
+use crate::rng::{gauss, Rng};
+use crate::scenario::Thruster as Params;
+use rand::Rng as _;
+
+/// One axis: the torque actually produced, as means over integration sub-steps.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ThrusterAxis {
+    /// Commanded level of the previous interval [N m].
+    last_cmd: f64,
+    /// Target the lag relaxes to, before / after a pending edge [N m].
+    target: f64,
+    next_target: f64,
+    /// Time of the pending edge [s]; NaN if none.
+    edge_t: f64,
+    /// First-order lag output [N m].
+    lag: f64,
+    /// Overshoot amplitude, decays with `overshoot_decay_s` [N m].
+    overshoot: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+pub struct Thrusters {
+    pub axes: [ThrusterAxis; 3],
+    p: ParamsCopy,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct ParamsCopy {
+    tau: f64,
+    jitter: f64,
+    amp_jitter: f64,
+    overshoot_rel: f64,
+    overshoot_decay: f64,
+}
+
+/// Mean of y(t) = L + (y0 − L) e^(−t/τ) over [0, h], and y(h).
+fn relax(y0: f64, level: f64, tau: f64, h: f64) -> (f64, f64) {
+    let e = (-h / tau).exp();
+    let mean = level + (y0 - level) * tau / h * (1.0 - e);
+    (mean, level + (y0 - level) * e)
+}
+
+impl Thrusters {
+    pub fn new(p: &Params) -> Self {
+        let axis = ThrusterAxis { edge_t: f64::NAN, ..Default::default() };
+        Thrusters {
+            axes: [axis; 3],
+            p: ParamsCopy {
+                tau: p.response_time_s,
+                jitter: p.edge_jitter_s,
+                amp_jitter: p.amplitude_jitter_rel,
+                overshoot_rel: p.overshoot_rel,
+                overshoot_decay: p.overshoot_decay_s,
+            },
+        }
+    }
+
+    /// New command for the interval starting at `t0`: a change schedules an edge after a
+    /// delay of jitter ± jitter, with a freshly drawn amplitude.
+    pub fn command(&mut self, t0: f64, cmd: &[f64; 3], rng: &mut Rng) {
+        for (ax, &c) in self.axes.iter_mut().zip(cmd) {
+            if c != ax.last_cmd {
+                let delay = self.p.jitter * (1.0 + rng.gen_range(-1.0..1.0));
+                ax.edge_t = t0 + delay;
+                ax.next_target = c * (1.0 + self.p.amp_jitter * gauss(rng));
+                ax.last_cmd = c;
+            }
+        }
+    }
+
+    /// Mean torque per axis over [t, t + h] [N m], advancing the state.
+    pub fn mean_over(&mut self, t: f64, h: f64) -> [f64; 3] {
+        let p = self.p;
+        let mut out = [0.0; 3];
+        for (o, ax) in out.iter_mut().zip(self.axes.iter_mut()) {
+            if ax.edge_t <= t {
+                ax.apply_edge(p.overshoot_rel);
+            }
+            let mut acc = 0.0;
+            let mut t_a = t;
+            if ax.edge_t < t + h {
+                acc += ax.integrate(ax.edge_t - t_a, &p);
+                t_a = ax.edge_t;
+                ax.apply_edge(p.overshoot_rel);
+            }
+            acc += ax.integrate(t + h - t_a, &p);
+            *o = acc / h;
+        }
+        out
+    }
+}
+
+impl ThrusterAxis {
+    /// The pending edge happens: the target jumps, the overshoot kicks in.
+    fn apply_edge(&mut self, overshoot_rel: f64) {
+        self.overshoot += overshoot_rel * (self.next_target - self.target);
+        self.target = self.next_target;
+        self.edge_t = f64::NAN;
+    }
+
+    /// Integral of the torque over the next `len` seconds [N m s].
+    fn integrate(&mut self, len: f64, p: &ParamsCopy) -> f64 {
+        if len <= 0.0 {
+            return 0.0;
+        }
+        let (m_lag, y) = relax(self.lag, self.target, p.tau, len);
+        let (m_os, os) = relax(self.overshoot, 0.0, p.overshoot_decay, len);
+        self.lag = y;
+        self.overshoot = os;
+        (m_lag + m_os) * len
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{stream, Stream};
+
+    #[test]
+    fn step_response_settles_to_the_commanded_level_with_decaying_overshoot() {
+        let p = Params { amplitude_jitter_rel: 0.0, edge_jitter_s: 0.0, ..Params::default() };
+        let mut t = Thrusters::new(&p);
+        let mut rng = stream(1, Stream::ThrusterEdges);
+        t.command(0.0, &[1e-6, 0.0, 0.0], &mut rng);
+        let first = t.mean_over(0.0, 0.01)[0];
+        assert!(first > 0.0 && first < 1.2e-6);
+        let mut last = 0.0;
+        for i in 1..2000 {
+            last = t.mean_over(i as f64 * 0.01, 0.01)[0];
+        }
+        assert!((last - 1e-6).abs() < 1e-12, "{last}");
+        // Mean over the first second exceeds the level: the overshoot.
+        let mut t2 = Thrusters::new(&p);
+        t2.command(0.0, &[1e-6, 0.0, 0.0], &mut rng);
+        let m: f64 = (0..100).map(|i| t2.mean_over(i as f64 * 0.01, 0.01)[0]).sum::<f64>() / 100.0;
+        assert!(m > 1.0e-6 && m < 1.1e-6, "{m}");
+    }
+}

@@ -1,0 +1,129 @@
+//! Monte Carlo over seeds: accuracy, honesty of σ (χ²) and efficiency (ratio to CRLB).
+
+use crate::campaign;
+use crate::crlb::crlb;
+use crate::estimate::Method;
+use crate::report::{Report, REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use crate::scenario::Scenario;
+use serde::Serialize;
+
+/// Statistics of one parameter over the runs.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamStats {
+    pub name: String,
+    /// RMS error (relative for β and k, metres for r).
+    pub rms_error: f64,
+    pub worst_error: f64,
+    /// RMS of error/σ; and the mean of (error/σ)².
+    pub rms_normalized: f64,
+    pub chi2_mean: f64,
+    /// RMS error / CRLB.
+    pub crlb_ratio: f64,
+    pub crlb: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct MonteCarlo {
+    pub scenario: String,
+    pub runs: u64,
+    pub first_seed: u64,
+    pub method: String,
+    pub runs_meeting_requirements: u64,
+    pub params: Vec<ParamStats>,
+    /// Mean of (error/σ)² per parameter group: β, k, r.
+    pub chi2_by_group: [f64; 3],
+    pub reports: Vec<Report>,
+}
+
+pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<MonteCarlo, String> {
+    let bound = crlb(s).ok_or("the Fisher information of this scenario is singular")?;
+    let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
+    let workers = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(seeds.len().max(1));
+    let mut reports: Vec<Option<Report>> = vec![None; seeds.len()];
+    std::thread::scope(|sc| {
+        let chunks: Vec<_> = reports.chunks_mut(seeds.len().div_ceil(workers)).zip(seeds.chunks(seeds.len().div_ceil(workers))).collect();
+        for (out, seeds) in chunks {
+            sc.spawn(move || {
+                for (o, &seed) in out.iter_mut().zip(seeds) {
+                    let mut sc = s.clone();
+                    sc.seed = seed;
+                    let r = campaign::run(&sc, seed, method, |_| {});
+                    *o = Some(Report::new(&sc, seed, "in-process", method.name(), &r.estimate, &bound));
+                }
+            });
+        }
+    });
+    let reports: Vec<Report> = reports.into_iter().flatten().collect();
+    let mut params = Vec::new();
+    let mut group = [(0.0, 0usize); 3];
+    let axes = ["x", "y", "z"];
+    for i in 0..s.inertial_sensor.len() {
+        for (g, name) in ["β", "k", "r"].iter().enumerate() {
+            for a in 0..3 {
+                let (mut se, mut worst, mut sz) = (0.0, 0.0f64, 0.0);
+                let mut crlb_v = 0.0;
+                for r in &reports {
+                    let is = &r.inertial_sensors[i];
+                    let q = [&is.beta, &is.k, &is.com_offset][g];
+                    let scale = if g < 2 { q.truth[a] } else { 1.0 };
+                    let e = (q.estimate[a] - q.truth[a]) / scale;
+                    let z = (q.estimate[a] - q.truth[a]) / q.sigma[a];
+                    se += e * e;
+                    worst = worst.max(e.abs());
+                    sz += z * z;
+                    crlb_v = q.crlb[a] / scale;
+                }
+                let n = reports.len() as f64;
+                group[g].0 += sz;
+                group[g].1 += reports.len();
+                params.push(ParamStats {
+                    name: format!("IS{} {}{}", i + 1, name, axes[a]),
+                    rms_error: (se / n).sqrt(),
+                    worst_error: worst,
+                    rms_normalized: (sz / n).sqrt(),
+                    chi2_mean: sz / n,
+                    crlb_ratio: (se / n).sqrt() / crlb_v,
+                    crlb: crlb_v,
+                });
+            }
+        }
+    }
+    let met = reports.iter().filter(|r| r.requirements.met).count() as u64;
+    Ok(MonteCarlo {
+        scenario: s.name.clone(),
+        runs,
+        first_seed,
+        method: method.name().into(),
+        runs_meeting_requirements: met,
+        params,
+        chi2_by_group: std::array::from_fn(|g| group[g].0 / group[g].1.max(1) as f64),
+        reports,
+    })
+}
+
+impl MonteCarlo {
+    pub fn table(&self) -> String {
+        use std::fmt::Write;
+        let mut o = String::new();
+        let _ = writeln!(o, "Monte Carlo: scenario {:?}, {} runs from seed {}, {} estimator", self.scenario, self.runs, self.first_seed, self.method);
+        let _ = writeln!(o, "{:<10} {:>12} {:>12} {:>12} {:>10} {:>12} {:>10}", "parameter", "RMS error", "worst", "CRLB", "RMS/CRLB", "RMS err/σ", "<(e/σ)²>");
+        for p in &self.params {
+            let fmt = |v: f64| if p.name.contains('r') && !p.name.contains('β') { format!("{:.3} µm", v * 1e6) } else { format!("{:.2e}", v) };
+            let _ = writeln!(
+                o,
+                "{:<10} {:>12} {:>12} {:>12} {:>10.2} {:>12.2} {:>10.2}",
+                p.name,
+                fmt(p.rms_error),
+                fmt(p.worst_error),
+                fmt(p.crlb),
+                p.crlb_ratio,
+                p.rms_normalized,
+                p.chi2_mean
+            );
+        }
+        let _ = writeln!(o, "(β, k relative; r absolute. Requirements: {:.0e} relative, {:.0} µm)", REQ_SCALE_FACTOR_REL, REQ_COM_M * 1e6);
+        let _ = writeln!(o, "Mean (error/σ)² by group: β {:.2}, k {:.2}, r {:.2}", self.chi2_by_group[0], self.chi2_by_group[1], self.chi2_by_group[2]);
+        let _ = writeln!(o, "Runs meeting every requirement: {} of {}", self.runs_meeting_requirements, self.runs);
+        o
+    }
+}

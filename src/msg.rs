@@ -1,0 +1,111 @@
+//! Fixed-size `#[repr(C)]` messages exchanged by the stages (and, in the process
+//! set, over iceoryx2 shared memory). Units in every field's comment; vectors carry
+//! their frame (`_b` body, `_bn` body relative to inertial). Times are integer ns.
+
+/// Common header of every message.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct Header {
+    /// Per-publisher sequence number, from 0, no gaps.
+    pub seq: u64,
+    /// Simulation tick n; the sample describes the interval [n, n+1) / fs.
+    pub tick: u64,
+    /// Simulation time at the end of the interval [ns].
+    pub sim_time_ns: i64,
+    /// Monotonic clock when published [ns] (0 in-process).
+    pub publish_ns: u64,
+}
+
+/// Commander → plant: torque commanded for the interval.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct TorqueCommand {
+    pub header: Header,
+    /// Commanded torque, body frame [N m].
+    pub torque_cmd_b: [f64; 3],
+}
+
+/// Plant → front-end electronics (and recorder only): the true state.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct TruthState {
+    pub header: Header,
+    /// Attitude quaternion (w, x, y, z) of B relative to N at the end of the interval [-].
+    pub q_bn: [f64; 4],
+    /// Angular velocity at the end of the interval, in B [rad/s].
+    pub omega_b: [f64; 3],
+    /// Mean angular acceleration over the interval, in B [rad/s²].
+    pub omega_dot_b: [f64; 3],
+    /// Mean electrostatic acceleration applied to TM i over the interval, in B [m/s²] (eq. 15).
+    pub a_tm_b: [[f64; 3]; 2],
+    /// Mean non-gravitational (SRP + thruster force noise) acceleration, in B [m/s²].
+    pub a_srp_b: [f64; 3],
+    /// Mean applied torque over the interval, in B [N m].
+    pub torque_b: [f64; 3],
+    /// Commanded torque for the interval, in B [N m].
+    pub torque_cmd_b: [f64; 3],
+}
+
+/// Star-tracker sample.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct StarSample {
+    /// Measured attitude (w, x, y, z) of B relative to N [-].
+    pub q_bn: [f64; 4],
+    /// 1 when the sample is valid, 0 in an outage or between star-tracker samples.
+    pub valid: u8,
+    pub _pad: [u8; 7],
+}
+
+/// Saturation flags of an IS sample: bit j for the linear channel j, bit 3+j angular.
+pub const FLAG_SATURATED_LINEAR: u8 = 0b0000_0111;
+pub const FLAG_SATURATED_ANGULAR: u8 = 0b0011_1000;
+/// The IS sample is not present (IS absent in the scenario).
+pub const FLAG_ABSENT: u8 = 0b1000_0000;
+
+/// One IS's drive voltages for the interval (Table 1).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct IsSample {
+    /// Electrode drive voltages [V], indexed [x, y, z][1, 2] as V_{j,1}, V_{j,2}.
+    pub volts: [[f64; 2]; 3],
+    /// Saturation / presence flags (`FLAG_*`).
+    pub flags: u8,
+    pub _pad: [u8; 7],
+}
+
+/// Front-end electronics → estimator: everything the estimator may see.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct SensorSample {
+    pub header: Header,
+    pub star: StarSample,
+    pub is: [IsSample; 2],
+}
+
+/// Estimator → supervisor / recorder: the latest estimates with 1σ.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct EstimateMsg {
+    pub header: Header,
+    /// Tick of the last solve; the estimates below are as of that tick.
+    pub solved_tick: u64,
+    /// Angular scale factors per IS [rad s^-2 V^-1] and their 1σ.
+    pub beta: [[f64; 3]; 2],
+    pub beta_sigma: [[f64; 3]; 2],
+    /// Linear scale factors per IS [m s^-2 V^-1] and their 1σ (eq. 2).
+    pub k: [[f64; 3]; 2],
+    pub k_sigma: [[f64; 3]; 2],
+    /// CoM offsets per IS, body frame [m], and their 1σ.
+    pub r_b: [[f64; 3]; 2],
+    pub r_sigma: [[f64; 3]; 2],
+    /// Samples used and samples rejected (non-finite, saturated, invalid).
+    pub n_used: u64,
+    pub n_rejected: u64,
+}
+
+impl Header {
+    pub fn at(seq: u64, tick: u64, fs: f64) -> Self {
+        Header { seq, tick, sim_time_ns: ((tick + 1) as f64 / fs * 1e9).round() as i64, publish_ns: 0 }
+    }
+}

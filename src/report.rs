@@ -1,0 +1,149 @@
+//! The run report (SPEC §5) and the result table printed like the paper's Tables 2–3.
+
+use crate::crlb::Crlb;
+use crate::msg::EstimateMsg;
+use crate::scenario::Scenario;
+use serde::{Deserialize, Serialize};
+
+/// Scale-factor requirement, relative per axis (0.03 %).
+pub const REQ_SCALE_FACTOR_REL: f64 = 3e-4;
+/// CoM requirement per axis [m].
+pub const REQ_COM_M: f64 = 75e-6;
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Quantity {
+    pub truth: [f64; 3],
+    pub estimate: [f64; 3],
+    pub sigma: [f64; 3],
+    pub crlb: [f64; 3],
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct IsReport {
+    pub id: usize,
+    pub beta: Quantity,
+    pub k: Quantity,
+    pub com_offset: Quantity,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Requirements {
+    pub scale_factor_rel: f64,
+    pub com_offset_m: f64,
+    pub met: bool,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Report {
+    pub scenario: String,
+    pub seed: u64,
+    pub duration_s: f64,
+    pub mode: String,
+    pub method: String,
+    pub inertial_sensors: Vec<IsReport>,
+    pub requirements: Requirements,
+    /// Samples the estimator used and rejected (non-finite, saturated, invalid).
+    pub samples_used: u64,
+    pub samples_rejected: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_time_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timing: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub restarts: Option<serde_json::Value>,
+}
+
+impl Report {
+    pub fn new(s: &Scenario, seed: u64, mode: &str, method: &str, est: &EstimateMsg, crlb: &Crlb) -> Report {
+        let mut iss = Vec::new();
+        let mut met = true;
+        for (i, is) in s.inertial_sensor.iter().enumerate() {
+            let q = |truth: [f64; 3], e: [f64; 3], sg: [f64; 3], c: [f64; 3]| Quantity { truth, estimate: e, sigma: sg, crlb: c };
+            let beta = q(is.beta, est.beta[i], est.beta_sigma[i], crlb.beta[i]);
+            let k = q(is.k(), est.k[i], est.k_sigma[i], crlb.k[i]);
+            let r = q(is.com_offset_m, est.r_b[i], est.r_sigma[i], crlb.com_offset_m[i]);
+            for a in 0..3 {
+                met &= ((beta.estimate[a] - beta.truth[a]) / beta.truth[a]).abs() < REQ_SCALE_FACTOR_REL;
+                met &= ((k.estimate[a] - k.truth[a]) / k.truth[a]).abs() < REQ_SCALE_FACTOR_REL;
+                met &= (r.estimate[a] - r.truth[a]).abs() < REQ_COM_M;
+            }
+            iss.push(IsReport { id: i + 1, beta, k, com_offset: r });
+        }
+        Report {
+            scenario: s.name.clone(),
+            seed,
+            duration_s: s.duration_s,
+            mode: mode.into(),
+            method: method.into(),
+            inertial_sensors: iss,
+            requirements: Requirements { scale_factor_rel: REQ_SCALE_FACTOR_REL, com_offset_m: REQ_COM_M, met },
+            samples_used: est.n_used,
+            samples_rejected: est.n_rejected,
+            wall_time_s: None,
+            timing: None,
+            restarts: None,
+        }
+    }
+
+    /// The result table: truth, estimate ± 1σ, error, requirement, pass/fail, CRLB.
+    pub fn table(&self) -> String {
+        use std::fmt::Write;
+        let mut o = String::new();
+        let _ = writeln!(o, "Scenario {:?}, seed {}, {} s, {} ({} estimator)", self.scenario, self.seed, self.duration_s, self.mode, self.method);
+        let _ = writeln!(
+            o,
+            "{:<10} {:>14} {:>14} {:>11} {:>11} {:>11} {:>9} {:>5} {:>11}",
+            "parameter", "truth", "estimate", "1σ", "error", "CRLB", "req", "pass", "err/σ"
+        );
+        let axes = ["x", "y", "z"];
+        for is in &self.inertial_sensors {
+            let rows: [(&str, &Quantity, bool); 3] = [("β", &is.beta, true), ("k", &is.k, true), ("r", &is.com_offset, false)];
+            for (name, q, rel) in rows {
+                for a in 0..3 {
+                    let err = q.estimate[a] - q.truth[a];
+                    let (err_s, sig_s, crlb_s, req_s, pass) = if rel {
+                        let e = err / q.truth[a];
+                        (
+                            format!("{:+.2e}", e),
+                            format!("{:.2e}", q.sigma[a] / q.truth[a]),
+                            format!("{:.2e}", q.crlb[a] / q.truth[a]),
+                            "3.0e-4".to_string(),
+                            e.abs() < REQ_SCALE_FACTOR_REL,
+                        )
+                    } else {
+                        (
+                            format!("{:+.2} µm", err * 1e6),
+                            format!("{:.2} µm", q.sigma[a] * 1e6),
+                            format!("{:.2} µm", q.crlb[a] * 1e6),
+                            "75 µm".to_string(),
+                            err.abs() < REQ_COM_M,
+                        )
+                    };
+                    let z = if q.sigma[a] > 0.0 { err / q.sigma[a] } else { f64::NAN };
+                    let _ = writeln!(
+                        o,
+                        "{:<10} {:>14.6e} {:>14.6e} {:>11} {:>11} {:>11} {:>9} {:>5} {:>+11.2}",
+                        format!("IS{} {}{}", is.id, name, axes[a]),
+                        q.truth[a],
+                        q.estimate[a],
+                        sig_s,
+                        err_s,
+                        crlb_s,
+                        req_s,
+                        if pass { "ok" } else { "FAIL" },
+                        z
+                    );
+                }
+            }
+        }
+        let _ = writeln!(o, "(β, k: 1σ, error and CRLB relative; r: absolute)");
+        let _ = writeln!(o, "Requirements met: {}", if self.requirements.met { "yes" } else { "NO" });
+        if let Some(t) = &self.timing {
+            let _ = writeln!(o, "Timing: {}", t);
+        }
+        if let Some(r) = &self.restarts {
+            let _ = writeln!(o, "Restarts: {}", r);
+        }
+        o
+    }
+}
