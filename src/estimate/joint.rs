@@ -354,8 +354,11 @@ impl JointEstimator {
             self.n_used += 1;
             self.update_linear(&data, &dv, &psi_mid, &phi_mid, t);
             if n == 2 {
-                let wgt = 1.0 / (2.0 * self.cfg.sigma_angular.powi(2));
+                // Residual ΔV1 − (β2/β1) ΔV2 [V]: its noise (n1 − n2)/β1 weighted with the
+                // prior β1, so the group constrains the ratio only and cannot pull the
+                // common scale (the density's Jacobian would otherwise be missing).
                 for a in 0..3 {
+                    let wgt = (self.cfg.beta_prior[0][a] / self.cfg.sigma_angular).powi(2) / 2.0;
                     let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
                     rank1_upper(&mut self.m_ang[a], &v, wgt);
                 }
@@ -457,11 +460,11 @@ impl JointEstimator {
         }
         let q = UnitQuaternion::from_quaternion(q);
         let q_ref = *self.q_ref.get_or_insert(q);
-        let theta = (q_ref.inverse() * q).scaled_axis();
+        let theta = crate::model::attitude::rotation_vector(&(q_ref.inverse() * q));
         // Second-order kinematics, from the IS-propagated attitude with the prior β.
         let bp = self.cfg.beta_prior[0];
         let lin = Vector3::from_fn(|a, _| bp[a] * self.phi[0][a]);
-        let kappa = self.q_model.scaled_axis() - lin;
+        let kappa = crate::model::attitude::rotation_vector(&self.q_model) - lin;
         let wgt = 1.0 / self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v = SVector::<f64, 5>::new(theta[a] - kappa[a], 1.0, t, self.phi[0][a], self.phi[1][a]);
@@ -514,7 +517,7 @@ impl JointEstimator {
                 -self.w(1) * p[P_BETA + 3 + a],
             )
         });
-        let ang = std::array::from_fn(|a| SVector::<f64, 2>::new(p[P_BETA + a], -p[P_BETA + 3 + a]));
+        let ang = std::array::from_fn(|a| SVector::<f64, 2>::new(1.0, -p[P_BETA + 3 + a] / p[P_BETA + a]));
         Coeffs { lin, star, ang }
     }
 
@@ -583,7 +586,9 @@ impl JointEstimator {
             hm += d.transpose() * md;
             g += md.transpose() * c;
         };
+        let dbg_star_only = std::env::var("TAIJI_DBG_STAR").is_ok();
         for reg in 0..N_REG {
+            if dbg_star_only { break; }
             let (cnt, msq, wsq) = self.regime_stats(p, reg);
             if cnt < 1.0 {
                 continue;
@@ -596,7 +601,7 @@ impl JointEstimator {
                 add(&rows.row(t).transpose(), &m);
             }
         }
-        add(&self.t_u, &symmetric(&self.m_filt));
+        if !dbg_star_only { add(&self.t_u, &symmetric(&self.m_filt)); }
         for a in 0..3 {
             let m = symmetric(&self.m_star[a]);
             let d = SMatrix::<f64, 5, NP>::from_fn(|s, k| dc[k].star[a][s]);

@@ -138,7 +138,7 @@ impl PaperEstimator {
         self.n_used += 1;
         let q = UnitQuaternion::from_quaternion(Quaternion::new(s.star.q_bn[0], s.star.q_bn[1], s.star.q_bn[2], s.star.q_bn[3]));
         let q_ref = *self.q_ref.get_or_insert(q);
-        let theta = (q_ref.inverse() * q).scaled_axis();
+        let theta = crate::model::attitude::rotation_vector(&(q_ref.inverse() * q));
         let t0 = *self.t0.get_or_insert(t);
         // Star ω̇ centred on the previous sample, low-passed once for both IS.
         let y_star: Option<[f64; 3]> = match self.theta_hist {

@@ -86,8 +86,15 @@ pub fn coupling_matrix(w: &Vector3<f64>, wd: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// Small-angle rotation vector of a unit quaternion (log map) [rad].
+/// Uses atan2, accurate for tiny angles (acos of the scalar part loses digits).
 pub fn rotation_vector(q: &UnitQuaternion<f64>) -> Vector3<f64> {
-    q.scaled_axis()
+    let q = q.quaternion();
+    let (w, v) = if q.w < 0.0 { (-q.w, -q.imag()) } else { (q.w, q.imag()) };
+    let n = v.norm();
+    if n < 1e-300 {
+        return Vector3::zeros();
+    }
+    v * (2.0 * n.atan2(w) / n)
 }
 
 #[cfg(test)]
