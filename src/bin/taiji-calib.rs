@@ -86,7 +86,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let seed = seed.unwrap_or(s.seed);
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
-            let crlb = taiji::crlb::crlb(&s).or_else(|| std::env::var("TAIJI_DBG_STAR").ok().map(|_| Default::default())).ok_or("the Fisher information of this scenario is singular: the maneuver does not excite every parameter")?;
+            let crlb = taiji::crlb::crlb(&s).ok_or("the Fisher information of this scenario is singular: the maneuver does not excite every parameter")?;
             let res = taiji::campaign::run(&s, seed, method, |_| {});
             let mut report = Report::new(&s, seed, "in-process", method.name(), &res.estimate, &crlb);
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());

@@ -16,7 +16,7 @@
 //! Groups of residuals, per sample:
 //! * star tracker, per axis: θ_st − κ − θ0 − θ̇0 t − ½(β1 Φ1 + β2 Φ2)   (angle domain)
 //! * angular consistency, per axis: β1 ΔV1 − β2 ΔV2   (both IS see the same ω̇)
-//! * linear, per IS and axis (eq. 15, in volts): ΣV − [A(ω, ω̇) r − θ × a_srp] / k − b' − α' t
+//! * linear, per IS and axis (eq. 15, in volts): ΣV − [A(ω, ω̇) r + (Rᵀ − I) a_srp] / k − b' − α' t
 //!   with ω̇ = ½(β1 ΔV1 + β2 ΔV2), ω = β1 Ψ1, k = G β (eq. 2).
 
 use super::config::EstimatorConfig;
@@ -26,7 +26,7 @@ use crate::msg::{EstimateMsg, Header, SensorSample, FLAG_ABSENT, FLAG_SATURATED_
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Signals of the linear group.
-pub const NS: usize = 23;
+pub const NS: usize = 29;
 /// Parameters.
 pub const NP: usize = 30;
 /// Noise regimes of the linear channels (by the dominant rotation axis).
@@ -38,6 +38,7 @@ const S_PHI: usize = 12; // + a : Φ1_a interval mean [V s²]
 const S_PP: usize = 15; // + prod(a, b) : Ψ1_a Ψ1_b [V² s²]
 const S_ONE: usize = 21;
 const S_T: usize = 22;
+const S_QQ: usize = 23; // + prod(a, b) : Φ1_a Φ1_b [V² s⁴], second-order SRP rotation
 
 pub const P_BETA: usize = 0; // + 3 i + a
 pub const P_R: usize = 6; // + 3 i + a
@@ -389,6 +390,7 @@ impl JointEstimator {
             s[S_PHI + a] = phi_mid[0][a];
             for b in a..3 {
                 s[S_PP + prod(a, b)] = psi_mid[0][a] * psi_mid[0][b];
+                s[S_QQ + prod(a, b)] = phi_mid[0][a] * phi_mid[0][b];
             }
         }
         s[S_ONE] = 1.0;
@@ -501,9 +503,13 @@ impl JointEstimator {
                     lin[(row, S_PP + prod(j, a))] -= inv_k * beta1(j) * beta1(a) * r(a);
                     lin[(row, S_PP + prod(a, a))] += inv_k * r(j) * beta1(a) * beta1(a);
                 }
-                // SRP direction turning with the attitude: a_srp ≈ b − θ × b.
+                // SRP direction turning with the attitude: a_srp ≈ b − θ × b + ½ θ × (θ × b).
                 lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * bc[j2];
                 lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
+                for a in [j1, j2] {
+                    lin[(row, S_QQ + prod(j, a))] -= 0.5 * inv_k * beta1(j) * beta1(a) * bc[a];
+                    lin[(row, S_QQ + prod(a, a))] += 0.5 * inv_k * bc[j] * beta1(a) * beta1(a);
+                }
                 lin[(row, S_ONE)] = -p[P_B + row];
                 lin[(row, S_T)] = -p[P_AL + row];
             }
@@ -586,9 +592,7 @@ impl JointEstimator {
             hm += d.transpose() * md;
             g += md.transpose() * c;
         };
-        let dbg_star_only = std::env::var("TAIJI_DBG_STAR").is_ok();
         for reg in 0..N_REG {
-            if dbg_star_only { break; }
             let (cnt, msq, wsq) = self.regime_stats(p, reg);
             if cnt < 1.0 {
                 continue;
@@ -601,7 +605,7 @@ impl JointEstimator {
                 add(&rows.row(t).transpose(), &m);
             }
         }
-        if !dbg_star_only { add(&self.t_u, &symmetric(&self.m_filt)); }
+        add(&self.t_u, &symmetric(&self.m_filt));
         for a in 0..3 {
             let m = symmetric(&self.m_star[a]);
             let d = SMatrix::<f64, 5, NP>::from_fn(|s, k| dc[k].star[a][s]);

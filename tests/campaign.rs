@@ -1,0 +1,93 @@
+//! The in-process campaign: requirements, determinism, and that the estimator stands on
+//! sensor data alone.
+
+use taiji::campaign;
+use taiji::estimate::{EstimatorConfig, Method};
+use taiji::msg::EstimateMsg;
+use taiji::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use taiji::scenario::Scenario;
+
+fn short() -> Scenario {
+    // Three 3 mHz periods per axis in 3 000 s.
+    Scenario::from_toml_str("duration_s = 3000.0\n[maneuver]\nfrequency_hz = 0.003\ntorque_amplitude_nm = [2.5e-6, 2.5e-6, 2.5e-6]\n").unwrap()
+}
+
+fn errors(s: &Scenario, e: &EstimateMsg) -> (f64, f64) {
+    let (mut beta, mut r) = (0.0f64, 0.0f64);
+    for (i, is) in s.inertial_sensor.iter().enumerate() {
+        for a in 0..3 {
+            beta = beta.max(((e.beta[i][a] - is.beta[a]) / is.beta[a]).abs());
+            beta = beta.max(((e.k[i][a] - is.k()[a]) / is.k()[a]).abs());
+            r = r.max((e.r_b[i][a] - is.com_offset_m[a]).abs());
+        }
+    }
+    (beta, r)
+}
+
+#[test]
+fn default_campaign_meets_the_requirements_on_both_is() {
+    let s = Scenario::default();
+    for seed in [1, 2, 3] {
+        let res = campaign::run(&s, seed, Method::Joint, |_| {});
+        let (beta, r) = errors(&s, &res.estimate);
+        assert!(beta < REQ_SCALE_FACTOR_REL / 2.0, "seed {seed}: scale factor error {beta:e}");
+        assert!(r < REQ_COM_M / 10.0, "seed {seed}: CoM error {r:e}");
+    }
+}
+
+#[test]
+fn priors_2_percent_and_5_mm_off_still_converge() {
+    let s = Scenario::from_toml_str(
+        "[ground_calibration]\nbeta_rel_error = 0.02\ncom_offset_error_m = 0.005\n",
+    )
+    .unwrap();
+    let res = campaign::run(&s, 4, Method::Joint, |_| {});
+    let (beta, r) = errors(&s, &res.estimate);
+    assert!(beta < REQ_SCALE_FACTOR_REL / 2.0, "{beta:e}");
+    assert!(r < REQ_COM_M / 10.0, "{r:e}");
+}
+
+#[test]
+fn same_seed_gives_bit_identical_estimates_and_another_seed_different_ones() {
+    let s = short();
+    let a = campaign::run(&s, 7, Method::Joint, |_| {}).estimate;
+    let b = campaign::run(&s, 7, Method::Joint, |_| {}).estimate;
+    let c = campaign::run(&s, 8, Method::Joint, |_| {}).estimate;
+    assert_eq!(a, b);
+    assert_ne!(a.beta, c.beta);
+    assert_ne!(a.r_b, c.r_b);
+}
+
+#[test]
+fn the_estimator_configuration_holds_no_truth() {
+    // Priors given explicitly: changing every truth must not change what the estimator knows.
+    let base = "[[inertial_sensor]]\nbeta_prior = [5.5e-8, 5.5e-8, 7.3e-8]\ncom_offset_prior_m = [0.2, -0.12, 0.0]\n";
+    let s1 = Scenario::from_toml_str(base).unwrap();
+    let s2 = Scenario::from_toml_str(&format!(
+        "{base}com_offset_m = [0.21, -0.13, 0.001]\nbeta = [5.6e-8, 5.45e-8, 7.4e-8]\n"
+    ))
+    .unwrap();
+    let c1 = EstimatorConfig::from_scenario(&s1, &s1.priors());
+    let c2 = EstimatorConfig::from_scenario(&s2, &s2.priors());
+    assert_eq!(c1, c2);
+}
+
+#[test]
+fn the_paper_route_runs_and_is_worse_than_the_joint_estimator() {
+    let s = Scenario::default();
+    let paper = campaign::run(&s, 1, Method::Paper, |_| {}).estimate;
+    let joint = campaign::run(&s, 1, Method::Joint, |_| {}).estimate;
+    let (pb, pr) = errors(&s, &paper);
+    let (jb, jr) = errors(&s, &joint);
+    assert!(pb.is_finite() && pr.is_finite());
+    assert!(pb > 10.0 * jb && pr > 10.0 * jr, "paper {pb:e} {pr:e} vs joint {jb:e} {jr:e}");
+}
+
+#[test]
+fn one_inertial_sensor_only_is_supported() {
+    let s = Scenario::from_toml_str("[[inertial_sensor]]\n").unwrap();
+    assert_eq!(s.inertial_sensor.len(), 1);
+    let res = campaign::run(&s, 1, Method::Joint, |_| {});
+    let (beta, r) = errors(&s, &res.estimate);
+    assert!(beta < REQ_SCALE_FACTOR_REL && r < REQ_COM_M, "{beta:e} {r:e}");
+}

@@ -1,0 +1,72 @@
+//! Bad scenario files get a clear error that names the key; never a panic.
+
+use taiji::scenario::Scenario;
+
+fn err(text: &str) -> String {
+    Scenario::from_toml_str(text).expect_err("scenario should be rejected").to_string()
+}
+
+#[test]
+fn the_default_scenario_is_the_papers_case_and_valid() {
+    let s = Scenario::from_toml_str("").unwrap();
+    assert_eq!(s, Scenario::default());
+    assert_eq!(s.inertial_sensor.len(), 2);
+    assert_eq!(s.inertial_sensor[0].com_offset_m, [0.2164, -0.1251, 0.0002]);
+    assert_eq!(s.duration_s, 10_000.0);
+}
+
+#[test]
+fn unknown_keys_are_rejected_by_name() {
+    assert!(err("durashun_s = 5.0").contains("durashun_s"));
+    assert!(err("[maneuver]\nfreq = 1.0").contains("freq"));
+}
+
+#[test]
+fn wrong_types_are_rejected() {
+    assert!(err("duration_s = \"long\"").contains("duration_s"));
+}
+
+#[test]
+fn negative_duration_and_zero_rate_are_rejected() {
+    assert!(err("duration_s = -5.0").contains("duration_s"));
+    assert!(err("sample_rate_hz = 0.0").contains("sample_rate_hz"));
+}
+
+#[test]
+fn non_finite_values_are_rejected() {
+    assert!(err("[srp]\nasd_at_3mhz = nan").contains("srp.asd_at_3mhz"));
+    assert!(err("[star_tracker]\nnoise_3sigma_arcsec = inf").contains("star_tracker.noise_3sigma_arcsec"));
+}
+
+#[test]
+fn non_positive_definite_or_asymmetric_inertia_is_rejected() {
+    let e = err("[spacecraft]\ninertia_kg_m2 = [[1000.0, 0.0, 0.0], [0.0, -5.0, 0.0], [0.0, 0.0, 900.0]]");
+    assert!(e.contains("inertia_kg_m2") && e.contains("positive definite"), "{e}");
+    let e = err("[spacecraft]\ninertia_kg_m2 = [[1000.0, 1.0, 0.0], [0.0, 1000.0, 0.0], [0.0, 0.0, 900.0]]");
+    assert!(e.contains("symmetric"), "{e}");
+}
+
+#[test]
+fn a_maneuver_beyond_the_is_range_is_rejected() {
+    let e = err("[maneuver]\ntorque_amplitude_nm = [1e-5, 1e-5, 1e-5]");
+    assert!(e.contains("maneuver.torque_amplitude_nm") && e.contains("limit"), "{e}");
+}
+
+#[test]
+fn the_default_maneuver_respects_the_range_for_any_offset_up_to_0_3_m() {
+    for r in [[0.3, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, 0.0, 0.3], [0.173, 0.173, 0.173]] {
+        let text = format!("[[inertial_sensor]]\ncom_offset_m = {r:?}\n");
+        Scenario::from_toml_str(&text).unwrap_or_else(|e| panic!("{r:?}: {e}"));
+    }
+}
+
+#[test]
+fn implausible_priors_are_rejected() {
+    let e = err("[[inertial_sensor]]\nbeta_prior = [1e-7, 5.5e-8, 7.3e-8]");
+    assert!(e.contains("inertial_sensor[0].beta_prior"), "{e}");
+}
+
+#[test]
+fn a_frequency_too_low_for_the_duration_is_rejected() {
+    assert!(err("[maneuver]\nfrequency_hz = 1e-5").contains("maneuver.frequency_hz"));
+}
