@@ -1,0 +1,58 @@
+//! The filter loop allocates nothing: a counting global allocator around ≥ 10⁵ estimator
+//! steps (solves included) must count zero.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use taiji::campaign::Stages;
+use taiji::estimate::Method;
+use taiji::msg::SensorSample;
+use taiji::scenario::Scenario;
+
+struct Counting;
+static COUNTING: AtomicBool = AtomicBool::new(false);
+static ALLOCS: AtomicU64 = AtomicU64::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCS.fetch_add(1, Ordering::Relaxed);
+        }
+        System.alloc(l)
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        System.dealloc(p, l)
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCS.fetch_add(1, Ordering::Relaxed);
+        }
+        System.realloc(p, l, n)
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn estimator_steps_allocate_nothing() {
+    let s = Scenario::default();
+    let mut st = Stages::new(&s, 1, Method::Joint);
+    // Produce the sensor stream first (the plant and front-end may allocate as they like).
+    let samples: Vec<SensorSample> = (0..s.n_samples())
+        .map(|tick| {
+            let cmd = st.commander.step(tick);
+            let truth = st.plant.step(tick, &cmd.torque_cmd_b);
+            st.fee.step(&truth)
+        })
+        .collect();
+    assert!(samples.len() >= 100_000);
+    COUNTING.store(true, Ordering::SeqCst);
+    let mut checksum = 0.0;
+    for smp in &samples {
+        checksum += st.estimator.step(smp).beta[0][0];
+    }
+    let last = st.estimator.finish();
+    COUNTING.store(false, Ordering::SeqCst);
+    assert!(checksum.is_finite() && last.beta[0][0] > 0.0);
+    assert_eq!(ALLOCS.load(Ordering::SeqCst), 0, "allocations in the filter loop");
+}
