@@ -35,7 +35,12 @@ pub struct CampaignResult {
 }
 
 /// Run the campaign; `progress` is called with the fraction done now and then.
-pub fn run(s: &Scenario, seed: u64, method: Method, mut progress: impl FnMut(f64)) -> CampaignResult {
+pub fn run(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    mut progress: impl FnMut(f64),
+) -> CampaignResult {
     let mut st = Stages::new(s, seed, method);
     let n = s.n_samples();
     let mut history = Vec::new();

@@ -38,7 +38,11 @@ impl Commander {
             let local = (tick - seg * self.ticks_per_axis) as f64;
             let phase = (local / self.ticks_per_period).fract();
             let axis = self.order[seg as usize];
-            let sign = if (0.25..0.75).contains(&phase) { -1.0 } else { 1.0 };
+            let sign = if (0.25..0.75).contains(&phase) {
+                -1.0
+            } else {
+                1.0
+            };
             out[axis] = sign * self.amplitude_nm[axis];
         }
         out
@@ -46,7 +50,10 @@ impl Commander {
 
     /// The stage step: the command message for `tick`.
     pub fn step(&mut self, tick: u64) -> TorqueCommand {
-        let m = TorqueCommand { header: Header::at(self.seq, tick, self.fs), torque_cmd_b: self.torque(tick) };
+        let m = TorqueCommand {
+            header: Header::at(self.seq, tick, self.fs),
+            torque_cmd_b: self.torque(tick),
+        };
         self.seq += 1;
         m
     }
@@ -60,12 +67,20 @@ mod tests {
     fn each_axis_gets_whole_zero_mean_periods_in_turn() {
         let s = Scenario::default();
         let c = Commander::new(&s);
-        let per_axis = (s.periods_per_axis() as f64 * s.sample_rate_hz / s.maneuver.frequency_hz) as u64;
+        let per_axis =
+            (s.periods_per_axis() as f64 * s.sample_rate_hz / s.maneuver.frequency_hz) as u64;
         for (k, axis) in [0usize, 1, 2].into_iter().enumerate() {
-            let sum: f64 = (k as u64 * per_axis..(k as u64 + 1) * per_axis).map(|t| c.torque(t)[axis]).sum();
+            let sum: f64 = (k as u64 * per_axis..(k as u64 + 1) * per_axis)
+                .map(|t| c.torque(t)[axis])
+                .sum();
             assert!(sum.abs() < 1e-12, "axis {axis} torque mean not zero: {sum}");
             let others: f64 = (k as u64 * per_axis..(k as u64 + 1) * per_axis)
-                .map(|t| (0..3).filter(|&a| a != axis).map(|a| c.torque(t)[a].abs()).sum::<f64>())
+                .map(|t| {
+                    (0..3)
+                        .filter(|&a| a != axis)
+                        .map(|a| c.torque(t)[a].abs())
+                        .sum::<f64>()
+                })
                 .sum();
             assert_eq!(others, 0.0);
         }

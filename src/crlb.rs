@@ -3,8 +3,8 @@
 //! the scenario's maneuver and the estimator's own noise model.
 
 use crate::commander::Commander;
-use crate::estimate::{EstimatorConfig, JointEstimator};
 use crate::estimate::joint::{P_BETA, P_R};
+use crate::estimate::{EstimatorConfig, JointEstimator};
 use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::scenario::{k_from_beta, Scenario};

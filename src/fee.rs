@@ -62,7 +62,10 @@ impl FrontEnd {
             sigma_star: on * s.star_tracker.noise_3sigma_arcsec / 3.0 * ARCSEC,
             full_lin: fe.full_scale_m_s2,
             full_ang: fe.full_scale_rad_s2,
-            rng_is: [stream_n(seed, Stream::InertialSensor, 0), stream_n(seed, Stream::InertialSensor, 1)],
+            rng_is: [
+                stream_n(seed, Stream::InertialSensor, 0),
+                stream_n(seed, Stream::InertialSensor, 1),
+            ],
             rng_star: stream(seed, Stream::StarTracker),
             seq: 0,
         }
@@ -81,7 +84,10 @@ impl FrontEnd {
     pub fn step(&mut self, truth: &TruthState) -> SensorSample {
         let tick = truth.header.tick;
         let t_end = (tick + 1) as f64 / self.fs;
-        let mut out = SensorSample { header: Header::at(self.seq, tick, self.fs), ..Default::default() };
+        let mut out = SensorSample {
+            header: Header::at(self.seq, tick, self.fs),
+            ..Default::default()
+        };
         for i in 0..2 {
             if i >= self.n_is {
                 out.is[i].flags = FLAG_ABSENT;
@@ -99,7 +105,11 @@ impl FrontEnd {
                 truth.q_bn[3],
             ));
             let q = (q_true * UnitQuaternion::from_scaled_axis(noise)).into_inner();
-            out.star = StarSample { q_bn: [q.w, q.i, q.j, q.k], valid: 1, _pad: [0; 7] };
+            out.star = StarSample {
+                q_bn: [q.w, q.i, q.j, q.k],
+                valid: 1,
+                _pad: [0; 7],
+            };
         }
         self.seq += 1;
         out
@@ -126,7 +136,11 @@ impl FrontEnd {
             let sum = lin / self.k[i][p] * (1.0 + self.sigma_ripple * gauss(rng));
             volts[p] = [0.5 * (sum + diff), 0.5 * (sum - diff)];
         }
-        IsSample { volts, flags, _pad: [0; 7] }
+        IsSample {
+            volts,
+            flags,
+            _pad: [0; 7],
+        }
     }
 }
 
@@ -163,7 +177,11 @@ mod tests {
     fn out_of_range_samples_are_clipped_and_flagged() {
         let s = Scenario::default();
         let mut fe = FrontEnd::new(&s, 1, false);
-        let truth = TruthState { a_tm_b: [[2e-7, 0.0, 0.0], [0.0; 3]], q_bn: [1.0, 0.0, 0.0, 0.0], ..Default::default() };
+        let truth = TruthState {
+            a_tm_b: [[2e-7, 0.0, 0.0], [0.0; 3]],
+            q_bn: [1.0, 0.0, 0.0, 0.0],
+            ..Default::default()
+        };
         let out = fe.step(&truth);
         assert_eq!(out.is[0].flags & 1, 1);
         let k = s.inertial_sensor[0].k();

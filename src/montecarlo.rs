@@ -38,17 +38,30 @@ pub struct MonteCarlo {
 pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<MonteCarlo, String> {
     let bound = crlb(s).ok_or("the Fisher information of this scenario is singular")?;
     let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
-    let workers = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(seeds.len().max(1));
+    let workers = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .min(seeds.len().max(1));
     let mut reports: Vec<Option<Report>> = vec![None; seeds.len()];
     std::thread::scope(|sc| {
-        let chunks: Vec<_> = reports.chunks_mut(seeds.len().div_ceil(workers)).zip(seeds.chunks(seeds.len().div_ceil(workers))).collect();
+        let chunks: Vec<_> = reports
+            .chunks_mut(seeds.len().div_ceil(workers))
+            .zip(seeds.chunks(seeds.len().div_ceil(workers)))
+            .collect();
         for (out, seeds) in chunks {
             sc.spawn(move || {
                 for (o, &seed) in out.iter_mut().zip(seeds) {
                     let mut sc = s.clone();
                     sc.seed = seed;
                     let r = campaign::run(&sc, seed, method, |_| {});
-                    *o = Some(Report::new(&sc, seed, "in-process", method.name(), &r.estimate, &bound));
+                    *o = Some(Report::new(
+                        &sc,
+                        seed,
+                        "in-process",
+                        method.name(),
+                        &r.estimate,
+                        &bound,
+                    ));
                 }
             });
         }
@@ -105,10 +118,24 @@ impl MonteCarlo {
     pub fn table(&self) -> String {
         use std::fmt::Write;
         let mut o = String::new();
-        let _ = writeln!(o, "Monte Carlo: scenario {:?}, {} runs from seed {}, {} estimator", self.scenario, self.runs, self.first_seed, self.method);
-        let _ = writeln!(o, "{:<10} {:>12} {:>12} {:>12} {:>10} {:>12} {:>10}", "parameter", "RMS error", "worst", "CRLB", "RMS/CRLB", "RMS err/σ", "<(e/σ)²>");
+        let _ = writeln!(
+            o,
+            "Monte Carlo: scenario {:?}, {} runs from seed {}, {} estimator",
+            self.scenario, self.runs, self.first_seed, self.method
+        );
+        let _ = writeln!(
+            o,
+            "{:<10} {:>12} {:>12} {:>12} {:>10} {:>12} {:>10}",
+            "parameter", "RMS error", "worst", "CRLB", "RMS/CRLB", "RMS err/σ", "<(e/σ)²>"
+        );
         for p in &self.params {
-            let fmt = |v: f64| if p.name.contains('r') && !p.name.contains('β') { format!("{:.3} µm", v * 1e6) } else { format!("{:.2e}", v) };
+            let fmt = |v: f64| {
+                if p.name.contains('r') && !p.name.contains('β') {
+                    format!("{:.3} µm", v * 1e6)
+                } else {
+                    format!("{:.2e}", v)
+                }
+            };
             let _ = writeln!(
                 o,
                 "{:<10} {:>12} {:>12} {:>12} {:>10.2} {:>12.2} {:>10.2}",
@@ -121,9 +148,22 @@ impl MonteCarlo {
                 p.chi2_mean
             );
         }
-        let _ = writeln!(o, "(β, k relative; r absolute. Requirements: {:.0e} relative, {:.0} µm)", REQ_SCALE_FACTOR_REL, REQ_COM_M * 1e6);
-        let _ = writeln!(o, "Mean (error/σ)² by group: β {:.2}, k {:.2}, r {:.2}", self.chi2_by_group[0], self.chi2_by_group[1], self.chi2_by_group[2]);
-        let _ = writeln!(o, "Runs meeting every requirement: {} of {}", self.runs_meeting_requirements, self.runs);
+        let _ = writeln!(
+            o,
+            "(β, k relative; r absolute. Requirements: {:.0e} relative, {:.0} µm)",
+            REQ_SCALE_FACTOR_REL,
+            REQ_COM_M * 1e6
+        );
+        let _ = writeln!(
+            o,
+            "Mean (error/σ)² by group: β {:.2}, k {:.2}, r {:.2}",
+            self.chi2_by_group[0], self.chi2_by_group[1], self.chi2_by_group[2]
+        );
+        let _ = writeln!(
+            o,
+            "Runs meeting every requirement: {} of {}",
+            self.runs_meeting_requirements, self.runs
+        );
         o
     }
 }

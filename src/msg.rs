@@ -106,6 +106,11 @@ pub struct EstimateMsg {
 
 impl Header {
     pub fn at(seq: u64, tick: u64, fs: f64) -> Self {
-        Header { seq, tick, sim_time_ns: ((tick + 1) as f64 / fs * 1e9).round() as i64, publish_ns: 0 }
+        Header {
+            seq,
+            tick,
+            sim_time_ns: ((tick + 1) as f64 / fs * 1e9).round() as i64,
+            publish_ns: 0,
+        }
     }
 }

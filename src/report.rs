@@ -54,20 +54,43 @@ pub struct Report {
 }
 
 impl Report {
-    pub fn new(s: &Scenario, seed: u64, mode: &str, method: &str, est: &EstimateMsg, crlb: &Crlb) -> Report {
+    pub fn new(
+        s: &Scenario,
+        seed: u64,
+        mode: &str,
+        method: &str,
+        est: &EstimateMsg,
+        crlb: &Crlb,
+    ) -> Report {
         let mut iss = Vec::new();
         let mut met = true;
         for (i, is) in s.inertial_sensor.iter().enumerate() {
-            let q = |truth: [f64; 3], e: [f64; 3], sg: [f64; 3], c: [f64; 3]| Quantity { truth, estimate: e, sigma: sg, crlb: c };
+            let q = |truth: [f64; 3], e: [f64; 3], sg: [f64; 3], c: [f64; 3]| Quantity {
+                truth,
+                estimate: e,
+                sigma: sg,
+                crlb: c,
+            };
             let beta = q(is.beta, est.beta[i], est.beta_sigma[i], crlb.beta[i]);
             let k = q(is.k(), est.k[i], est.k_sigma[i], crlb.k[i]);
-            let r = q(is.com_offset_m, est.r_b[i], est.r_sigma[i], crlb.com_offset_m[i]);
+            let r = q(
+                is.com_offset_m,
+                est.r_b[i],
+                est.r_sigma[i],
+                crlb.com_offset_m[i],
+            );
             for a in 0..3 {
-                met &= ((beta.estimate[a] - beta.truth[a]) / beta.truth[a]).abs() < REQ_SCALE_FACTOR_REL;
+                met &= ((beta.estimate[a] - beta.truth[a]) / beta.truth[a]).abs()
+                    < REQ_SCALE_FACTOR_REL;
                 met &= ((k.estimate[a] - k.truth[a]) / k.truth[a]).abs() < REQ_SCALE_FACTOR_REL;
                 met &= (r.estimate[a] - r.truth[a]).abs() < REQ_COM_M;
             }
-            iss.push(IsReport { id: i + 1, beta, k, com_offset: r });
+            iss.push(IsReport {
+                id: i + 1,
+                beta,
+                k,
+                com_offset: r,
+            });
         }
         Report {
             scenario: s.name.clone(),
@@ -76,7 +99,11 @@ impl Report {
             mode: mode.into(),
             method: method.into(),
             inertial_sensors: iss,
-            requirements: Requirements { scale_factor_rel: REQ_SCALE_FACTOR_REL, com_offset_m: REQ_COM_M, met },
+            requirements: Requirements {
+                scale_factor_rel: REQ_SCALE_FACTOR_REL,
+                com_offset_m: REQ_COM_M,
+                met,
+            },
             samples_used: est.n_used,
             samples_rejected: est.n_rejected,
             wall_time_s: None,
@@ -89,7 +116,11 @@ impl Report {
     pub fn table(&self) -> String {
         use std::fmt::Write;
         let mut o = String::new();
-        let _ = writeln!(o, "Scenario {:?}, seed {}, {} s, {} ({} estimator)", self.scenario, self.seed, self.duration_s, self.mode, self.method);
+        let _ = writeln!(
+            o,
+            "Scenario {:?}, seed {}, {} s, {} ({} estimator)",
+            self.scenario, self.seed, self.duration_s, self.mode, self.method
+        );
         let _ = writeln!(
             o,
             "{:<10} {:>14} {:>14} {:>11} {:>11} {:>11} {:>9} {:>5} {:>11}",
@@ -97,7 +128,11 @@ impl Report {
         );
         let axes = ["x", "y", "z"];
         for is in &self.inertial_sensors {
-            let rows: [(&str, &Quantity, bool); 3] = [("β", &is.beta, true), ("k", &is.k, true), ("r", &is.com_offset, false)];
+            let rows: [(&str, &Quantity, bool); 3] = [
+                ("β", &is.beta, true),
+                ("k", &is.k, true),
+                ("r", &is.com_offset, false),
+            ];
             for (name, q, rel) in rows {
                 for a in 0..3 {
                     let err = q.estimate[a] - q.truth[a];
@@ -119,7 +154,11 @@ impl Report {
                             err.abs() < REQ_COM_M,
                         )
                     };
-                    let z = if q.sigma[a] > 0.0 { err / q.sigma[a] } else { f64::NAN };
+                    let z = if q.sigma[a] > 0.0 {
+                        err / q.sigma[a]
+                    } else {
+                        f64::NAN
+                    };
                     let _ = writeln!(
                         o,
                         "{:<10} {:>14.6e} {:>14.6e} {:>11} {:>11} {:>11} {:>9} {:>5} {:>+11.2}",
@@ -137,7 +176,11 @@ impl Report {
             }
         }
         let _ = writeln!(o, "(β, k: 1σ, error and CRLB relative; r: absolute)");
-        let _ = writeln!(o, "Requirements met: {}", if self.requirements.met { "yes" } else { "NO" });
+        let _ = writeln!(
+            o,
+            "Requirements met: {}",
+            if self.requirements.met { "yes" } else { "NO" }
+        );
         if let Some(t) = &self.timing {
             let _ = writeln!(o, "Timing: {}", t);
         }

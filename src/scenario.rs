@@ -149,8 +149,10 @@ pub struct InertialSensor {
 impl Default for Scenario {
     fn default() -> Self {
         let is1 = InertialSensor::default();
-        let mut is2 = InertialSensor::default();
-        is2.com_offset_m = [0.2164, 0.1251, 0.0002];
+        let is2 = InertialSensor {
+            com_offset_m: [0.2164, 0.1251, 0.0002],
+            ..Default::default()
+        };
         Scenario {
             name: default_name(),
             seed: 1,
@@ -204,13 +206,21 @@ impl Default for Thruster {
 
 impl Default for StarTracker {
     fn default() -> Self {
-        StarTracker { rate_hz: 10.0, noise_3sigma_arcsec: 0.2, outages_s: Vec::new() }
+        StarTracker {
+            rate_hz: 10.0,
+            noise_3sigma_arcsec: 0.2,
+            outages_s: Vec::new(),
+        }
     }
 }
 
 impl Default for Srp {
     fn default() -> Self {
-        Srp { asd_at_3mhz: 1.1e-11, dc_m_s2: 3.0e-8, sun_direction_b: [0.5, 0.0, 0.866] }
+        Srp {
+            asd_at_3mhz: 1.1e-11,
+            dc_m_s2: 3.0e-8,
+            sun_direction_b: [0.5, 0.0, 0.866],
+        }
     }
 }
 
@@ -229,7 +239,10 @@ impl Default for FrontEnd {
 
 impl Default for GroundCalibration {
     fn default() -> Self {
-        GroundCalibration { beta_rel_error: 5.0e-3, com_offset_error_m: 2.0e-3 }
+        GroundCalibration {
+            beta_rel_error: 5.0e-3,
+            com_offset_error_m: 2.0e-3,
+        }
     }
 }
 
@@ -268,7 +281,10 @@ impl Scenario {
     /// Parse and validate a TOML text.
     pub fn from_toml_str(text: &str) -> Result<Self, ScenarioError> {
         let s: Scenario = toml::from_str(text).map_err(|e| {
-            ScenarioError(format!("scenario is not valid: {}", e.to_string().trim_end()))
+            ScenarioError(format!(
+                "scenario is not valid: {}",
+                e.to_string().trim_end()
+            ))
         })?;
         s.validated()
     }
@@ -370,7 +386,10 @@ impl Scenario {
         pos("duration_s", self.duration_s)?;
         pos("sample_rate_hz", self.sample_rate_hz)?;
         if self.n_samples() < 100 {
-            return err("duration_s", "gives fewer than 100 samples at sample_rate_hz");
+            return err(
+                "duration_s",
+                "gives fewer than 100 samples at sample_rate_hz",
+            );
         }
         if self.n_samples() > 100_000_000 {
             return err("duration_s", "gives more than 10^8 samples; shorten it");
@@ -379,7 +398,10 @@ impl Scenario {
         for (i, row) in inertia.iter().enumerate() {
             for (j, v) in row.iter().enumerate() {
                 if !v.is_finite() {
-                    return err("spacecraft.inertia_kg_m2", &format!("element [{i}][{j}] is {v}"));
+                    return err(
+                        "spacecraft.inertia_kg_m2",
+                        &format!("element [{i}][{j}] is {v}"),
+                    );
                 }
                 if (v - inertia[j][i]).abs() > 1e-9 * v.abs().max(1.0) {
                     return err("spacecraft.inertia_kg_m2", "must be symmetric");
@@ -396,14 +418,20 @@ impl Scenario {
         pos("maneuver.frequency_hz", mv.frequency_hz)?;
         for (a, v) in mv.torque_amplitude_nm.iter().enumerate() {
             if !v.is_finite() || *v < 0.0 {
-                return err("maneuver.torque_amplitude_nm", &format!("axis {a}: must be ≥ 0, got {v}"));
+                return err(
+                    "maneuver.torque_amplitude_nm",
+                    &format!("axis {a}: must be ≥ 0, got {v}"),
+                );
             }
         }
         let order: Vec<char> = mv.axis_order.chars().collect();
         let mut sorted = order.clone();
         sorted.sort_unstable();
         if sorted != ['x', 'y', 'z'] {
-            return err("maneuver.axis_order", "must name each of x, y, z once, e.g. \"xyz\"");
+            return err(
+                "maneuver.axis_order",
+                "must name each of x, y, z once, e.g. \"xyz\"",
+            );
         }
         if self.periods_per_axis() == 0 {
             return err(
@@ -427,7 +455,10 @@ impl Scenario {
         nonneg("thruster.torque_noise_nm_rthz", th.torque_noise_nm_rthz)?;
         nonneg("thruster.edge_jitter_s", th.edge_jitter_s)?;
         if 2.0 * th.edge_jitter_s >= self.dt() {
-            return err("thruster.edge_jitter_s", "must be below half a sample interval");
+            return err(
+                "thruster.edge_jitter_s",
+                "must be below half a sample interval",
+            );
         }
         nonneg("thruster.amplitude_jitter_rel", th.amplitude_jitter_rel)?;
         if th.amplitude_jitter_rel > 0.2 {
@@ -445,7 +476,10 @@ impl Scenario {
         pos("star_tracker.noise_3sigma_arcsec", st.noise_3sigma_arcsec)?;
         for (i, o) in st.outages_s.iter().enumerate() {
             if !(o[0].is_finite() && o[1].is_finite() && o[0] <= o[1]) {
-                return err("star_tracker.outages_s", &format!("interval {i} must be [start, end] with start ≤ end"));
+                return err(
+                    "star_tracker.outages_s",
+                    &format!("interval {i} must be [start, end] with start ≤ end"),
+                );
             }
         }
 
@@ -465,7 +499,10 @@ impl Scenario {
         pos("front_end.full_scale_rad_s2", fe.full_scale_rad_s2)?;
         pos("front_end.maneuver_limit_m_s2", fe.maneuver_limit_m_s2)?;
         if srp.dc_m_s2 >= fe.full_scale_m_s2 {
-            return err("srp.dc_m_s2", "the DC SRP must fit in front_end.full_scale_m_s2");
+            return err(
+                "srp.dc_m_s2",
+                "the DC SRP must fit in front_end.full_scale_m_s2",
+            );
         }
 
         let gc = &self.ground_calibration;
@@ -473,17 +510,26 @@ impl Scenario {
         if gc.beta_rel_error >= 0.5 {
             return err("ground_calibration.beta_rel_error", "must be < 0.5");
         }
-        nonneg("ground_calibration.com_offset_error_m", gc.com_offset_error_m)?;
+        nonneg(
+            "ground_calibration.com_offset_error_m",
+            gc.com_offset_error_m,
+        )?;
 
         if self.inertial_sensor.is_empty() || self.inertial_sensor.len() > 2 {
-            return err("inertial_sensor", "give one or two [[inertial_sensor]] tables");
+            return err(
+                "inertial_sensor",
+                "give one or two [[inertial_sensor]] tables",
+            );
         }
         for (i, is) in self.inertial_sensor.iter().enumerate() {
             let key = |k: &str| format!("inertial_sensor[{i}].{k}");
             for a in 0..3 {
                 let r = is.com_offset_m[a];
                 if !r.is_finite() || r.abs() > 2.0 {
-                    return err(&key("com_offset_m"), &format!("component {a} = {r} m is not a plausible CoM offset (|r| ≤ 2 m)"));
+                    return err(
+                        &key("com_offset_m"),
+                        &format!("component {a} = {r} m is not a plausible CoM offset (|r| ≤ 2 m)"),
+                    );
                 }
                 pos(&key("beta"), is.beta[a])?;
                 pos(&key("geometry_m"), is.geometry_m[a])?;
@@ -499,7 +545,10 @@ impl Scenario {
             if let Some(rp) = is.com_offset_prior_m {
                 for (a, v) in rp.iter().enumerate() {
                     if !v.is_finite() || (v - is.com_offset_m[a]).abs() > 0.05 {
-                        return err(&key("com_offset_prior_m"), &format!("component {a} must be finite and within 5 cm of the truth"));
+                        return err(
+                            &key("com_offset_prior_m"),
+                            &format!("component {a} must be finite and within 5 cm of the truth"),
+                        );
                     }
                 }
             }
@@ -527,7 +576,9 @@ impl Scenario {
     pub fn peak_maneuver_acceleration(&self) -> (usize, f64) {
         use nalgebra::{Matrix3, Vector3};
         let inertia = Matrix3::from_fn(|i, j| self.spacecraft.inertia_kg_m2[i][j]);
-        let Some(inv) = inertia.try_inverse() else { return (0, f64::INFINITY) };
+        let Some(inv) = inertia.try_inverse() else {
+            return (0, f64::INFINITY);
+        };
         let th = &self.thruster;
         let boost = 1.0 + 3.0 * th.amplitude_jitter_rel + 2.0 * th.overshoot_rel;
         let quarter = 0.25 / self.maneuver.frequency_hz;

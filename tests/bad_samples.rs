@@ -36,7 +36,11 @@ fn non_finite_and_saturated_samples_are_rejected_and_counted() {
     for i in 0..2 {
         for a in 0..3 {
             assert!(e.beta[i][a].is_finite() && e.r_b[i][a].is_finite());
-            assert!(((e.beta[i][a] - s.inertial_sensor[i].beta[a]) / s.inertial_sensor[i].beta[a]).abs() < 3e-4);
+            assert!(
+                ((e.beta[i][a] - s.inertial_sensor[i].beta[a]) / s.inertial_sensor[i].beta[a])
+                    .abs()
+                    < 3e-4
+            );
             assert!((e.r_b[i][a] - s.inertial_sensor[i].com_offset_m[a]).abs() < 75e-6);
         }
     }
@@ -44,11 +48,19 @@ fn non_finite_and_saturated_samples_are_rejected_and_counted() {
 
 #[test]
 fn a_star_tracker_outage_is_survived() {
-    let s = Scenario::from_toml_str("[star_tracker]\noutages_s = [[2000.0, 2600.0], [7000.0, 7100.0]]\n").unwrap();
+    let s = Scenario::from_toml_str(
+        "[star_tracker]\noutages_s = [[2000.0, 2600.0], [7000.0, 7100.0]]\n",
+    )
+    .unwrap();
     let res = taiji::campaign::run(&s, 5, Method::Joint, |_| {});
     for i in 0..2 {
         for a in 0..3 {
-            assert!(((res.estimate.beta[i][a] - s.inertial_sensor[i].beta[a]) / s.inertial_sensor[i].beta[a]).abs() < 3e-4);
+            assert!(
+                ((res.estimate.beta[i][a] - s.inertial_sensor[i].beta[a])
+                    / s.inertial_sensor[i].beta[a])
+                    .abs()
+                    < 3e-4
+            );
             assert!((res.estimate.r_b[i][a] - s.inertial_sensor[i].com_offset_m[a]).abs() < 75e-6);
         }
     }

@@ -30,7 +30,10 @@ fn default_campaign_meets_the_requirements_on_both_is() {
     for seed in [1, 2, 3] {
         let res = campaign::run(&s, seed, Method::Joint, |_| {});
         let (beta, r) = errors(&s, &res.estimate);
-        assert!(beta < REQ_SCALE_FACTOR_REL / 2.0, "seed {seed}: scale factor error {beta:e}");
+        assert!(
+            beta < REQ_SCALE_FACTOR_REL / 2.0,
+            "seed {seed}: scale factor error {beta:e}"
+        );
         assert!(r < REQ_COM_M / 10.0, "seed {seed}: CoM error {r:e}");
     }
 }
@@ -80,7 +83,10 @@ fn the_paper_route_runs_and_is_worse_than_the_joint_estimator() {
     let (pb, pr) = errors(&s, &paper);
     let (jb, jr) = errors(&s, &joint);
     assert!(pb.is_finite() && pr.is_finite());
-    assert!(pb > 10.0 * jb && pr > 10.0 * jr, "paper {pb:e} {pr:e} vs joint {jb:e} {jr:e}");
+    assert!(
+        pb > 10.0 * jb && pr > 10.0 * jr,
+        "paper {pb:e} {pr:e} vs joint {jb:e} {jr:e}"
+    );
 }
 
 #[test]
@@ -89,5 +95,8 @@ fn one_inertial_sensor_only_is_supported() {
     assert_eq!(s.inertial_sensor.len(), 1);
     let res = campaign::run(&s, 1, Method::Joint, |_| {});
     let (beta, r) = errors(&s, &res.estimate);
-    assert!(beta < REQ_SCALE_FACTOR_REL && r < REQ_COM_M, "{beta:e} {r:e}");
+    assert!(
+        beta < REQ_SCALE_FACTOR_REL && r < REQ_COM_M,
+        "{beta:e} {r:e}"
+    );
 }

@@ -54,5 +54,9 @@ fn estimator_steps_allocate_nothing() {
     let last = st.estimator.finish();
     COUNTING.store(false, Ordering::SeqCst);
     assert!(checksum.is_finite() && last.beta[0][0] > 0.0);
-    assert_eq!(ALLOCS.load(Ordering::SeqCst), 0, "allocations in the filter loop");
+    assert_eq!(
+        ALLOCS.load(Ordering::SeqCst),
+        0,
+        "allocations in the filter loop"
+    );
 }

@@ -3,7 +3,9 @@
 use taiji::scenario::Scenario;
 
 fn err(text: &str) -> String {
-    Scenario::from_toml_str(text).expect_err("scenario should be rejected").to_string()
+    Scenario::from_toml_str(text)
+        .expect_err("scenario should be rejected")
+        .to_string()
 }
 
 #[test]
@@ -35,26 +37,42 @@ fn negative_duration_and_zero_rate_are_rejected() {
 #[test]
 fn non_finite_values_are_rejected() {
     assert!(err("[srp]\nasd_at_3mhz = nan").contains("srp.asd_at_3mhz"));
-    assert!(err("[star_tracker]\nnoise_3sigma_arcsec = inf").contains("star_tracker.noise_3sigma_arcsec"));
+    assert!(err("[star_tracker]\nnoise_3sigma_arcsec = inf")
+        .contains("star_tracker.noise_3sigma_arcsec"));
 }
 
 #[test]
 fn non_positive_definite_or_asymmetric_inertia_is_rejected() {
-    let e = err("[spacecraft]\ninertia_kg_m2 = [[1000.0, 0.0, 0.0], [0.0, -5.0, 0.0], [0.0, 0.0, 900.0]]");
-    assert!(e.contains("inertia_kg_m2") && e.contains("positive definite"), "{e}");
-    let e = err("[spacecraft]\ninertia_kg_m2 = [[1000.0, 1.0, 0.0], [0.0, 1000.0, 0.0], [0.0, 0.0, 900.0]]");
+    let e = err(
+        "[spacecraft]\ninertia_kg_m2 = [[1000.0, 0.0, 0.0], [0.0, -5.0, 0.0], [0.0, 0.0, 900.0]]",
+    );
+    assert!(
+        e.contains("inertia_kg_m2") && e.contains("positive definite"),
+        "{e}"
+    );
+    let e = err(
+        "[spacecraft]\ninertia_kg_m2 = [[1000.0, 1.0, 0.0], [0.0, 1000.0, 0.0], [0.0, 0.0, 900.0]]",
+    );
     assert!(e.contains("symmetric"), "{e}");
 }
 
 #[test]
 fn a_maneuver_beyond_the_is_range_is_rejected() {
     let e = err("[maneuver]\ntorque_amplitude_nm = [1e-5, 1e-5, 1e-5]");
-    assert!(e.contains("maneuver.torque_amplitude_nm") && e.contains("limit"), "{e}");
+    assert!(
+        e.contains("maneuver.torque_amplitude_nm") && e.contains("limit"),
+        "{e}"
+    );
 }
 
 #[test]
 fn the_default_maneuver_respects_the_range_for_any_offset_up_to_0_3_m() {
-    for r in [[0.3, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, 0.0, 0.3], [0.173, 0.173, 0.173]] {
+    for r in [
+        [0.3, 0.0, 0.0],
+        [0.0, 0.3, 0.0],
+        [0.0, 0.0, 0.3],
+        [0.173, 0.173, 0.173],
+    ] {
         let text = format!("[[inertial_sensor]]\ncom_offset_m = {r:?}\n");
         Scenario::from_toml_str(&text).unwrap_or_else(|e| panic!("{r:?}: {e}"));
     }

@@ -10,7 +10,11 @@ use taiji::report::Report;
 use taiji::scenario::Scenario;
 
 #[derive(Parser)]
-#[command(name = "taiji-calib", version, about = "In-orbit calibration of the Taiji inertial sensors")]
+#[command(
+    name = "taiji-calib",
+    version,
+    about = "In-orbit calibration of the Taiji inertial sensors"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -81,41 +85,72 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.cmd {
-        Cmd::Run { scenario, seed, out, method } => {
+        Cmd::Run {
+            scenario,
+            seed,
+            out,
+            method,
+        } => {
             let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
             let seed = seed.unwrap_or(s.seed);
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
             let crlb = taiji::crlb::crlb(&s).ok_or("the Fisher information of this scenario is singular: the maneuver does not excite every parameter")?;
             let res = taiji::campaign::run(&s, seed, method, |_| {});
-            let mut report = Report::new(&s, seed, "in-process", method.name(), &res.estimate, &crlb);
+            let mut report =
+                Report::new(&s, seed, "in-process", method.name(), &res.estimate, &crlb);
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
             write_report(&out, &report)?;
             print!("{}", report.table());
             println!("Report: {}", out.join("report.json").display());
-            Ok(if report.requirements.met { ExitCode::SUCCESS } else { ExitCode::from(1) })
+            Ok(if report.requirements.met {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
         }
-        Cmd::Montecarlo { runs, scenario, method, seed, out } => {
+        Cmd::Montecarlo {
+            runs,
+            scenario,
+            method,
+            seed,
+            out,
+        } => {
             let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
             let first = seed.unwrap_or(s.seed);
             let mc = montecarlo::run(&s, first, runs, method.into())?;
             print!("{}", mc.table());
             if let Some(out) = out {
-                std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+                std::fs::create_dir_all(&out)
+                    .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
                 let path = out.join("montecarlo.json");
                 let text = serde_json::to_string_pretty(&mc).map_err(|e| e.to_string())?;
-                std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                std::fs::write(&path, text)
+                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
             }
             Ok(ExitCode::SUCCESS)
         }
         Cmd::Crlb { scenario } => {
             let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
-            let c = taiji::crlb::crlb(&s).ok_or("the Fisher information of this scenario is singular")?;
-            println!("Cramér–Rao bound (1σ) for scenario {:?}: {} s, maneuver {} Hz, torque {:?} N m", s.name, s.duration_s, s.maneuver.frequency_hz, s.maneuver.torque_amplitude_nm);
+            let c = taiji::crlb::crlb(&s)
+                .ok_or("the Fisher information of this scenario is singular")?;
+            println!(
+                "Cramér–Rao bound (1σ) for scenario {:?}: {} s, maneuver {} Hz, torque {:?} N m",
+                s.name, s.duration_s, s.maneuver.frequency_hz, s.maneuver.torque_amplitude_nm
+            );
             for (i, is) in s.inertial_sensor.iter().enumerate() {
-                let rel: Vec<String> = (0..3).map(|a| format!("{:.2e}", c.beta[i][a] / is.beta[a])).collect();
-                let r: Vec<String> = (0..3).map(|a| format!("{:.3} µm", c.com_offset_m[i][a] * 1e6)).collect();
-                println!("IS{}  β (relative, = k relative): [{}]   r: [{}]", i + 1, rel.join(", "), r.join(", "));
+                let rel: Vec<String> = (0..3)
+                    .map(|a| format!("{:.2e}", c.beta[i][a] / is.beta[a]))
+                    .collect();
+                let r: Vec<String> = (0..3)
+                    .map(|a| format!("{:.3} µm", c.com_offset_m[i][a] * 1e6))
+                    .collect();
+                println!(
+                    "IS{}  β (relative, = k relative): [{}]   r: [{}]",
+                    i + 1,
+                    rel.join(", "),
+                    r.join(", ")
+                );
             }
             Ok(ExitCode::SUCCESS)
         }

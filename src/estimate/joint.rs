@@ -22,7 +22,9 @@
 use super::config::EstimatorConfig;
 use crate::fee::PAIR_OF_ANGULAR;
 use crate::model::noise::{PowerLawBank, MAX_POLES};
-use crate::msg::{EstimateMsg, Header, SensorSample, FLAG_ABSENT, FLAG_SATURATED_ANGULAR, FLAG_SATURATED_LINEAR};
+use crate::msg::{
+    EstimateMsg, Header, SensorSample, FLAG_ABSENT, FLAG_SATURATED_ANGULAR, FLAG_SATURATED_LINEAR,
+};
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Signals of the linear group.
@@ -122,7 +124,11 @@ fn is_data(s: &crate::msg::IsSample) -> IsData {
     let sat = s.flags & (FLAG_SATURATED_LINEAR | FLAG_SATURATED_ANGULAR) != 0;
     let dv = std::array::from_fn(|a| v[PAIR_OF_ANGULAR[a]][0] - v[PAIR_OF_ANGULAR[a]][1]);
     let sum = std::array::from_fn(|j| v[j][0] + v[j][1]);
-    IsData { valid: finite && !sat && s.flags & FLAG_ABSENT == 0, dv, sum }
+    IsData {
+        valid: finite && !sat && s.flags & FLAG_ABSENT == 0,
+        dv,
+        sum,
+    }
 }
 
 fn skew(r: &Vector3<f64>) -> Matrix3<f64> {
@@ -224,14 +230,20 @@ impl JointEstimator {
 
     /// White-noise covariance of the six linear residuals [V²], given per-slot mean
     /// squared voltage and per-IS, per-axis mean squared angular acceleration.
-    fn white_cov(&self, p: &Par, mean_sq_sum: &[f64; 6], mean_sq_wdot: &[[f64; 3]; 2]) -> SMatrix<f64, 6, 6> {
+    fn white_cov(
+        &self,
+        p: &Par,
+        mean_sq_sum: &[f64; 6],
+        mean_sq_wdot: &[[f64; 3]; 2],
+    ) -> SMatrix<f64, 6, 6> {
         let c = &self.cfg;
         let mut r = SMatrix::<f64, 6, 6>::identity();
         let n = self.n_is();
         let mut v = [0.0; 3];
         for (a, va) in v.iter_mut().enumerate() {
             for (l, msq) in mean_sq_wdot.iter().enumerate().take(n) {
-                *va += self.w(l).powi(2) * (c.sigma_angular.powi(2) + c.sigma_ripple.powi(2) * msq[a]);
+                *va +=
+                    self.w(l).powi(2) * (c.sigma_angular.powi(2) + c.sigma_ripple.powi(2) * msq[a]);
             }
         }
         for s in 0..3 * n {
@@ -240,7 +252,10 @@ impl JointEstimator {
                 let (k, k2) = (self.k_of(p, i, j), self.k_of(p, i2, j2));
                 let xi = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i + a]));
                 let xi2 = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i2 + a]));
-                let mut val = (0..3).map(|a| xi[(j, a)] * xi2[(j2, a)] * v[a]).sum::<f64>() / (k * k2);
+                let mut val = (0..3)
+                    .map(|a| xi[(j, a)] * xi2[(j2, a)] * v[a])
+                    .sum::<f64>()
+                    / (k * k2);
                 if j == j2 {
                     val += c.sigma_force.powi(2) / (k * k2);
                 }
@@ -255,7 +270,10 @@ impl JointEstimator {
 
     /// Whitening rows: `L⁻¹` of the white covariance, and the unit direction of the
     /// coloured SRP in the whitened space, with its gain |L⁻¹ h|.
-    fn whitening(r: &SMatrix<f64, 6, 6>, h: &SVector<f64, 6>) -> Option<(SMatrix<f64, 6, 6>, SVector<f64, 6>, f64)> {
+    fn whitening(
+        r: &SMatrix<f64, 6, 6>,
+        h: &SVector<f64, 6>,
+    ) -> Option<(SMatrix<f64, 6, 6>, SVector<f64, 6>, f64)> {
         let l = r.cholesky()?.l();
         let linv = l.try_inverse()?;
         let hp = linv * h;
@@ -328,7 +346,9 @@ impl JointEstimator {
             dv[i] = if data[i].valid {
                 data[i].dv
             } else if let Some(o) = (0..n).find(|&o| data[o].valid) {
-                std::array::from_fn(|a| data[o].dv[a] * self.cfg.beta_prior[o][a] / self.cfg.beta_prior[i][a])
+                std::array::from_fn(|a| {
+                    data[o].dv[a] * self.cfg.beta_prior[o][a] / self.cfg.beta_prior[i][a]
+                })
             } else {
                 self.dv_last[i]
             };
@@ -377,7 +397,14 @@ impl JointEstimator {
         self.message(tick)
     }
 
-    fn update_linear(&mut self, data: &[IsData; 2], dv: &[[f64; 3]; 2], psi_mid: &[[f64; 3]; 2], phi_mid: &[[f64; 3]; 2], t: f64) {
+    fn update_linear(
+        &mut self,
+        data: &[IsData; 2],
+        dv: &[[f64; 3]; 2],
+        psi_mid: &[[f64; 3]; 2],
+        phi_mid: &[[f64; 3]; 2],
+        t: f64,
+    ) {
         let n = self.n_is();
         let mut s = Sig::zeros();
         for i in 0..n {
@@ -456,7 +483,12 @@ impl JointEstimator {
         if s.star.valid == 0 || !s.star.q_bn.iter().all(|v| v.is_finite()) {
             return;
         }
-        let q = Quaternion::new(s.star.q_bn[0], s.star.q_bn[1], s.star.q_bn[2], s.star.q_bn[3]);
+        let q = Quaternion::new(
+            s.star.q_bn[0],
+            s.star.q_bn[1],
+            s.star.q_bn[2],
+            s.star.q_bn[3],
+        );
         if q.norm() < 0.5 {
             return;
         }
@@ -469,7 +501,8 @@ impl JointEstimator {
         let kappa = crate::model::attitude::rotation_vector(&self.q_model) - lin;
         let wgt = 1.0 / self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
-            let v = SVector::<f64, 5>::new(theta[a] - kappa[a], 1.0, t, self.phi[0][a], self.phi[1][a]);
+            let v =
+                SVector::<f64, 5>::new(theta[a] - kappa[a], 1.0, t, self.phi[0][a], self.phi[1][a]);
             rank1_upper(&mut self.m_star[a], &v, wgt);
         }
     }
@@ -523,7 +556,9 @@ impl JointEstimator {
                 -self.w(1) * p[P_BETA + 3 + a],
             )
         });
-        let ang = std::array::from_fn(|a| SVector::<f64, 2>::new(1.0, -p[P_BETA + 3 + a] / p[P_BETA + a]));
+        let ang = std::array::from_fn(|a| {
+            SVector::<f64, 2>::new(1.0, -p[P_BETA + 3 + a] / p[P_BETA + a])
+        });
         Coeffs { lin, star, ang }
     }
 
@@ -540,7 +575,9 @@ impl JointEstimator {
             for j in 0..3 {
                 let s = 3 * i + j;
                 let rf = self.sum_ref[i][j];
-                msq[s] = rf * rf + 2.0 * rf * m[(S_SUM + s, S_ONE)] / cnt + m[(S_SUM + s, S_SUM + s)] / cnt;
+                msq[s] = rf * rf
+                    + 2.0 * rf * m[(S_SUM + s, S_ONE)] / cnt
+                    + m[(S_SUM + s, S_SUM + s)] / cnt;
                 wsq[i][j] = p[P_BETA + 3 * i + j].powi(2) * m[(S_DV + s, S_DV + s)] / cnt;
             }
         }
@@ -551,7 +588,11 @@ impl JointEstimator {
     /// priors are included (they only matter before every axis has been excited).
     fn normal_equations(&self, p: &Par, priors: bool) -> (SMatrix<f64, NP, NP>, Par) {
         let c0 = self.coeffs(p);
-        let mut dc = [Coeffs { lin: SMatrix::zeros(), star: [SVector::zeros(); 3], ang: [SVector::zeros(); 3] }; NP];
+        let mut dc = [Coeffs {
+            lin: SMatrix::zeros(),
+            star: [SVector::zeros(); 3],
+            ang: [SVector::zeros(); 3],
+        }; NP];
         for (k, d) in dc.iter_mut().enumerate() {
             let hk = 1e-6 * self.p_sigma[k];
             let mut pp = *p;
@@ -587,7 +628,9 @@ impl JointEstimator {
             if c.iter().all(|v| *v == 0.0) {
                 return;
             }
-            let d = SMatrix::<f64, NS, NP>::from_fn(|s, k| (0..6).map(|r| row[r] * dc[k].lin[(r, s)]).sum());
+            let d = SMatrix::<f64, NS, NP>::from_fn(|s, k| {
+                (0..6).map(|r| row[r] * dc[k].lin[(r, s)]).sum()
+            });
             let md = m * d;
             hm += d.transpose() * md;
             g += md.transpose() * c;
@@ -598,7 +641,9 @@ impl JointEstimator {
                 continue;
             }
             let r = self.white_cov(p, &msq, &wsq);
-            let Some((linv, u, _)) = Self::whitening(&r, &self.h) else { continue };
+            let Some((linv, u, _)) = Self::whitening(&r, &self.h) else {
+                continue;
+            };
             let rows = Self::complement_rows(&linv, &u);
             let m = symmetric(&self.m_raw[reg]);
             for t in 0..5 {
@@ -645,7 +690,9 @@ impl JointEstimator {
     pub fn solve(&mut self, iterations: usize, priors: bool) {
         for _ in 0..iterations {
             let (hm, g) = self.normal_equations(&self.p, priors);
-            let Some((delta, var)) = Self::newton_step(&hm, &g) else { return };
+            let Some((delta, var)) = Self::newton_step(&hm, &g) else {
+                return;
+            };
             self.p += delta;
             self.sigma = var.map(|v| v.max(0.0).sqrt());
             let converged = (0..NP).all(|k| delta[k].abs() < 1e-4 * self.sigma[k].max(1e-300));
@@ -682,7 +729,9 @@ impl JointEstimator {
                 hm[(k, k)] = 1.0;
                 g[k] = 0.0;
             }
-            let Some((delta, _)) = Self::newton_step(&hm, &g) else { break };
+            let Some((delta, _)) = Self::newton_step(&hm, &g) else {
+                break;
+            };
             p += delta;
         }
         p
@@ -710,7 +759,10 @@ impl JointEstimator {
 
     /// The estimate message from the current solution.
     pub fn message(&mut self, tick: u64) -> EstimateMsg {
-        let mut m = EstimateMsg { header: Header::at(self.seq, tick, self.cfg.fs), ..Default::default() };
+        let mut m = EstimateMsg {
+            header: Header::at(self.seq, tick, self.cfg.fs),
+            ..Default::default()
+        };
         self.seq += 1;
         Self::fill(&self.cfg, &self.p, &self.sigma, &mut m);
         m.solved_tick = self.solved_tick;

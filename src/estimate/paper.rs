@@ -8,7 +8,9 @@ use super::config::EstimatorConfig;
 use super::kalman::StaticKf;
 use crate::fee::PAIR_OF_ANGULAR;
 use crate::model::attitude::coupling_matrix;
-use crate::msg::{EstimateMsg, Header, SensorSample, FLAG_ABSENT, FLAG_SATURATED_ANGULAR, FLAG_SATURATED_LINEAR};
+use crate::msg::{
+    EstimateMsg, Header, SensorSample, FLAG_ABSENT, FLAG_SATURATED_ANGULAR, FLAG_SATURATED_LINEAR,
+};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
@@ -25,7 +27,11 @@ impl Biquad {
         let q = std::f64::consts::FRAC_1_SQRT_2;
         let norm = 1.0 / (1.0 + k / q + k * k);
         let b0 = k * k * norm;
-        Biquad { b: [b0, 2.0 * b0, b0], a: [2.0 * (k * k - 1.0) * norm, (1.0 - k / q + k * k) * norm], z: [0.0; 2] }
+        Biquad {
+            b: [b0, 2.0 * b0, b0],
+            a: [2.0 * (k * k - 1.0) * norm, (1.0 - k / q + k * k) * norm],
+            z: [0.0; 2],
+        }
     }
 
     pub fn step(&mut self, x: f64) -> f64 {
@@ -77,7 +83,10 @@ impl PaperEstimator {
         let beta_kf = std::array::from_fn(|i| {
             std::array::from_fn(|a| {
                 let b = cfg.beta_prior[i][a];
-                StaticKf::new(SVector::<f64, 1>::new(b), SMatrix::<f64, 1, 1>::new((0.05 * b).powi(2)))
+                StaticKf::new(
+                    SVector::<f64, 1>::new(b),
+                    SMatrix::<f64, 1, 1>::new((0.05 * b).powi(2)),
+                )
             })
         });
         let com_kf = std::array::from_fn(|i| {
@@ -136,7 +145,12 @@ impl PaperEstimator {
             return self.message(tick);
         }
         self.n_used += 1;
-        let q = UnitQuaternion::from_quaternion(Quaternion::new(s.star.q_bn[0], s.star.q_bn[1], s.star.q_bn[2], s.star.q_bn[3]));
+        let q = UnitQuaternion::from_quaternion(Quaternion::new(
+            s.star.q_bn[0],
+            s.star.q_bn[1],
+            s.star.q_bn[2],
+            s.star.q_bn[3],
+        ));
         let q_ref = *self.q_ref.get_or_insert(q);
         let theta = crate::model::attitude::rotation_vector(&(q_ref.inverse() * q));
         let t0 = *self.t0.get_or_insert(t);
@@ -150,7 +164,8 @@ impl PaperEstimator {
         };
         for i in 0..n {
             let v = s.is[i].volts;
-            let dv: [f64; 3] = std::array::from_fn(|a| v[PAIR_OF_ANGULAR[a]][0] - v[PAIR_OF_ANGULAR[a]][1]);
+            let dv: [f64; 3] =
+                std::array::from_fn(|a| v[PAIR_OF_ANGULAR[a]][0] - v[PAIR_OF_ANGULAR[a]][1]);
             let sum: [f64; 3] = std::array::from_fn(|j| v[j][0] + v[j][1]);
             // ↔ the mean of the two intervals around that sample, low-passed the same way.
             if let Some(y) = y_star {
@@ -189,7 +204,10 @@ impl PaperEstimator {
     }
 
     fn message(&mut self, tick: u64) -> EstimateMsg {
-        let mut m = EstimateMsg { header: Header::at(self.seq, tick, self.cfg.fs), ..Default::default() };
+        let mut m = EstimateMsg {
+            header: Header::at(self.seq, tick, self.cfg.fs),
+            ..Default::default()
+        };
         self.seq += 1;
         for i in 0..self.cfg.n_is {
             for a in 0..3 {

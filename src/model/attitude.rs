@@ -17,8 +17,15 @@ pub struct RigidBody {
 impl RigidBody {
     /// At rest, aligned with the inertial frame. `inertia` must be positive definite.
     pub fn new(inertia: Matrix3<f64>) -> Self {
-        let inertia_inv = inertia.try_inverse().expect("inertia validated positive definite");
-        RigidBody { inertia, inertia_inv, q_bn: UnitQuaternion::identity(), omega_b: Vector3::zeros() }
+        let inertia_inv = inertia
+            .try_inverse()
+            .expect("inertia validated positive definite");
+        RigidBody {
+            inertia,
+            inertia_inv,
+            q_bn: UnitQuaternion::identity(),
+            omega_b: Vector3::zeros(),
+        }
     }
 
     /// Euler's equation: ω̇ = I⁻¹ (τ − ω × I ω) [rad/s²].
@@ -65,7 +72,11 @@ impl RigidBody {
 }
 
 /// A(ω, ω̇) r ≡ ω̇ × r + ω × (ω × r) (eq. 16): TM acceleration from the CoM offset [m/s²].
-pub fn coupling_acceleration(omega: &Vector3<f64>, omega_dot: &Vector3<f64>, r: &Vector3<f64>) -> Vector3<f64> {
+pub fn coupling_acceleration(
+    omega: &Vector3<f64>,
+    omega_dot: &Vector3<f64>,
+    r: &Vector3<f64>,
+) -> Vector3<f64> {
     omega_dot.cross(r) + omega.cross(&omega.cross(r))
 }
 
@@ -89,7 +100,11 @@ pub fn coupling_matrix(w: &Vector3<f64>, wd: &Vector3<f64>) -> Matrix3<f64> {
 /// Uses atan2, accurate for tiny angles (acos of the scalar part loses digits).
 pub fn rotation_vector(q: &UnitQuaternion<f64>) -> Vector3<f64> {
     let q = q.quaternion();
-    let (w, v) = if q.w < 0.0 { (-q.w, -q.imag()) } else { (q.w, q.imag()) };
+    let (w, v) = if q.w < 0.0 {
+        (-q.w, -q.imag())
+    } else {
+        (q.w, q.imag())
+    };
     let n = v.norm();
     if n < 1e-300 {
         return Vector3::zeros();
@@ -114,8 +129,16 @@ mod tests {
             b.step(&Vector3::zeros(), 0.01);
         }
         let (h1, e1) = (b.angular_momentum_n(), b.kinetic_energy());
-        assert!((h1 - h0).norm() / h0.norm() < 1e-9, "momentum drift {}", (h1 - h0).norm() / h0.norm());
-        assert!((e1 - e0).abs() / e0 < 1e-9, "energy drift {}", (e1 - e0).abs() / e0);
+        assert!(
+            (h1 - h0).norm() / h0.norm() < 1e-9,
+            "momentum drift {}",
+            (h1 - h0).norm() / h0.norm()
+        );
+        assert!(
+            (e1 - e0).abs() / e0 < 1e-9,
+            "energy drift {}",
+            (e1 - e0).abs() / e0
+        );
     }
 
     #[test]
@@ -132,7 +155,12 @@ mod tests {
         let theta = tau.z * t * t / (2.0 * 900.0);
         assert!((b.omega_b.z - w).abs() < 1e-12 * w.abs().max(1e-30) + 1e-18);
         let rv = rotation_vector(&b.q_bn);
-        assert!((rv.z - theta).abs() < 1e-10 * theta, "{} vs {}", rv.z, theta);
+        assert!(
+            (rv.z - theta).abs() < 1e-10 * theta,
+            "{} vs {}",
+            rv.z,
+            theta
+        );
         assert!(rv.x.abs() < 1e-15 && rv.y.abs() < 1e-15);
     }
 
@@ -140,7 +168,10 @@ mod tests {
     fn coupling_matrix_equals_cross_product_form() {
         let w = Vector3::new(1.3e-6, -0.7e-6, 2.1e-6);
         let wd = Vector3::new(2.5e-9, -1.1e-9, 0.4e-9);
-        for r in [Vector3::new(0.2164, -0.1251, 0.0002), Vector3::new(-0.3, 0.05, 0.2)] {
+        for r in [
+            Vector3::new(0.2164, -0.1251, 0.0002),
+            Vector3::new(-0.3, 0.05, 0.2),
+        ] {
             let a = coupling_matrix(&w, &wd) * r;
             let b = coupling_acceleration(&w, &wd, &r);
             assert!((a - b).norm() < 1e-12 * b.norm());

@@ -21,8 +21,18 @@ pub struct PlantNoise {
 }
 
 impl PlantNoise {
-    pub const ALL: PlantNoise = PlantNoise { torque: true, thruster_nonideal: true, srp: true, force: true };
-    pub const NONE: PlantNoise = PlantNoise { torque: false, thruster_nonideal: false, srp: false, force: false };
+    pub const ALL: PlantNoise = PlantNoise {
+        torque: true,
+        thruster_nonideal: true,
+        srp: true,
+        force: true,
+    };
+    pub const NONE: PlantNoise = PlantNoise {
+        torque: false,
+        thruster_nonideal: false,
+        srp: false,
+        force: false,
+    };
 }
 
 #[derive(Debug, Clone)]
@@ -72,7 +82,11 @@ impl Plant {
             r_tm_b,
             sun_n: Vector3::from(s.sun_unit()),
             g0: s.srp.dc_m_s2,
-            torque_sigma: if noise.torque { s.thruster.torque_noise_nm_rthz / (2.0 * h).sqrt() } else { 0.0 },
+            torque_sigma: if noise.torque {
+                s.thruster.torque_noise_nm_rthz / (2.0 * h).sqrt()
+            } else {
+                0.0
+            },
             force_sigma: if noise.force {
                 white_sigma(s.thruster.force_noise_n_rthz / s.spacecraft.mass_kg, fs)
             } else {
@@ -89,7 +103,8 @@ impl Plant {
         let dt = 1.0 / self.fs;
         let h = dt / SUBSTEPS as f64;
         let t0 = tick as f64 * dt;
-        self.thrusters.command(t0, torque_cmd_b, &mut self.rng_edges);
+        self.thrusters
+            .command(t0, torque_cmd_b, &mut self.rng_edges);
         let omega_start = self.body.omega_b;
         let mut a_couple = [Vector3::zeros(); 2];
         let mut sun_b = Vector3::zeros();
@@ -113,7 +128,11 @@ impl Plant {
             torque_sum += tau;
         }
         let n = SUBSTEPS as f64;
-        let delta = if self.noise.srp { self.srp_bank.next(&mut self.rng_srp) } else { 0.0 };
+        let delta = if self.noise.srp {
+            self.srp_bank.next(&mut self.rng_srp)
+        } else {
+            0.0
+        };
         let mut a_srp = sun_b / n * (self.g0 + delta);
         if self.force_sigma > 0.0 {
             for a in 0..3 {

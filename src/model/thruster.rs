@@ -46,7 +46,10 @@ fn relax(y0: f64, level: f64, tau: f64, h: f64) -> (f64, f64) {
 
 impl Thrusters {
     pub fn new(p: &Params) -> Self {
-        let axis = ThrusterAxis { edge_t: f64::NAN, ..Default::default() };
+        let axis = ThrusterAxis {
+            edge_t: f64::NAN,
+            ..Default::default()
+        };
         Thrusters {
             axes: [axis; 3],
             p: ParamsCopy {
@@ -122,7 +125,11 @@ mod tests {
 
     #[test]
     fn step_response_settles_to_the_commanded_level_with_decaying_overshoot() {
-        let p = Params { amplitude_jitter_rel: 0.0, edge_jitter_s: 0.0, ..Params::default() };
+        let p = Params {
+            amplitude_jitter_rel: 0.0,
+            edge_jitter_s: 0.0,
+            ..Params::default()
+        };
         let mut t = Thrusters::new(&p);
         let mut rng = stream(1, Stream::ThrusterEdges);
         t.command(0.0, &[1e-6, 0.0, 0.0], &mut rng);
@@ -136,7 +143,10 @@ mod tests {
         // Mean over the first second exceeds the level: the overshoot.
         let mut t2 = Thrusters::new(&p);
         t2.command(0.0, &[1e-6, 0.0, 0.0], &mut rng);
-        let m: f64 = (0..100).map(|i| t2.mean_over(i as f64 * 0.01, 0.01)[0]).sum::<f64>() / 100.0;
+        let m: f64 = (0..100)
+            .map(|i| t2.mean_over(i as f64 * 0.01, 0.01)[0])
+            .sum::<f64>()
+            / 100.0;
         assert!(m > 1.0e-6 && m < 1.1e-6, "{m}");
     }
 }
