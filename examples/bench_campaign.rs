@@ -17,7 +17,13 @@ fn main() {
         .collect();
     times.sort_by(f64::total_cmp);
     let med = times[2];
-    println!("default campaign, in-process: {n} samples ({} s simulated)", s.duration_s);
-    println!("  wall time   median {:.3} s   (min {:.3} s, max {:.3} s, 5 runs)", med, times[0], times[4]);
+    println!(
+        "default campaign, in-process: {n} samples ({} s simulated)",
+        s.duration_s
+    );
+    println!(
+        "  wall time   median {:.3} s   (min {:.3} s, max {:.3} s, 5 runs)",
+        med, times[0], times[4]
+    );
     println!("  throughput  {:.0} samples/s", n as f64 / med);
 }

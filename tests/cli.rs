@@ -12,11 +12,23 @@ fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
     std::fs::create_dir_all(&dir).unwrap();
     let f = dir.join("bad.toml");
     std::fs::write(&f, "duration_s = -1.0\n").unwrap();
-    let out = calib().args(["run", "--scenario"]).arg(&f).arg("--out").arg(&dir).output().unwrap();
+    let out = calib()
+        .args(["run", "--scenario"])
+        .arg(&f)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("duration_s") && !err.contains("panicked"), "{err}");
-    let out = calib().args(["crlb", "--scenario", "/nonexistent/x.toml"]).output().unwrap();
+    assert!(
+        err.contains("duration_s") && !err.contains("panicked"),
+        "{err}"
+    );
+    let out = calib()
+        .args(["crlb", "--scenario", "/nonexistent/x.toml"])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read scenario"));
 }
@@ -24,11 +36,20 @@ fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
 #[test]
 fn run_writes_the_report_of_spec_section_5() {
     let dir = std::env::temp_dir().join(format!("taiji-cli-run-{}", std::process::id()));
-    let out = calib().args(["run", "--seed", "3", "--out"]).arg(&dir).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = calib()
+        .args(["run", "--seed", "3", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("IS2 rz") && table.contains("Requirements met: yes"));
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     assert_eq!(v["mode"], "in-process");
     assert_eq!(v["seed"], 3);
     assert_eq!(v["requirements"]["met"], true);

@@ -44,7 +44,10 @@ mod tests {
         let p0 = 1e4;
         let mut kf = StaticKf::new(SVector::zeros(), SMatrix::identity() * p0);
         // Batch least squares in information form, with the filter's (weak) prior.
-        let (mut ata, mut atb) = (SMatrix::<f64, 3, 3>::identity() * (0.01 / p0), SVector::<f64, 3>::zeros());
+        let (mut ata, mut atb) = (
+            SMatrix::<f64, 3, 3>::identity() * (0.01 / p0),
+            SVector::<f64, 3>::zeros(),
+        );
         for n in 0..5000 {
             let t = n as f64 * 0.01;
             let h = SVector::<f64, 3>::new(1.0, t, (0.7 * t).sin());
