@@ -3,16 +3,12 @@
 //! The only stage that sees truth besides the plant.
 
 use crate::model::noise::white_sigma;
-use crate::msg::{Header, IsSample, SensorSample, StarSample, TruthState, FLAG_ABSENT};
+use crate::msg::{
+    Header, IsSample, SensorSample, StarSample, TruthState, ANGULAR_OF_PAIR, FLAG_ABSENT,
+};
 use crate::rng::{gauss, stream, stream_n, Rng, Stream};
 use crate::scenario::{Scenario, ARCSEC};
 use nalgebra::{UnitQuaternion, Vector3};
-
-/// Electrode pair p ∈ {x, y, z} whose difference carries angular axis `ANGULAR_OF_PAIR[p]`
-/// (Table 1: ω̇x from the y pair, ω̇y from z, ω̇z from x).
-pub const ANGULAR_OF_PAIR: [usize; 3] = [2, 0, 1];
-/// Electrode pair carrying angular axis a: the inverse of `ANGULAR_OF_PAIR`.
-pub const PAIR_OF_ANGULAR: [usize; 3] = [1, 2, 0];
 
 #[derive(Debug, Clone)]
 pub struct FrontEnd {

@@ -63,6 +63,12 @@ pub const FLAG_SATURATED_ANGULAR: u8 = 0b0011_1000;
 /// The IS sample is not present (IS absent in the scenario).
 pub const FLAG_ABSENT: u8 = 0b1000_0000;
 
+/// Electrode pair p ∈ {x, y, z} whose difference carries angular axis `ANGULAR_OF_PAIR[p]`
+/// (Table 1: ω̇x from the y pair, ω̇y from z, ω̇z from x).
+pub const ANGULAR_OF_PAIR: [usize; 3] = [2, 0, 1];
+/// Electrode pair carrying angular axis a: the inverse of `ANGULAR_OF_PAIR`.
+pub const PAIR_OF_ANGULAR: [usize; 3] = [1, 2, 0];
+
 /// One IS's drive voltages for the interval (Table 1).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[repr(C)]
@@ -72,6 +78,34 @@ pub struct IsSample {
     /// Saturation / presence flags (`FLAG_*`).
     pub flags: u8,
     pub _pad: [u8; 7],
+}
+
+impl IsSample {
+    /// Present, finite and not saturated.
+    pub fn usable(&self) -> bool {
+        self.flags & (FLAG_ABSENT | FLAG_SATURATED_LINEAR | FLAG_SATURATED_ANGULAR) == 0
+            && self.volts.iter().flatten().all(|v| v.is_finite())
+    }
+
+    /// Voltage differences per angular axis a (ω̇_a = β_a ΔV_a, Table 1) [V].
+    pub fn angular_volts(&self) -> [f64; 3] {
+        std::array::from_fn(|a| {
+            let pair = self.volts[PAIR_OF_ANGULAR[a]];
+            pair[0] - pair[1]
+        })
+    }
+
+    /// Voltage sums per linear axis j (a_j = k_j ΣV_j, Table 1) [V].
+    pub fn linear_volts(&self) -> [f64; 3] {
+        std::array::from_fn(|j| self.volts[j][0] + self.volts[j][1])
+    }
+}
+
+impl StarSample {
+    /// Valid and finite.
+    pub fn usable(&self) -> bool {
+        self.valid != 0 && self.q_bn.iter().all(|v| v.is_finite())
+    }
 }
 
 /// Front-end electronics → estimator: everything the estimator may see.

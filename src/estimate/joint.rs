@@ -20,11 +20,8 @@
 //!   with ω̇ = ½(β1 ΔV1 + β2 ΔV2), ω = β1 Ψ1, k = G β (eq. 2).
 
 use super::config::EstimatorConfig;
-use crate::fee::PAIR_OF_ANGULAR;
 use crate::model::noise::{PowerLawBank, MAX_POLES};
-use crate::msg::{
-    EstimateMsg, Header, SensorSample, FLAG_ABSENT, FLAG_SATURATED_ANGULAR, FLAG_SATURATED_LINEAR,
-};
+use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Signals of the linear group.
@@ -119,15 +116,10 @@ struct IsData {
 }
 
 fn is_data(s: &crate::msg::IsSample) -> IsData {
-    let v = s.volts;
-    let finite = v.iter().flatten().all(|x| x.is_finite());
-    let sat = s.flags & (FLAG_SATURATED_LINEAR | FLAG_SATURATED_ANGULAR) != 0;
-    let dv = std::array::from_fn(|a| v[PAIR_OF_ANGULAR[a]][0] - v[PAIR_OF_ANGULAR[a]][1]);
-    let sum = std::array::from_fn(|j| v[j][0] + v[j][1]);
     IsData {
-        valid: finite && !sat && s.flags & FLAG_ABSENT == 0,
-        dv,
-        sum,
+        valid: s.usable(),
+        dv: s.angular_volts(),
+        sum: s.linear_volts(),
     }
 }
 
@@ -480,7 +472,7 @@ impl JointEstimator {
     }
 
     fn update_star(&mut self, s: &SensorSample, t: f64) {
-        if s.star.valid == 0 || !s.star.q_bn.iter().all(|v| v.is_finite()) {
+        if !s.star.usable() {
             return;
         }
         let q = Quaternion::new(

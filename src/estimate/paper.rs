@@ -6,11 +6,8 @@
 
 use super::config::EstimatorConfig;
 use super::kalman::StaticKf;
-use crate::fee::PAIR_OF_ANGULAR;
 use crate::model::attitude::coupling_matrix;
-use crate::msg::{
-    EstimateMsg, Header, SensorSample, FLAG_ABSENT, FLAG_SATURATED_ANGULAR, FLAG_SATURATED_LINEAR,
-};
+use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
@@ -133,12 +130,8 @@ impl PaperEstimator {
         let dt = 1.0 / self.cfg.fs;
         let t = (tick + 1) as f64 * dt;
         let n = self.cfg.n_is;
-        let ok = (0..n).all(|i| {
-            let x = &s.is[i];
-            x.flags & (FLAG_ABSENT | FLAG_SATURATED_ANGULAR | FLAG_SATURATED_LINEAR) == 0
-                && x.volts.iter().flatten().all(|v| v.is_finite())
-        });
-        let star_ok = s.star.valid != 0 && s.star.q_bn.iter().all(|v| v.is_finite());
+        let ok = (0..n).all(|i| s.is[i].usable());
+        let star_ok = s.star.usable();
         if !ok || !star_ok {
             self.n_rejected += 1;
             self.theta_hist = [None; 2];
@@ -163,10 +156,8 @@ impl PaperEstimator {
             _ => None,
         };
         for i in 0..n {
-            let v = s.is[i].volts;
-            let dv: [f64; 3] =
-                std::array::from_fn(|a| v[PAIR_OF_ANGULAR[a]][0] - v[PAIR_OF_ANGULAR[a]][1]);
-            let sum: [f64; 3] = std::array::from_fn(|j| v[j][0] + v[j][1]);
+            let dv = s.is[i].angular_volts();
+            let sum = s.is[i].linear_volts();
             // ↔ the mean of the two intervals around that sample, low-passed the same way.
             if let Some(y) = y_star {
                 for a in 0..3 {
