@@ -2,14 +2,20 @@
 //! the plant, front-end electronics, commander and estimators as plain stage types
 //! with fixed-size inputs and outputs, so they run in one process or as separate
 //! processes over iceoryx2 shared memory.
+pub mod alloc_count;
+pub mod bus;
 pub mod campaign;
+pub mod checkpoint;
 pub mod commander;
 pub mod crlb;
 pub mod estimate;
 pub mod fee;
+pub mod launch;
 pub mod model;
 pub mod montecarlo;
+pub mod process;
 pub mod msg;
 pub mod report;
 pub mod rng;
 pub mod scenario;
+pub mod timing;

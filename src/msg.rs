@@ -1,9 +1,15 @@
 //! Fixed-size `#[repr(C)]` messages exchanged by the stages (and, in the process
 //! set, over iceoryx2 shared memory). Units in every field's comment; vectors carry
 //! their frame (`_b` body, `_bn` body relative to inertial). Times are integer ns.
+//!
+//! Every type here is `#[repr(C)]`, fixed-size and `ZeroCopySend`, with a stable
+//! `type_name` so that separately built binaries agree on the service's payload type.
+
+use iceoryx2::prelude::ZeroCopySend;
 
 /// Common header of every message.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::Header")]
 #[repr(C)]
 pub struct Header {
     /// Per-publisher sequence number, from 0, no gaps.
@@ -12,12 +18,16 @@ pub struct Header {
     pub tick: u64,
     /// Simulation time at the end of the interval [ns].
     pub sim_time_ns: i64,
-    /// Monotonic clock when published [ns] (0 in-process).
+    /// Monotonic clock (CLOCK_MONOTONIC) when published [ns] (0 in-process).
     pub publish_ns: u64,
+    /// Monotonic clock when the plant published this tick's truth [ns]: carried
+    /// downstream so the estimator can measure end-to-end latency (0 in-process).
+    pub origin_ns: u64,
 }
 
 /// Commander → plant: torque commanded for the interval.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::TorqueCommand")]
 #[repr(C)]
 pub struct TorqueCommand {
     pub header: Header,
@@ -26,7 +36,8 @@ pub struct TorqueCommand {
 }
 
 /// Plant → front-end electronics (and recorder only): the true state.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::TruthState")]
 #[repr(C)]
 pub struct TruthState {
     pub header: Header,
@@ -47,7 +58,8 @@ pub struct TruthState {
 }
 
 /// Star-tracker sample.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::StarSample")]
 #[repr(C)]
 pub struct StarSample {
     /// Measured attitude (w, x, y, z) of B relative to N [-].
@@ -70,7 +82,8 @@ pub const ANGULAR_OF_PAIR: [usize; 3] = [2, 0, 1];
 pub const PAIR_OF_ANGULAR: [usize; 3] = [1, 2, 0];
 
 /// One IS's drive voltages for the interval (Table 1).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::IsSample")]
 #[repr(C)]
 pub struct IsSample {
     /// Electrode drive voltages [V], indexed [x, y, z][1, 2] as V_{j,1}, V_{j,2}.
@@ -109,7 +122,8 @@ impl StarSample {
 }
 
 /// Front-end electronics → estimator: everything the estimator may see.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::SensorSample")]
 #[repr(C)]
 pub struct SensorSample {
     pub header: Header,
@@ -118,7 +132,8 @@ pub struct SensorSample {
 }
 
 /// Estimator → supervisor / recorder: the latest estimates with 1σ.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::EstimateMsg")]
 #[repr(C)]
 pub struct EstimateMsg {
     pub header: Header,
@@ -136,7 +151,12 @@ pub struct EstimateMsg {
     /// Samples used and samples rejected (non-finite, saturated, invalid).
     pub n_used: u64,
     pub n_rejected: u64,
+    /// `EST_FINAL` on the estimate of the whole campaign (after the last sample).
+    pub flags: u64,
 }
+
+/// `EstimateMsg::flags`: this is the final estimate of the campaign.
+pub const EST_FINAL: u64 = 1;
 
 impl Header {
     pub fn at(seq: u64, tick: u64, fs: f64) -> Self {
@@ -145,6 +165,70 @@ impl Header {
             tick,
             sim_time_ns: ((tick + 1) as f64 / fs * 1e9).round() as i64,
             publish_ns: 0,
+            origin_ns: 0,
         }
     }
+}
+
+/// Stage identifiers carried in `Progress::process`.
+pub const PROC_COMMANDER: u32 = 1;
+pub const PROC_PLANT: u32 = 2;
+pub const PROC_FEE: u32 = 3;
+pub const PROC_ESTIMATOR: u32 = 4;
+
+/// `Progress::state`: ports created, waiting for the supervisor's start.
+pub const STATE_READY: u32 = 1;
+/// Consuming and producing samples.
+pub const STATE_RUNNING: u32 = 2;
+/// Every tick of the campaign processed (the estimator: final estimate published).
+pub const STATE_DONE: u32 = 3;
+
+/// Every stage → its upstream stage and the supervisor: heartbeat, flow-control credit
+/// and counters. Published after each batch of work and at least every 50 ms.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::Progress")]
+#[repr(C)]
+pub struct Progress {
+    pub header: Header,
+    /// `PROC_*` of the publishing stage.
+    pub process: u32,
+    /// `STATE_*`.
+    pub state: u32,
+    /// Monotonic ns when this process instance started: changes when a stage restarts.
+    pub incarnation: u64,
+    /// Every tick below this one has been consumed (the upstream may publish up to
+    /// `next_tick + window`).
+    pub next_tick: u64,
+    /// Estimator: first tick after its last checkpoint; the front-end keeps every
+    /// sample from here on so a restarted estimator can catch up. Others: `next_tick`.
+    pub resume_tick: u64,
+    /// Ticks missing in this stage's input (gaps in the tick sequence).
+    pub samples_lost: u64,
+    /// Commander: ticks published later than one period after their due time.
+    /// Estimator: ticks whose end-to-end latency exceeded one period.
+    pub missed_deadlines: u64,
+    /// Heap allocations inside the processing loop since start-up (estimator).
+    pub loop_allocations: u64,
+    /// Input hop latency (upstream publish → receive) p50, p99, max [µs].
+    pub hop_latency_us: [f64; 3],
+    /// Estimator: end-to-end latency (plant publish → estimate published) p50, p99, max [µs].
+    pub e2e_latency_us: [f64; 3],
+    /// Samples in the latency statistics above.
+    pub latency_count: u64,
+}
+
+/// `Control::command`: leave the ready state and start the campaign.
+pub const CMD_START: u32 = 1;
+/// Stop: finish cleanly and exit.
+pub const CMD_STOP: u32 = 2;
+
+/// Supervisor → every stage.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("taiji::Control")]
+#[repr(C)]
+pub struct Control {
+    pub header: Header,
+    /// `CMD_*`.
+    pub command: u32,
+    pub _pad: u32,
 }

@@ -190,3 +190,11 @@ impl Report {
         o
     }
 }
+
+/// Write `DIR/report.json` (creating DIR).
+pub fn write(out: &std::path::Path, report: &Report) -> Result<(), String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let path = out.join("report.json");
+    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    std::fs::write(&path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
+}

@@ -100,7 +100,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let mut report =
                 Report::new(&s, seed, "in-process", method.name(), &res.estimate, &crlb);
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
-            write_report(&out, &report)?;
+            taiji::report::write(&out, &report)?;
             print!("{}", report.table());
             println!("Report: {}", out.join("report.json").display());
             Ok(if report.requirements.met {
@@ -155,11 +155,4 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
     }
-}
-
-fn write_report(out: &std::path::Path, report: &Report) -> Result<(), String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
-    let path = out.join("report.json");
-    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
 }

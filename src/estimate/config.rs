@@ -4,7 +4,7 @@
 use crate::model::noise::white_sigma;
 use crate::scenario::{Priors, Scenario, ARCSEC};
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EstimatorConfig {
     /// Sample rate [Hz].
     pub fs: f64,

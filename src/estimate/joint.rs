@@ -72,8 +72,8 @@ struct Coeffs {
     ang: [SVector<f64, 2>; 3],
 }
 
-/// The estimator's whole state: fixed-size, `Copy`, so a checkpoint is a byte copy.
-#[derive(Clone, Copy)]
+/// The estimator's whole state: fixed-size and `Copy`; a checkpoint is its serialised bytes.
+#[derive(Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct JointEstimator {
     cfg: EstimatorConfig,
     started: bool,

@@ -3,7 +3,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct StaticKf<const N: usize> {
     pub x: SVector<f64, N>,
     pub p: SMatrix<f64, N, N>,

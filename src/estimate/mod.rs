@@ -8,7 +8,7 @@ pub mod paper;
 pub use config::EstimatorConfig;
 pub use joint::JointEstimator;
 
-use crate::msg::{EstimateMsg, SensorSample};
+use crate::msg::{EstimateMsg, SensorSample, EST_FINAL};
 
 /// Which estimator a run uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -30,7 +30,7 @@ impl Method {
 }
 
 /// Either estimator behind one stage interface (no heap, no dynamic dispatch).
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub enum Estimator {
     Joint(Box<JointEstimator>),
     Paper(Box<paper::PaperEstimator>),
@@ -54,9 +54,11 @@ impl Estimator {
 
     /// Final estimate at the end of the campaign.
     pub fn finish(&mut self) -> EstimateMsg {
-        match self {
+        let mut m = match self {
             Estimator::Joint(e) => e.finish(),
             Estimator::Paper(e) => e.finish(),
-        }
+        };
+        m.flags |= EST_FINAL;
+        m
     }
 }

@@ -11,7 +11,7 @@ use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Biquad {
     b: [f64; 3],
     a: [f64; 2],
@@ -40,7 +40,7 @@ impl Biquad {
 }
 
 /// Paper-route streaming estimator.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct PaperEstimator {
     cfg: EstimatorConfig,
     q_ref: Option<UnitQuaternion<f64>>,

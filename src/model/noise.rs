@@ -16,7 +16,7 @@ pub const MAX_POLES: usize = 32;
 /// Streaming power-law noise, ASD(f) = asd_ref (f_ref / f)^(γ/2), as the sum of AR(1)
 /// processes with log-spaced corners (3 per decade) and weights ∝ f_k^(1-γ), the
 /// continuous-time construction that makes a sum of Lorentzians follow f^-γ.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct PowerLawBank {
     pub n: usize,
     /// AR(1) coefficients a_k = exp(−2π f_k / fs).

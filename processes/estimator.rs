@@ -1,0 +1,19 @@
+//! `taiji-estimator`: wiring only — see `taiji::process::estimator`.
+use clap::Parser;
+
+#[derive(Parser)]
+#[command(name = "taiji-estimator", version, about = "Calibration process set: the estimator stage")]
+struct Args {
+    #[command(flatten)]
+    stage: taiji::process::StageArgs,
+}
+
+fn main() -> std::process::ExitCode {
+    let args = Args::parse();
+    taiji::process::main_of("taiji-estimator", || taiji::process::estimator::run(&args.stage))
+}
+
+/// Count every heap allocation, so the filter loop can report (and a test can check)
+/// that it made none.
+#[global_allocator]
+static ALLOC: taiji::alloc_count::CountingAlloc = taiji::alloc_count::CountingAlloc;

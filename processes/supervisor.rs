@@ -1,0 +1,25 @@
+//! `taiji-supervisor`: wiring only — see `taiji::process::supervisor`.
+use clap::Parser;
+use taiji::process::supervisor::{run, Outcome, SupervisorArgs};
+
+fn main() -> std::process::ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
+        .format_target(false)
+        .init();
+    let args = SupervisorArgs::parse();
+    let outcome = run(&args);
+    match &outcome {
+        Outcome::Completed { report, .. } => {
+            if let Err(e) = taiji::report::write(&args.out, report) {
+                eprintln!("taiji-supervisor: error: {e}");
+                return std::process::ExitCode::from(2);
+            }
+            print!("{}", report.table());
+            println!("Report: {}", args.out.join("report.json").display());
+        }
+        Outcome::UserError(e) => eprintln!("taiji-supervisor: error: {e}"),
+        Outcome::SetFailed(e) => eprintln!("taiji-supervisor: the process set failed: {e}"),
+        Outcome::Interrupted => eprintln!("taiji-supervisor: interrupted; every process stopped"),
+    }
+    std::process::ExitCode::from(outcome.exit_code())
+}

@@ -1,0 +1,215 @@
+//! iceoryx2 wiring shared by every process: service names, queue depths, the
+//! flow-control window, and construction of nodes and ports. All data services are
+//! zero-copy publish–subscribe of the fixed-size `msg` types.
+//!
+//! | service             | payload         | publisher  | subscribers                    |
+//! |---------------------|-----------------|------------|--------------------------------|
+//! | `taiji/torque_cmd`  | `TorqueCommand` | commander  | plant                          |
+//! | `taiji/truth`       | `TruthState`    | plant      | fee (and a recorder) only      |
+//! | `taiji/sensor`      | `SensorSample`  | fee        | estimator                      |
+//! | `taiji/estimate`    | `EstimateMsg`   | estimator  | supervisor                     |
+//! | `taiji/progress`    | `Progress`      | every stage| upstream stage, supervisor     |
+//! | `taiji/control`     | `Control`       | supervisor | every stage                    |
+
+use iceoryx2::node::NodeView;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use std::fmt::Debug;
+
+pub const SVC_TORQUE: &str = "taiji/torque_cmd";
+pub const SVC_TRUTH: &str = "taiji/truth";
+pub const SVC_SENSOR: &str = "taiji/sensor";
+pub const SVC_ESTIMATE: &str = "taiji/estimate";
+pub const SVC_PROGRESS: &str = "taiji/progress";
+pub const SVC_CONTROL: &str = "taiji/control";
+
+/// Default prefix of every iceoryx2 resource of a run (files in /dev/shm and /tmp/iceoryx2).
+pub const DEFAULT_PREFIX: &str = "taiji_";
+
+/// Subscriber queue depth of the data streams [samples].
+pub const QUEUE: usize = 512;
+/// Flow-control window [ticks]: a stage publishes tick t only when its downstream has
+/// consumed every tick below t − WINDOW, so a queue never overflows and no sample is lost.
+pub const WINDOW: u64 = 256;
+/// Queue depth of the progress and control services (only the latest matters).
+pub const SMALL_QUEUE: usize = 64;
+
+/// Upper bounds of every service (same everywhere so any process may create it).
+const MAX_PUBLISHERS: usize = 8;
+const MAX_SUBSCRIBERS: usize = 8;
+const MAX_NODES: usize = 16;
+
+pub type Pub<T> = Publisher<ipc::Service, T, ()>;
+pub type Sub<T> = Subscriber<ipc::Service, T, ()>;
+
+/// iceoryx2 configuration of a run: the default with our resource prefix.
+pub fn config(prefix: &str) -> Result<Config, String> {
+    let mut c = Config::default();
+    c.global.prefix = FileName::new(prefix.as_bytes())
+        .map_err(|e| format!("invalid bus prefix {prefix:?}: {e:?}"))?;
+    // Dead nodes are cleaned by the supervisor alone (at start, before a restart and at
+    // the end), not by every process as it starts or stops: concurrent cleaners race.
+    c.global.node.cleanup_dead_nodes_on_creation = false;
+    c.global.node.cleanup_dead_nodes_on_destruction = false;
+    Ok(c)
+}
+
+/// A node named after the process, in the run's prefix. SIGINT/SIGTERM make
+/// `Node::wait` return an error, which the loops treat as a stop request.
+pub fn node(name: &str, prefix: &str) -> Result<Node<ipc::Service>, String> {
+    let cfg = config(prefix)?;
+    let node_name = NodeName::new(name).map_err(|e| format!("invalid node name {name}: {e:?}"))?;
+    NodeBuilder::new()
+        .name(&node_name)
+        .config(&cfg)
+        .create::<ipc::Service>()
+        .map_err(|e| format!("cannot create iceoryx2 node {name}: {e:?}"))
+}
+
+fn service<T: Debug + ZeroCopySend>(
+    node: &Node<ipc::Service>,
+    name: &str,
+    queue: usize,
+) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>, String>
+{
+    let sn: ServiceName = name
+        .try_into()
+        .map_err(|e| format!("invalid service name {name}: {e:?}"))?;
+    node.service_builder(&sn)
+        .publish_subscribe::<T>()
+        .max_publishers(MAX_PUBLISHERS)
+        .max_subscribers(MAX_SUBSCRIBERS)
+        .max_nodes(MAX_NODES)
+        .subscriber_max_buffer_size(queue)
+        .history_size(0)
+        .open_or_create()
+        .map_err(|e| format!("cannot open service {name}: {e:?}"))
+}
+
+fn queue_of(name: &str) -> usize {
+    if name == SVC_PROGRESS || name == SVC_CONTROL {
+        SMALL_QUEUE
+    } else {
+        QUEUE
+    }
+}
+
+pub fn publisher<T: Debug + ZeroCopySend>(
+    node: &Node<ipc::Service>,
+    name: &str,
+) -> Result<Pub<T>, String> {
+    service::<T>(node, name, queue_of(name))?
+        .publisher_builder()
+        .create()
+        .map_err(|e| format!("cannot create publisher on {name}: {e:?}"))
+}
+
+pub fn subscriber<T: Debug + ZeroCopySend>(
+    node: &Node<ipc::Service>,
+    name: &str,
+) -> Result<Sub<T>, String> {
+    let q = queue_of(name);
+    service::<T>(node, name, q)?
+        .subscriber_builder()
+        .buffer_size(q)
+        .create()
+        .map_err(|e| format!("cannot create subscriber on {name}: {e:?}"))
+}
+
+/// Publish one message by value into a loaned shared-memory sample (no heap allocation).
+pub fn publish<T: Debug + ZeroCopySend + Copy>(p: &Pub<T>, value: T) -> Result<(), String> {
+    let sample = p.loan_uninit().map_err(|e| format!("loan failed: {e:?}"))?;
+    sample
+        .write_payload(value)
+        .send()
+        .map(|_| ())
+        .map_err(|e| format!("send failed: {e:?}"))
+}
+
+/// Receive the next message by value, if any.
+pub fn receive<T: Debug + ZeroCopySend + Copy>(s: &Sub<T>) -> Result<Option<T>, String> {
+    match s.receive() {
+        Ok(Some(sample)) => Ok(Some(*sample.payload())),
+        Ok(None) => Ok(None),
+        Err(e) => Err(format!("receive failed: {e:?}")),
+    }
+}
+
+/// Nodes found on the bus at start-up.
+#[derive(Debug, Default)]
+pub struct BusSurvey {
+    /// Stale nodes of crashed processes whose resources were removed.
+    pub removed_dead: usize,
+    /// Names of nodes still alive in this prefix (another run in progress).
+    pub alive: Vec<String>,
+}
+
+/// Remove the shared-memory resources of dead nodes in this prefix (left by a crashed
+/// earlier run) and list the nodes still alive.
+pub fn cleanup_stale(prefix: &str) -> Result<BusSurvey, String> {
+    let cfg = config(prefix)?;
+    let mut survey = BusSurvey::default();
+    let mut dead = Vec::new();
+    Node::<ipc::Service>::list(&cfg, |state| {
+        match state {
+            NodeState::Alive(view) => {
+                let name = view
+                    .details()
+                    .as_ref()
+                    .map(|d| d.name().as_str().to_string())
+                    .unwrap_or_default();
+                survey.alive.push(name);
+            }
+            NodeState::Dead(view) => dead.push(view),
+            _ => {}
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(|e| format!("cannot list iceoryx2 nodes: {e:?}"))?;
+    for view in dead {
+        if view.try_remove_stale_resources().is_ok() {
+            survey.removed_dead += 1;
+        }
+    }
+    Ok(survey)
+}
+
+/// Wake-up event of a stage: its upstream notifies it after publishing data, its
+/// downstream after granting credit, so no stage polls.
+pub fn wake_service(stage: &str) -> String {
+    format!("taiji/wake/{stage}")
+}
+
+pub type Listener = iceoryx2::port::listener::Listener<ipc::Service>;
+pub type Notifier = iceoryx2::port::notifier::Notifier<ipc::Service>;
+
+fn event_service(
+    node: &Node<ipc::Service>,
+    name: &str,
+) -> Result<iceoryx2::service::port_factory::event::PortFactory<ipc::Service>, String> {
+    let sn: ServiceName = name
+        .try_into()
+        .map_err(|e| format!("invalid service name {name}: {e:?}"))?;
+    node.service_builder(&sn)
+        .event()
+        .max_nodes(MAX_NODES)
+        .max_listeners(MAX_SUBSCRIBERS)
+        .max_notifiers(MAX_PUBLISHERS)
+        .open_or_create()
+        .map_err(|e| format!("cannot open event service {name}: {e:?}"))
+}
+
+pub fn listener(node: &Node<ipc::Service>, name: &str) -> Result<Listener, String> {
+    event_service(node, name)?
+        .listener_builder()
+        .create()
+        .map_err(|e| format!("cannot create listener on {name}: {e:?}"))
+}
+
+pub fn notifier(node: &Node<ipc::Service>, name: &str) -> Result<Notifier, String> {
+    event_service(node, name)?
+        .notifier_builder()
+        .create()
+        .map_err(|e| format!("cannot create notifier on {name}: {e:?}"))
+}

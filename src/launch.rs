@@ -1,0 +1,134 @@
+//! Launch description: which processes form the set, in which order they start, their
+//! extra arguments and restart policy, and the supervisor's liveness timeouts (TOML).
+
+use serde::Deserialize;
+use std::path::Path;
+
+/// Restart policy of one process.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Restart {
+    /// Its death stops the set with an error.
+    Never,
+    /// Restarted when it dies before the set is stopped (non-zero exit or a signal).
+    OnFailure,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProcessSpec {
+    /// Binary name, looked up beside the supervisor's own executable.
+    pub name: String,
+    /// Extra arguments after the common ones the supervisor passes.
+    #[serde(default)]
+    pub args: Vec<String>,
+    #[serde(default = "never")]
+    pub restart: Restart,
+    #[serde(default = "three")]
+    pub max_restarts: u32,
+    #[serde(default = "hundred")]
+    pub restart_delay_ms: u64,
+}
+
+fn never() -> Restart {
+    Restart::Never
+}
+fn three() -> u32 {
+    3
+}
+fn hundred() -> u64 {
+    100
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaunchDescription {
+    /// A process silent (no progress message) for this long is declared hung [s].
+    pub heartbeat_timeout_s: f64,
+    /// Every process must report ready within this time of being started [s].
+    pub ready_timeout_s: f64,
+    /// After the stop command, processes still running after this are killed [s].
+    pub stop_timeout_s: f64,
+    /// Started in this order; every process in the set must be listed once.
+    pub process: Vec<ProcessSpec>,
+}
+
+/// The default launch description (the same as `tools/launch.toml`).
+pub const DEFAULT: &str = include_str!("../tools/launch.toml");
+
+/// The processes a set must contain.
+pub const REQUIRED: [&str; 4] = [
+    "taiji-commander",
+    "taiji-plant",
+    "taiji-fee",
+    "taiji-estimator",
+];
+
+impl LaunchDescription {
+    pub fn parse(text: &str, origin: &str) -> Result<Self, String> {
+        let d: LaunchDescription =
+            toml::from_str(text).map_err(|e| format!("launch description {origin}: {e}"))?;
+        for (key, v) in [
+            ("heartbeat_timeout_s", d.heartbeat_timeout_s),
+            ("ready_timeout_s", d.ready_timeout_s),
+            ("stop_timeout_s", d.stop_timeout_s),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!(
+                    "launch description {origin}: {key} must be a positive number of seconds, not {v}"
+                ));
+            }
+        }
+        for name in REQUIRED {
+            let count = d.process.iter().filter(|p| p.name == name).count();
+            if count != 1 {
+                return Err(format!(
+                    "launch description {origin}: process {name} must be listed exactly once (found {count})"
+                ));
+            }
+        }
+        if let Some(p) = d.process.iter().find(|p| !REQUIRED.contains(&p.name.as_str())) {
+            return Err(format!(
+                "launch description {origin}: unknown process {:?} (known: {})",
+                p.name,
+                REQUIRED.join(", ")
+            ));
+        }
+        Ok(d)
+    }
+
+    pub fn load_or_default(path: Option<&Path>) -> Result<Self, String> {
+        match path {
+            None => Self::parse(DEFAULT, "(built-in)"),
+            Some(p) => {
+                let text = std::fs::read_to_string(p)
+                    .map_err(|e| format!("cannot read launch description {}: {e}", p.display()))?;
+                Self::parse(&text, &p.display().to_string())
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_description_parses_with_estimator_restartable() {
+        let d = LaunchDescription::load_or_default(None).unwrap();
+        let est = d.process.iter().find(|p| p.name == "taiji-estimator").unwrap();
+        assert_eq!(est.restart, Restart::OnFailure);
+        let plant = d.process.iter().find(|p| p.name == "taiji-plant").unwrap();
+        assert_eq!(plant.restart, Restart::Never);
+    }
+
+    #[test]
+    fn bad_descriptions_name_the_problem() {
+        let e = LaunchDescription::parse("heartbeat_timeout_s = 1.0\nready_timeout_s = 1.0\nstop_timeout_s = 1.0\nprocess = []", "x").unwrap_err();
+        assert!(e.contains("taiji-commander must be listed"), "{e}");
+        let e = LaunchDescription::parse(&DEFAULT.replace("restart = \"on-failure\"", "restart = \"sometimes\""), "x").unwrap_err();
+        assert!(e.contains("restart"), "{e}");
+        let e = LaunchDescription::parse(&DEFAULT.replace("heartbeat_timeout_s = ", "heartbeat_timeout_s = -"), "x").unwrap_err();
+        assert!(e.contains("heartbeat_timeout_s"), "{e}");
+    }
+}

@@ -1,0 +1,63 @@
+//! `taiji-commander`: publishes the maneuver's torque command per tick, paced by the
+//! downstream credit (accelerated) or by the clock (real-time).
+
+use super::{Exit, Link, StageArgs};
+use crate::bus;
+use crate::commander::Commander;
+use crate::msg::{TorqueCommand, PROC_COMMANDER, PROC_PLANT, STATE_DONE, STATE_RUNNING};
+use crate::timing::monotonic_ns;
+use std::time::Duration;
+
+pub fn run(args: &StageArgs) -> Result<Exit, String> {
+    let s = args.scenario()?;
+    let period = args.period_ns(&s)?;
+    let mut link = Link::new("taiji-commander", PROC_COMMANDER, "commander", None, Some(("plant", PROC_PLANT)), args)?;
+    let out = bus::publisher::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
+    let mut commander = Commander::new(&s);
+    link.beat()?;
+    while !link.started() {
+        if let Some(e) = link.poll()?.or_else(|| link.idle(Duration::from_millis(1))) {
+            return Ok(e);
+        }
+    }
+    link.progress.state = STATE_RUNNING;
+    let n = s.n_samples();
+    let t0 = monotonic_ns();
+    let mut t = 0;
+    while t < n {
+        if let Some(e) = link.poll()? {
+            return Ok(e);
+        }
+        if period > 0 {
+            let due = t0 + t * period;
+            let now = monotonic_ns();
+            if now < due {
+                let wait = Duration::from_nanos((due - now).min(1_000_000));
+                if let Some(e) = link.sleep(wait) {
+                    return Ok(e);
+                }
+                continue;
+            }
+            if now > due + period {
+                link.progress.missed_deadlines += 1;
+            }
+        }
+        if !link.downstream.credit(t) {
+            if let Some(e) = link.idle(super::IDLE) {
+                return Ok(e);
+            }
+            continue;
+        }
+        let mut m = commander.step(t);
+        m.header.publish_ns = monotonic_ns();
+        bus::publish(&out, m)?;
+        link.sent(period > 0);
+        t += 1;
+        link.progress.next_tick = t;
+        link.progress.resume_tick = t;
+        if t % 32 == 0 {
+            link.beat()?;
+        }
+    }
+    link.linger(STATE_DONE)
+}

@@ -1,0 +1,114 @@
+//! `taiji-estimator`: the calibration filters on the sensor stream. Resumes from its
+//! checkpoint when restarted; allocates nothing in its loop (it counts and reports it).
+
+use super::{Exit, Link, StageArgs};
+use crate::alloc_count;
+use crate::bus;
+use crate::checkpoint::{self, Checkpointer};
+use crate::estimate::{Estimator, EstimatorConfig};
+use crate::msg::{
+    EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING,
+};
+use crate::timing::monotonic_ns;
+
+/// Checkpoint every this many ticks (100 s at 10 Hz): at most this much is replayed
+/// after a restart. Must stay below `fee::RING − bus::WINDOW`.
+pub const CHECKPOINT_EVERY: u64 = 1000;
+
+/// File name of the checkpoint in the run directory.
+pub const CHECKPOINT_FILE: &str = "estimator.ckpt";
+
+pub fn run(args: &StageArgs) -> Result<Exit, String> {
+    let s = args.scenario()?;
+    let method = args.method()?;
+    let period = args.period_ns(&s)?;
+    std::fs::create_dir_all(&args.run_dir)
+        .map_err(|e| format!("cannot create {}: {e}", args.run_dir.display()))?;
+    let ckpt_path = args.run_dir.join(CHECKPOINT_FILE);
+    let (mut est, mut next) = match checkpoint::load(&ckpt_path)? {
+        Some((est, next)) => {
+            log::warn!("taiji-estimator: resuming from checkpoint at tick {next}");
+            (est, next)
+        }
+        None => (
+            Estimator::new(method, EstimatorConfig::from_scenario(&s, &s.priors())),
+            0,
+        ),
+    };
+    let mut ckpt = Checkpointer::new(&ckpt_path, &est)?;
+    let mut link = Link::new("taiji-estimator", PROC_ESTIMATOR, "estimator", Some("fee"), None, args)?;
+    let input = bus::subscriber::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
+    let out = bus::publisher::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE)?;
+    let n = s.n_samples();
+    link.progress.next_tick = next;
+    link.progress.resume_tick = next;
+    link.beat()?;
+
+    // Everything below runs without touching the heap.
+    let allocs_before = alloc_count::allocations();
+    let mut in_sync = next == 0;
+    let mut done = false;
+    let exit = loop {
+        if let Some(e) = link.poll()? {
+            break e;
+        }
+        let Some(sample) = bus::receive(&input)? else {
+            if let Some(e) = link.idle(super::IDLE) {
+                break e;
+            }
+            continue;
+        };
+        let tick = sample.header.tick;
+        // After a restart the front-end resends from our checkpoint: skip duplicates and
+        // anything it sent before it noticed the restart.
+        if tick < next || (tick > next && !in_sync) {
+            continue;
+        }
+        in_sync = true;
+        link.progress.state = STATE_RUNNING;
+        let received = monotonic_ns();
+        link.hop.record(received.saturating_sub(sample.header.publish_ns));
+        if tick > next {
+            link.progress.samples_lost += tick - next;
+        }
+        let mut e = est.step(&sample);
+        e.header.origin_ns = sample.header.origin_ns;
+        let now = monotonic_ns();
+        e.header.publish_ns = now;
+        bus::publish(&out, e)?;
+        let latency = now.saturating_sub(sample.header.origin_ns);
+        link.e2e.record(latency);
+        if period > 0 && latency > period {
+            link.progress.missed_deadlines += 1;
+        }
+        next = tick + 1;
+        link.progress.next_tick = next;
+        if next % CHECKPOINT_EVERY == 0 {
+            ckpt.save(&est, next)?;
+            link.progress.resume_tick = next;
+        }
+        if next == n && !done {
+            let mut f = est.finish();
+            f.header.origin_ns = sample.header.origin_ns;
+            f.header.publish_ns = monotonic_ns();
+            bus::publish(&out, f)?;
+            done = true;
+            link.progress.state = STATE_DONE;
+        }
+        if let Some(a) = allocs_before {
+            link.progress.loop_allocations = alloc_count::allocations().unwrap_or(a) - a;
+        }
+        if next % 32 == 0 || done {
+            link.beat()?;
+        }
+    };
+    match allocs_before {
+        Some(a) => log::info!(
+            "taiji-estimator: heap allocations in the filter loop: {}",
+            alloc_count::allocations().unwrap_or(a) - a
+        ),
+        None => log::info!("taiji-estimator: allocation counting not installed"),
+    }
+    link.beat()?;
+    Ok(exit)
+}

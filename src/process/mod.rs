@@ -1,0 +1,333 @@
+//! The process set: each stage's loop, wired to iceoryx2, and the supervisor. The
+//! binaries in `processes/` only parse arguments and call `run` here.
+//!
+//! Flow control is by credit: every stage publishes `Progress::next_tick` (ticks it has
+//! consumed); its upstream publishes tick t only once it has heard from it and
+//! t < next_tick + `bus::WINDOW`. Queues therefore never overflow, nothing is dropped,
+//! and a run is lock-step deterministic however the OS schedules the processes.
+
+pub mod commander;
+pub mod estimator;
+pub mod fee;
+pub mod plant;
+pub mod supervisor;
+
+use crate::bus::{self, Pub, Sub};
+use crate::estimate::Method;
+use crate::msg::{Control, Header, Progress, CMD_START, CMD_STOP, STATE_READY};
+use crate::scenario::Scenario;
+use crate::timing::{monotonic_ns, LatencyHistogram};
+use iceoryx2::prelude::*;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Arguments every stage process takes (the supervisor passes them).
+#[derive(Debug, Clone, clap::Args)]
+pub struct StageArgs {
+    /// Scenario TOML (default: the paper's case).
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// Seed (default: the scenario's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Prefix of the run's iceoryx2 resources.
+    #[arg(long, default_value = bus::DEFAULT_PREFIX)]
+    pub bus_prefix: String,
+    /// Pace at the sample rate (divided by --time-scale) instead of as fast as possible.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Real-time speed-up: simulated seconds per wall-clock second.
+    #[arg(long, default_value_t = 1.0)]
+    pub time_scale: f64,
+    /// Run directory (the estimator keeps its checkpoint here).
+    #[arg(long, default_value = "out")]
+    pub run_dir: PathBuf,
+    /// Estimator: joint (default) or paper.
+    #[arg(long, default_value = "joint")]
+    pub method: String,
+}
+
+impl StageArgs {
+    pub fn scenario(&self) -> Result<Scenario, String> {
+        Scenario::load_or_default(self.scenario.as_deref()).map_err(|e| e.to_string())
+    }
+
+    pub fn seed(&self, s: &Scenario) -> u64 {
+        self.seed.unwrap_or(s.seed)
+    }
+
+    pub fn method(&self) -> Result<Method, String> {
+        match self.method.as_str() {
+            "joint" => Ok(Method::Joint),
+            "paper" => Ok(Method::Paper),
+            m => Err(format!("--method must be joint or paper, not {m:?}")),
+        }
+    }
+
+    /// Real-time tick period [ns] (0 in accelerated mode).
+    pub fn period_ns(&self, s: &Scenario) -> Result<u64, String> {
+        if !self.realtime {
+            return Ok(0);
+        }
+        if !(self.time_scale.is_finite() && self.time_scale > 0.0) {
+            return Err(format!(
+                "--time-scale must be a positive number, not {}",
+                self.time_scale
+            ));
+        }
+        Ok((1e9 / (s.sample_rate_hz * self.time_scale)).round().max(1.0) as u64)
+    }
+}
+
+/// Why a stage loop ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Exit {
+    /// The supervisor said stop after the campaign.
+    Stopped,
+    /// SIGINT / SIGTERM, or the supervisor disappeared.
+    Terminated,
+}
+
+/// What a stage knows of its downstream neighbour.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Downstream {
+    pub heard: bool,
+    pub incarnation: u64,
+    pub next_tick: u64,
+    pub resume_tick: u64,
+    pub state: u32,
+}
+
+impl Downstream {
+    /// May tick `t` be published now?
+    pub fn credit(&self, t: u64) -> bool {
+        self.heard && t < self.next_tick + bus::WINDOW
+    }
+}
+
+/// A stage's connection to the rest of the set: its node, its progress (heartbeat and
+/// credit) publisher, the control stream, and its downstream's progress.
+pub struct Link {
+    pub node: Node<ipc::Service>,
+    wake: bus::Listener,
+    wake_up: Option<bus::Notifier>,
+    wake_down: Option<bus::Notifier>,
+    process: u32,
+    downstream_id: Option<u32>,
+    progress_pub: Pub<Progress>,
+    progress_sub: Sub<Progress>,
+    control_sub: Sub<Control>,
+    pub progress: Progress,
+    pub downstream: Downstream,
+    pub hop: LatencyHistogram,
+    pub e2e: LatencyHistogram,
+    last_beat_ns: u64,
+    parent: i32,
+    started: bool,
+    stop: bool,
+    seq: u64,
+    /// Data published since the downstream was last woken.
+    pending_wake: bool,
+}
+
+/// Heartbeat period when idle [ns].
+const BEAT_NS: u64 = 50_000_000;
+/// Longest sleep when there is nothing to do; a neighbour's wake-up ends it sooner.
+pub const IDLE: Duration = Duration::from_millis(20);
+
+impl Link {
+    /// `stage` names this stage's wake-up event; `upstream`/`downstream` name its
+    /// neighbours' (`downstream` with its `PROC_*` id, whose credit it obeys).
+    pub fn new(
+        name: &str,
+        process: u32,
+        stage: &str,
+        upstream: Option<&str>,
+        downstream: Option<(&str, u32)>,
+        args: &StageArgs,
+    ) -> Result<Self, String> {
+        let node = bus::node(name, &args.bus_prefix)?;
+        let wake = bus::listener(&node, &bus::wake_service(stage))?;
+        let wake_up = match upstream {
+            Some(u) => Some(bus::notifier(&node, &bus::wake_service(u))?),
+            None => None,
+        };
+        let wake_down = match downstream {
+            Some((d, _)) => Some(bus::notifier(&node, &bus::wake_service(d))?),
+            None => None,
+        };
+        let downstream_id = downstream.map(|(_, id)| id);
+        let progress_pub = bus::publisher::<Progress>(&node, bus::SVC_PROGRESS)?;
+        let progress_sub = bus::subscriber::<Progress>(&node, bus::SVC_PROGRESS)?;
+        let control_sub = bus::subscriber::<Control>(&node, bus::SVC_CONTROL)?;
+        let progress = Progress {
+            process,
+            state: STATE_READY,
+            incarnation: monotonic_ns(),
+            ..Default::default()
+        };
+        Ok(Link {
+            node,
+            wake,
+            wake_up,
+            wake_down,
+            process,
+            downstream_id,
+            progress_pub,
+            progress_sub,
+            control_sub,
+            progress,
+            downstream: Downstream::default(),
+            hop: LatencyHistogram::default(),
+            e2e: LatencyHistogram::default(),
+            last_beat_ns: 0,
+            // SAFETY: getppid has no preconditions.
+            parent: unsafe { libc::getppid() },
+            started: false,
+            stop: false,
+            seq: 0,
+            pending_wake: false,
+        })
+    }
+
+    /// Publish progress now.
+    pub fn beat(&mut self) -> Result<(), String> {
+        let now = monotonic_ns();
+        let p = &mut self.progress;
+        p.header = Header {
+            seq: self.seq,
+            tick: p.next_tick,
+            sim_time_ns: 0,
+            publish_ns: now,
+            origin_ns: 0,
+        };
+        let h = self.hop.summary_us();
+        p.hop_latency_us = [h.p50, h.p99, h.max];
+        let e = self.e2e.summary_us();
+        p.e2e_latency_us = [e.p50, e.p99, e.max];
+        p.latency_count = h.count.max(e.count);
+        self.seq += 1;
+        self.last_beat_ns = now;
+        self.flush_wake();
+        bus::publish(&self.progress_pub, self.progress)?;
+        // New credit: wake the upstream stage if it waits for it. A failed wake-up is
+        // harmless (everyone also wakes on its heartbeat period).
+        if let Some(n) = &self.wake_up {
+            let _ = n.notify();
+        }
+        Ok(())
+    }
+
+    /// Note that data was published; the downstream is woken before this stage
+    /// sleeps or beats, or at once in real-time mode (`now`).
+    pub fn sent(&mut self, now: bool) {
+        self.pending_wake = true;
+        if now {
+            self.flush_wake();
+        }
+    }
+
+    fn flush_wake(&mut self) {
+        if self.pending_wake {
+            self.pending_wake = false;
+            if let Some(n) = &self.wake_down {
+                let _ = n.notify();
+            }
+        }
+    }
+
+    /// Read control and downstream progress; publish a heartbeat when one is due.
+    /// Returns `Some(exit)` when the stage must stop.
+    pub fn poll(&mut self) -> Result<Option<Exit>, String> {
+        while let Some(c) = bus::receive(&self.control_sub)? {
+            match c.command {
+                CMD_START => self.started = true,
+                CMD_STOP => self.stop = true,
+                _ => {}
+            }
+        }
+        while let Some(p) = bus::receive(&self.progress_sub)? {
+            if Some(p.process) == self.downstream_id {
+                self.downstream = Downstream {
+                    heard: true,
+                    incarnation: p.incarnation,
+                    next_tick: p.next_tick,
+                    resume_tick: p.resume_tick,
+                    state: p.state,
+                };
+            }
+        }
+        if self.stop {
+            return Ok(Some(Exit::Stopped));
+        }
+        if monotonic_ns() > self.last_beat_ns + BEAT_NS {
+            // SAFETY: getppid has no preconditions.
+            if unsafe { libc::getppid() } != self.parent {
+                return Ok(Some(Exit::Terminated));
+            }
+            self.beat()?;
+        }
+        Ok(None)
+    }
+
+    /// Has the supervisor said start?
+    pub fn started(&self) -> bool {
+        self.started
+    }
+
+    /// Sleep until woken by a neighbour or `d` has passed; `Some(Terminated)` on
+    /// SIGINT/SIGTERM.
+    pub fn idle(&mut self, d: Duration) -> Option<Exit> {
+        self.flush_wake();
+        let _ = self.wake.timed_wait_all(|_| {}, d);
+        match self.node.wait(Duration::ZERO) {
+            Ok(()) => None,
+            Err(_) => Some(Exit::Terminated),
+        }
+    }
+
+    /// Sleep precisely (nanosleep), e.g. until a real-time tick is due.
+    pub fn sleep(&mut self, d: Duration) -> Option<Exit> {
+        self.flush_wake();
+        match self.node.wait(d) {
+            Ok(()) => None,
+            Err(_) => Some(Exit::Terminated),
+        }
+    }
+
+    /// After the last tick: report done and wait for the supervisor's stop.
+    pub fn linger(&mut self, state: u32) -> Result<Exit, String> {
+        self.progress.state = state;
+        self.beat()?;
+        loop {
+            if let Some(e) = self.poll()? {
+                return Ok(e);
+            }
+            if let Some(e) = self.idle(Duration::from_millis(1)) {
+                return Ok(e);
+            }
+        }
+    }
+
+    pub fn process(&self) -> u32 {
+        self.process
+    }
+}
+
+/// Common `main` of a stage binary: logging, run, exit code (0 done, 2 error, 130 signal).
+pub fn main_of(name: &str, run: impl FnOnce() -> Result<Exit, String>) -> std::process::ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
+        .format_target(false)
+        .init();
+    match run() {
+        Ok(Exit::Stopped) => std::process::ExitCode::SUCCESS,
+        Ok(Exit::Terminated) => {
+            log::info!("{name}: terminated");
+            std::process::ExitCode::from(130)
+        }
+        Err(e) => {
+            eprintln!("{name}: error: {e}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}

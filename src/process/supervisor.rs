@@ -1,0 +1,515 @@
+//! `taiji-supervisor`: starts the set from a launch description, waits until every
+//! process is ready, starts the campaign, watches liveness (child exit and progress
+//! heartbeats), restarts what may be restarted, stops everything cleanly, and writes
+//! the report.
+
+use crate::bus;
+use crate::launch::{LaunchDescription, ProcessSpec, Restart};
+use crate::msg::{
+    Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_COMMANDER,
+    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, STATE_DONE,
+};
+use crate::process::estimator::CHECKPOINT_FILE;
+use crate::report::Report;
+use crate::scenario::Scenario;
+use crate::timing::monotonic_ns;
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Clone, clap::Parser)]
+#[command(
+    name = "taiji-supervisor",
+    version,
+    about = "Run the calibration campaign through the iceoryx2 process set"
+)]
+pub struct SupervisorArgs {
+    /// Launch description (default: the built-in one, identical to tools/launch.toml).
+    #[arg(long)]
+    pub launch: Option<PathBuf>,
+    /// Scenario TOML (default: the paper's case).
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// Seed (default: the scenario's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Output directory: report.json and the estimator's checkpoint.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// Pace the set at the sample rate divided by --time-scale.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Real-time speed-up (simulated seconds per wall-clock second).
+    #[arg(long, default_value_t = 1.0, requires = "realtime")]
+    pub time_scale: f64,
+    /// Estimator method: joint or paper.
+    #[arg(long, default_value = "joint")]
+    pub method: String,
+    /// Prefix of this run's iceoryx2 resources (runs in parallel need different ones).
+    #[arg(long, default_value = bus::DEFAULT_PREFIX)]
+    pub bus_prefix: String,
+    /// Directory holding the process binaries (default: beside this executable).
+    #[arg(long)]
+    pub bin_dir: Option<PathBuf>,
+}
+
+/// How a supervised run ended, with its process exit code.
+#[derive(Debug)]
+pub enum Outcome {
+    /// The campaign completed; `met` says whether the requirements were met.
+    Completed { report: Box<Report>, met: bool },
+    /// Bad arguments, scenario or launch description (exit 2).
+    UserError(String),
+    /// A process of the set failed and could not be restarted (exit 3).
+    SetFailed(String),
+    /// SIGINT / SIGTERM (exit 130).
+    Interrupted,
+}
+
+impl Outcome {
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Outcome::Completed { met: true, .. } => 0,
+            Outcome::Completed { met: false, .. } => 1,
+            Outcome::UserError(_) => 2,
+            Outcome::SetFailed(_) => 3,
+            Outcome::Interrupted => 130,
+        }
+    }
+}
+
+fn proc_id(name: &str) -> u32 {
+    match name {
+        "taiji-commander" => PROC_COMMANDER,
+        "taiji-plant" => PROC_PLANT,
+        "taiji-fee" => PROC_FEE,
+        _ => PROC_ESTIMATOR,
+    }
+}
+
+struct Member {
+    spec: ProcessSpec,
+    id: u32,
+    child: Child,
+    restarts: u32,
+    /// When it was (re)started or last heard from.
+    last_seen: Instant,
+    last: Option<Progress>,
+}
+
+struct Set {
+    members: Vec<Member>,
+    common: Vec<String>,
+    bin_dir: PathBuf,
+}
+
+impl Set {
+    fn spawn(&self, spec: &ProcessSpec) -> Result<Child, String> {
+        let exe = self.bin_dir.join(&spec.name);
+        Command::new(&exe)
+            .args(&self.common)
+            .args(&spec.args)
+            .stdin(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("cannot start {}: {e}", exe.display()))
+    }
+
+    /// After the stop command: wait for everyone to exit by themselves, then SIGTERM
+    /// what is left, then SIGKILL after `timeout`.
+    fn stop_all(&mut self, timeout: Duration) {
+        let t0 = Instant::now();
+        let mut termed = false;
+        loop {
+            let running: Vec<usize> = (0..self.members.len())
+                .filter(|&i| matches!(self.members[i].child.try_wait(), Ok(None)))
+                .collect();
+            if running.is_empty() {
+                return;
+            }
+            let waited = t0.elapsed();
+            if waited > timeout {
+                for i in running {
+                    let m = &mut self.members[i];
+                    log::warn!("{} did not stop; killing it", m.spec.name);
+                    let _ = m.child.kill();
+                    let _ = m.child.wait();
+                }
+                return;
+            }
+            if !termed && waited > timeout / 2 {
+                termed = true;
+                for i in running {
+                    // SAFETY: kill with the pid of our own, still running child.
+                    unsafe { libc::kill(self.members[i].child.id() as i32, libc::SIGTERM) };
+                }
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+}
+
+fn describe(status: std::process::ExitStatus) -> String {
+    use std::os::unix::process::ExitStatusExt;
+    match (status.code(), status.signal()) {
+        (Some(c), _) => format!("exit status {c}"),
+        (None, Some(s)) => format!("signal {s}"),
+        _ => "unknown status".into(),
+    }
+}
+
+fn interrupted(status: std::process::ExitStatus) -> bool {
+    use std::os::unix::process::ExitStatusExt;
+    status.code() == Some(130) || matches!(status.signal(), Some(libc::SIGINT | libc::SIGTERM))
+}
+
+/// Run the campaign through the process set.
+pub fn run(args: &SupervisorArgs) -> Outcome {
+    let s = match Scenario::load_or_default(args.scenario.as_deref()) {
+        Ok(s) => s,
+        Err(e) => return Outcome::UserError(e.to_string()),
+    };
+    let launch = match LaunchDescription::load_or_default(args.launch.as_deref()) {
+        Ok(l) => l,
+        Err(e) => return Outcome::UserError(e),
+    };
+    if args.method != "joint" && args.method != "paper" {
+        return Outcome::UserError(format!(
+            "--method must be joint or paper, not {:?}",
+            args.method
+        ));
+    }
+    if args.realtime && !(args.time_scale.is_finite() && args.time_scale > 0.0) {
+        return Outcome::UserError(format!(
+            "--time-scale must be a positive number, not {}",
+            args.time_scale
+        ));
+    }
+    let Some(crlb) = crate::crlb::crlb(&s) else {
+        return Outcome::UserError(
+            "the Fisher information of this scenario is singular: the maneuver does not excite every parameter".into(),
+        );
+    };
+    match supervise(args, &s, &launch) {
+        Ok(Supervised::Done(final_est, members, wall)) => {
+            let seed = args.seed.unwrap_or(s.seed);
+            let mut report = Report::new(&s, seed, "multi-process", &args.method, &final_est, &crlb);
+            report.wall_time_s = Some(wall);
+            report.timing = Some(timing_json(args, &s, &members));
+            let restarts: BTreeMap<String, u32> = members
+                .iter()
+                .filter(|m| m.spec.restart != Restart::Never)
+                .map(|m| (m.spec.name.clone(), m.restarts))
+                .collect();
+            report.restarts = Some(json!(restarts));
+            let met = report.requirements.met;
+            Outcome::Completed {
+                report: Box::new(report),
+                met,
+            }
+        }
+        Ok(Supervised::Interrupted) => Outcome::Interrupted,
+        Err(SupervisorError::User(e)) => Outcome::UserError(e),
+        Err(SupervisorError::Set(e)) => Outcome::SetFailed(e),
+    }
+}
+
+/// Summary of the last progress each stage published.
+struct MemberSummary {
+    spec: ProcessSpec,
+    id: u32,
+    restarts: u32,
+    last: Option<Progress>,
+}
+
+enum Supervised {
+    Done(EstimateMsg, Vec<MemberSummary>, f64),
+    Interrupted,
+}
+
+enum SupervisorError {
+    User(String),
+    Set(String),
+}
+
+fn latency_json(v: [f64; 3]) -> serde_json::Value {
+    json!({"p50": v[0], "p99": v[1], "max": v[2]})
+}
+
+fn timing_json(args: &SupervisorArgs, s: &Scenario, members: &[MemberSummary]) -> serde_json::Value {
+    let get = |id: u32| members.iter().find(|m| m.id == id).and_then(|m| m.last);
+    let lost: u64 = members
+        .iter()
+        .filter_map(|m| m.last.map(|p| p.samples_lost))
+        .sum();
+    if !args.realtime {
+        return json!({"pacing": "accelerated", "samples_lost": lost});
+    }
+    let missed: u64 = [PROC_COMMANDER, PROC_ESTIMATOR]
+        .iter()
+        .filter_map(|&id| get(id).map(|p| p.missed_deadlines))
+        .sum();
+    let est = get(PROC_ESTIMATOR).unwrap_or_default();
+    let hop = |id: u32| latency_json(get(id).unwrap_or_default().hop_latency_us);
+    json!({
+        "pacing": "realtime",
+        "time_scale": args.time_scale,
+        "period_us": 1e6 / (s.sample_rate_hz * args.time_scale),
+        "end_to_end_latency_us": latency_json(est.e2e_latency_us),
+        "hop_latency_us": {
+            "commander->plant": hop(PROC_PLANT),
+            "plant->fee": hop(PROC_FEE),
+            "fee->estimator": hop(PROC_ESTIMATOR),
+        },
+        "latency_samples": est.latency_count,
+        "missed_deadlines": missed,
+        "samples_lost": lost,
+    })
+}
+
+fn supervise(
+    args: &SupervisorArgs,
+    s: &Scenario,
+    launch: &LaunchDescription,
+) -> Result<Supervised, SupervisorError> {
+    let user = SupervisorError::User;
+    let set_err = SupervisorError::Set;
+    let t_start = Instant::now();
+    let survey = bus::cleanup_stale(&args.bus_prefix).map_err(set_err)?;
+    if survey.removed_dead > 0 {
+        log::warn!(
+            "removed the stale shared memory of {} dead process(es) of an earlier run",
+            survey.removed_dead
+        );
+    }
+    if !survey.alive.is_empty() {
+        return Err(user(format!(
+            "another run is active on bus prefix {:?} (live nodes: {}); stop it or pass a different --bus-prefix",
+            args.bus_prefix,
+            survey.alive.join(", ")
+        )));
+    }
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| user(format!("cannot create {}: {e}", args.out.display())))?;
+    let ckpt = args.out.join(CHECKPOINT_FILE);
+    if ckpt.exists() {
+        std::fs::remove_file(&ckpt)
+            .map_err(|e| user(format!("cannot remove old {}: {e}", ckpt.display())))?;
+    }
+    let node = bus::node("taiji-supervisor", &args.bus_prefix).map_err(set_err)?;
+    let progress = bus::subscriber::<Progress>(&node, bus::SVC_PROGRESS).map_err(set_err)?;
+    let estimates = bus::subscriber::<EstimateMsg>(&node, bus::SVC_ESTIMATE).map_err(set_err)?;
+    let control = bus::publisher::<Control>(&node, bus::SVC_CONTROL).map_err(set_err)?;
+    let send = |command: u32, seq: u64| {
+        bus::publish(
+            &control,
+            Control {
+                header: Header {
+                    seq,
+                    publish_ns: monotonic_ns(),
+                    ..Default::default()
+                },
+                command,
+                _pad: 0,
+            },
+        )
+    };
+
+    let bin_dir = match &args.bin_dir {
+        Some(d) => d.clone(),
+        None => std::env::current_exe()
+            .ok()
+            .and_then(|p| p.parent().map(|d| d.to_path_buf()))
+            .ok_or_else(|| user("cannot find the directory of the supervisor's executable".into()))?,
+    };
+    let mut common: Vec<String> = vec![
+        "--bus-prefix".into(),
+        args.bus_prefix.clone(),
+        "--run-dir".into(),
+        args.out.display().to_string(),
+        "--method".into(),
+        args.method.clone(),
+    ];
+    if let Some(sc) = &args.scenario {
+        common.extend(["--scenario".into(), sc.display().to_string()]);
+    }
+    if let Some(seed) = args.seed {
+        common.extend(["--seed".into(), seed.to_string()]);
+    }
+    if args.realtime {
+        common.extend([
+            "--realtime".into(),
+            "--time-scale".into(),
+            args.time_scale.to_string(),
+        ]);
+    }
+    let mut set = Set {
+        members: Vec::new(),
+        common,
+        bin_dir,
+    };
+    for spec in &launch.process {
+        match set.spawn(spec) {
+            Ok(child) => set.members.push(Member {
+                spec: spec.clone(),
+                id: proc_id(&spec.name),
+                child,
+                restarts: 0,
+                last_seen: Instant::now(),
+                last: None,
+            }),
+            Err(e) => {
+                set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
+                return Err(user(e));
+            }
+        }
+    }
+
+    let result = watch(
+        &node,
+        &progress,
+        &estimates,
+        &send,
+        &mut set,
+        launch,
+        s,
+        &args.bus_prefix,
+    );
+    // Whatever happened: stop everyone, then clear what killed processes left behind.
+    let _ = send(CMD_STOP, 1);
+    set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
+    drop((progress, estimates));
+    let _ = bus::cleanup_stale(&args.bus_prefix);
+    let wall = t_start.elapsed().as_secs_f64();
+    let members = set
+        .members
+        .into_iter()
+        .map(|m| MemberSummary {
+            spec: m.spec,
+            id: m.id,
+            restarts: m.restarts,
+            last: m.last,
+        })
+        .collect();
+    match result {
+        Ok(Some(est)) => Ok(Supervised::Done(est, members, wall)),
+        Ok(None) => Ok(Supervised::Interrupted),
+        Err(e) => Err(e),
+    }
+}
+
+/// Watch the set until the final estimate (Some), a termination request (None) or a failure.
+fn watch(
+    node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+    progress: &bus::Sub<Progress>,
+    estimates: &bus::Sub<EstimateMsg>,
+    send: &dyn Fn(u32, u64) -> Result<(), String>,
+    set: &mut Set,
+    launch: &LaunchDescription,
+    s: &Scenario,
+    prefix: &str,
+) -> Result<Option<EstimateMsg>, SupervisorError> {
+    let set_err = SupervisorError::Set;
+    let heartbeat = Duration::from_secs_f64(launch.heartbeat_timeout_s);
+    let ready_timeout = Duration::from_secs_f64(launch.ready_timeout_s);
+    let t_ready = Instant::now();
+    let mut started = false;
+    let mut final_est: Option<EstimateMsg> = None;
+    let n = s.n_samples();
+    loop {
+        if node.wait(Duration::from_millis(1)).is_err() {
+            return Ok(None);
+        }
+        while let Some(p) = bus::receive(progress).map_err(set_err)? {
+            if let Some(m) = set.members.iter_mut().find(|m| m.id == p.process) {
+                m.last = Some(p);
+                m.last_seen = Instant::now();
+            }
+        }
+        while let Some(e) = bus::receive(estimates).map_err(set_err)? {
+            if e.flags & EST_FINAL != 0 {
+                final_est = Some(e);
+            }
+        }
+        // Exits: restart what may be restarted, otherwise stop the set.
+        for i in 0..set.members.len() {
+            let status = match set.members[i].child.try_wait() {
+                Ok(Some(st)) => st,
+                Ok(None) => continue,
+                Err(e) => return Err(set_err(format!("cannot watch {}: {e}", set.members[i].spec.name))),
+            };
+            if interrupted(status) {
+                return Ok(None);
+            }
+            let m = &set.members[i];
+            let name = m.spec.name.clone();
+            if m.spec.restart == Restart::OnFailure && !status.success() && m.restarts < m.spec.max_restarts {
+                log::warn!(
+                    "{name} died ({}); restarting it ({} of at most {})",
+                    describe(status),
+                    m.restarts + 1,
+                    m.spec.max_restarts
+                );
+                std::thread::sleep(Duration::from_millis(m.spec.restart_delay_ms));
+                let spec = m.spec.clone();
+                // Release the dead process's shared memory before its successor opens it.
+                if let Ok(sv) = bus::cleanup_stale(prefix) {
+                    log::info!("removed {} dead node(s)", sv.removed_dead);
+                }
+                let child = set.spawn(&spec).map_err(set_err)?;
+                let m = &mut set.members[i];
+                m.child = child;
+                m.restarts += 1;
+                m.last_seen = Instant::now();
+                continue;
+            }
+            let why = match m.spec.restart {
+                Restart::Never => format!("{name} is not restartable (restart = \"never\" in the launch description)"),
+                Restart::OnFailure if status.success() => format!("{name} exited before the campaign ended"),
+                Restart::OnFailure => format!("{name} exhausted its {} restarts", m.spec.max_restarts),
+            };
+            return Err(set_err(format!(
+                "{name} died ({}); {why}; stopping the set",
+                describe(status)
+            )));
+        }
+        if !started {
+            if set.members.iter().all(|m| m.last.is_some()) {
+                send(CMD_START, 0).map_err(set_err)?;
+                started = true;
+                log::info!("all processes ready; campaign started");
+            } else if t_ready.elapsed() > ready_timeout {
+                let missing: Vec<&str> = set
+                    .members
+                    .iter()
+                    .filter(|m| m.last.is_none())
+                    .map(|m| m.spec.name.as_str())
+                    .collect();
+                return Err(set_err(format!(
+                    "not ready after {:.0} s: {}",
+                    launch.ready_timeout_s,
+                    missing.join(", ")
+                )));
+            }
+            continue;
+        }
+        if let Some(m) = set.members.iter().find(|m| m.last_seen.elapsed() > heartbeat) {
+            return Err(set_err(format!(
+                "{} published no progress for {:.0} s (hung?); stopping the set",
+                m.spec.name, launch.heartbeat_timeout_s
+            )));
+        }
+        let est_done = set
+            .members
+            .iter()
+            .find(|m| m.id == PROC_ESTIMATOR)
+            .and_then(|m| m.last)
+            .is_some_and(|p| p.state == STATE_DONE && p.next_tick >= n);
+        if est_done {
+            if let Some(e) = final_est {
+                return Ok(Some(e));
+            }
+        }
+    }
+}
