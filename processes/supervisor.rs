@@ -3,9 +3,7 @@ use clap::Parser;
 use taiji::process::supervisor::{run, Outcome, SupervisorArgs};
 
 fn main() -> std::process::ExitCode {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
-        .format_target(false)
-        .init();
+    taiji::process::init_logging();
     let args = SupervisorArgs::parse();
     let outcome = run(&args);
     match &outcome {

@@ -51,6 +51,9 @@ pub struct Report {
     pub timing: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub restarts: Option<serde_json::Value>,
+    /// Heap allocations the estimator process made in its filter loop (multi-process).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimator_loop_allocations: Option<u64>,
 }
 
 impl Report {
@@ -109,6 +112,7 @@ impl Report {
             wall_time_s: None,
             timing: None,
             restarts: None,
+            estimator_loop_allocations: None,
         }
     }
 

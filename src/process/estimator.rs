@@ -44,8 +44,9 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     link.progress.resume_tick = next;
     link.beat()?;
 
-    // Everything below runs without touching the heap.
-    let allocs_before = alloc_count::allocations();
+    // The loop runs without touching the heap once connected: allocations are
+    // counted from the first sample on (iceoryx2 allocates while it connects ports).
+    let mut allocs_before = None;
     let mut in_sync = next == 0;
     let mut done = false;
     let exit = loop {
@@ -65,6 +66,9 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             continue;
         }
         in_sync = true;
+        if allocs_before.is_none() {
+            allocs_before = alloc_count::allocations();
+        }
         link.progress.state = STATE_RUNNING;
         let received = monotonic_ns();
         link.hop.record(received.saturating_sub(sample.header.publish_ns));

@@ -239,6 +239,9 @@ impl Link {
     /// Read control and downstream progress; publish a heartbeat when one is due.
     /// Returns `Some(exit)` when the stage must stop.
     pub fn poll(&mut self) -> Result<Option<Exit>, String> {
+        // Drain wake-ups: their data is already visible (publish precedes notify), and a
+        // full socket would make the neighbour's notify fail (which allocates).
+        let _ = self.wake.try_wait_all(|_| {});
         while let Some(c) = bus::receive(&self.control_sub)? {
             match c.command {
                 CMD_START => self.started = true,
@@ -279,7 +282,22 @@ impl Link {
     /// SIGINT/SIGTERM.
     pub fn idle(&mut self, d: Duration) -> Option<Exit> {
         self.flush_wake();
-        let _ = self.wake.timed_wait_all(|_| {}, d);
+        // ppoll on the listener's socket, then drain it without blocking: iceoryx2
+        // 0.9.3's own timed wait formats an error string (allocates) on every call.
+        // SAFETY: the descriptor stays owned by the listener, which outlives this call.
+        let fd = unsafe { self.wake.file_descriptor().native_handle() };
+        let mut fds = libc::pollfd {
+            fd,
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        let ts = libc::timespec {
+            tv_sec: d.as_secs() as libc::time_t,
+            tv_nsec: d.subsec_nanos() as libc::c_long,
+        };
+        // SAFETY: one valid pollfd, a valid timespec, no signal mask change.
+        unsafe { libc::ppoll(&mut fds, 1, &ts, std::ptr::null()) };
+        let _ = self.wake.try_wait_all(|_| {});
         match self.node.wait(Duration::ZERO) {
             Ok(()) => None,
             Err(_) => Some(Exit::Terminated),
@@ -314,11 +332,19 @@ impl Link {
     }
 }
 
-/// Common `main` of a stage binary: logging, run, exit code (0 done, 2 error, 130 signal).
-pub fn main_of(name: &str, run: impl FnOnce() -> Result<Exit, String>) -> std::process::ExitCode {
+/// `log` through env_logger (`RUST_LOG`, default warn); iceoryx2's own log at error
+/// unless `IOX2_LOG_LEVEL` says otherwise (its warnings about a dead peer's socket are
+/// expected during a restart).
+pub fn init_logging() {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
         .format_target(false)
         .init();
+    iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
+}
+
+/// Common `main` of a stage binary: logging, run, exit code (0 done, 2 error, 130 signal).
+pub fn main_of(name: &str, run: impl FnOnce() -> Result<Exit, String>) -> std::process::ExitCode {
+    init_logging();
     match run() {
         Ok(Exit::Stopped) => std::process::ExitCode::SUCCESS,
         Ok(Exit::Terminated) => {

@@ -203,6 +203,11 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
                 .map(|m| (m.spec.name.clone(), m.restarts))
                 .collect();
             report.restarts = Some(json!(restarts));
+            report.estimator_loop_allocations = members
+                .iter()
+                .find(|m| m.id == PROC_ESTIMATOR)
+                .and_then(|m| m.last)
+                .map(|p| p.loop_allocations);
             let met = report.requirements.met;
             Outcome::Completed {
                 report: Box::new(report),
@@ -417,6 +422,9 @@ fn watch(
     let mut started = false;
     let mut final_est: Option<EstimateMsg> = None;
     let n = s.n_samples();
+    // Stall watch: alive processes whose ticks do not advance are a failure too.
+    let mut ticks_seen = 0u64;
+    let mut last_advance = Instant::now();
     loop {
         if node.wait(Duration::from_millis(1)).is_err() {
             return Ok(None);
@@ -493,6 +501,20 @@ fn watch(
                 )));
             }
             continue;
+        }
+        let ticks: u64 = set
+            .members
+            .iter()
+            .filter_map(|m| m.last.map(|p| p.next_tick))
+            .sum();
+        if ticks != ticks_seen {
+            ticks_seen = ticks;
+            last_advance = Instant::now();
+        } else if final_est.is_none() && last_advance.elapsed() > heartbeat {
+            return Err(set_err(format!(
+                "the set stalled: no tick advanced for {:.0} s; stopping the set",
+                launch.heartbeat_timeout_s
+            )));
         }
         if let Some(m) = set.members.iter().find(|m| m.last_seen.elapsed() > heartbeat) {
             return Err(set_err(format!(
