@@ -1,4 +1,5 @@
-//! Times the default campaign in one process; run it through `tools/bench`.
+//! Times the default campaign in one process and through the process set (accelerated),
+//! then measures real-time latency of the set; run it through `tools/bench`.
 use std::time::Instant;
 use taiji::campaign;
 use taiji::estimate::Method;
@@ -26,4 +27,69 @@ fn main() {
         med, times[0], times[4]
     );
     println!("  throughput  {:.0} samples/s", n as f64 / med);
+
+    // The same campaign through the process set, accelerated lock-step.
+    let sup = std::env::current_exe()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("../taiji-supervisor");
+    let dir = std::env::temp_dir().join(format!("taiji-bench-{}", std::process::id()));
+    let prefix = format!("tjbench{}_", std::process::id());
+    let run_set = |extra: &[&str], scenario: Option<&std::path::Path>| -> serde_json::Value {
+        let mut c = std::process::Command::new(&sup);
+        c.args(["--out", dir.to_str().unwrap(), "--bus-prefix", &prefix])
+            .args(extra)
+            .stdout(std::process::Stdio::null());
+        if let Some(sc) = scenario {
+            c.arg("--scenario").arg(sc);
+        }
+        let st = c
+            .status()
+            .expect("run taiji-supervisor (build it with --bins)");
+        assert!(st.code().is_some_and(|c| c <= 1), "supervisor failed: {st}");
+        let text = std::fs::read_to_string(dir.join("report.json")).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    let mut set_times: Vec<f64> = (0..3)
+        .map(|_| run_set(&[], None)["wall_time_s"].as_f64().unwrap())
+        .collect();
+    set_times.sort_by(f64::total_cmp);
+    println!("default campaign, process set (accelerated lock-step, 4 processes + supervisor):");
+    println!(
+        "  wall time   median {:.3} s   (min {:.3} s, max {:.3} s, 3 runs; start-up and shutdown included)",
+        set_times[1], set_times[0], set_times[2]
+    );
+    println!("  throughput  {:.0} samples/s", n as f64 / set_times[1]);
+
+    // Real-time: 2000 s simulated at ×100 (1 ms tick period), 20 s of wall time.
+    let sc = dir.join("rt.toml");
+    std::fs::write(
+        &sc,
+        "name = \"bench-rt\"\nduration_s = 2000.0\n[maneuver]\nfrequency_hz = 2e-3\n",
+    )
+    .unwrap();
+    let r = run_set(&["--realtime", "--time-scale", "100"], Some(&sc));
+    let t = &r["timing"];
+    let e = &t["end_to_end_latency_us"];
+    println!("real time ×100, 2000 s simulated (20 000 ticks, 1 ms period):");
+    println!(
+        "  end-to-end latency (plant publish → estimate published)  p50 {:.0} µs  p99 {:.0} µs  max {:.0} µs",
+        e["p50"].as_f64().unwrap(),
+        e["p99"].as_f64().unwrap(),
+        e["max"].as_f64().unwrap()
+    );
+    for (hop, v) in t["hop_latency_us"].as_object().unwrap() {
+        println!(
+            "  hop {hop:<17} p50 {:.0} µs  p99 {:.0} µs  max {:.0} µs",
+            v["p50"].as_f64().unwrap(),
+            v["p99"].as_f64().unwrap(),
+            v["max"].as_f64().unwrap()
+        );
+    }
+    println!(
+        "  missed deadlines {} (end-to-end > 1 period, or tick published late)   samples lost {}",
+        t["missed_deadlines"], t["samples_lost"]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,7 +2,11 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "taiji-commander", version, about = "Calibration process set: the commander stage")]
+#[command(
+    name = "taiji-commander",
+    version,
+    about = "Calibration process set: the commander stage"
+)]
 struct Args {
     #[command(flatten)]
     stage: taiji::process::StageArgs,
@@ -10,5 +14,7 @@ struct Args {
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
-    taiji::process::main_of("taiji-commander", || taiji::process::commander::run(&args.stage))
+    taiji::process::main_of("taiji-commander", || {
+        taiji::process::commander::run(&args.stage)
+    })
 }

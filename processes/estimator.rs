@@ -2,7 +2,11 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "taiji-estimator", version, about = "Calibration process set: the estimator stage")]
+#[command(
+    name = "taiji-estimator",
+    version,
+    about = "Calibration process set: the estimator stage"
+)]
 struct Args {
     #[command(flatten)]
     stage: taiji::process::StageArgs,
@@ -10,7 +14,9 @@ struct Args {
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
-    taiji::process::main_of("taiji-estimator", || taiji::process::estimator::run(&args.stage))
+    taiji::process::main_of("taiji-estimator", || {
+        taiji::process::estimator::run(&args.stage)
+    })
 }
 
 /// Count every heap allocation, so the filter loop can report (and a test can check)

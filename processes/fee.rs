@@ -2,7 +2,11 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "taiji-fee", version, about = "Calibration process set: the fee stage")]
+#[command(
+    name = "taiji-fee",
+    version,
+    about = "Calibration process set: the fee stage"
+)]
 struct Args {
     #[command(flatten)]
     stage: taiji::process::StageArgs,

@@ -2,7 +2,11 @@
 use clap::Parser;
 
 #[derive(Parser)]
-#[command(name = "taiji-plant", version, about = "Calibration process set: the plant stage")]
+#[command(
+    name = "taiji-plant",
+    version,
+    about = "Calibration process set: the plant stage"
+)]
 struct Args {
     #[command(flatten)]
     stage: taiji::process::StageArgs,

@@ -71,8 +71,10 @@ fn service<T: Debug + ZeroCopySend>(
     node: &Node<ipc::Service>,
     name: &str,
     queue: usize,
-) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>, String>
-{
+) -> Result<
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>,
+    String,
+> {
     let sn: ServiceName = name
         .try_into()
         .map_err(|e| format!("invalid service name {name}: {e:?}"))?;

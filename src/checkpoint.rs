@@ -101,8 +101,10 @@ mod tests {
 
     #[test]
     fn restored_estimator_continues_bit_identically() {
-        let mut s = Scenario::default();
-        s.duration_s = 200.0;
+        let s = Scenario {
+            duration_s: 200.0,
+            ..Default::default()
+        };
         for method in [Method::Joint, Method::Paper] {
             let mut st = Stages::new(&s, 3, method);
             let path = dir(method.name()).join("est.ckpt");

@@ -87,7 +87,11 @@ impl LaunchDescription {
                 ));
             }
         }
-        if let Some(p) = d.process.iter().find(|p| !REQUIRED.contains(&p.name.as_str())) {
+        if let Some(p) = d
+            .process
+            .iter()
+            .find(|p| !REQUIRED.contains(&p.name.as_str()))
+        {
             return Err(format!(
                 "launch description {origin}: unknown process {:?} (known: {})",
                 p.name,
@@ -116,7 +120,11 @@ mod tests {
     #[test]
     fn default_description_parses_with_estimator_restartable() {
         let d = LaunchDescription::load_or_default(None).unwrap();
-        let est = d.process.iter().find(|p| p.name == "taiji-estimator").unwrap();
+        let est = d
+            .process
+            .iter()
+            .find(|p| p.name == "taiji-estimator")
+            .unwrap();
         assert_eq!(est.restart, Restart::OnFailure);
         let plant = d.process.iter().find(|p| p.name == "taiji-plant").unwrap();
         assert_eq!(plant.restart, Restart::Never);
@@ -124,11 +132,23 @@ mod tests {
 
     #[test]
     fn bad_descriptions_name_the_problem() {
-        let e = LaunchDescription::parse("heartbeat_timeout_s = 1.0\nready_timeout_s = 1.0\nstop_timeout_s = 1.0\nprocess = []", "x").unwrap_err();
+        let e = LaunchDescription::parse(
+            "heartbeat_timeout_s = 1.0\nready_timeout_s = 1.0\nstop_timeout_s = 1.0\nprocess = []",
+            "x",
+        )
+        .unwrap_err();
         assert!(e.contains("taiji-commander must be listed"), "{e}");
-        let e = LaunchDescription::parse(&DEFAULT.replace("restart = \"on-failure\"", "restart = \"sometimes\""), "x").unwrap_err();
+        let e = LaunchDescription::parse(
+            &DEFAULT.replace("restart = \"on-failure\"", "restart = \"sometimes\""),
+            "x",
+        )
+        .unwrap_err();
         assert!(e.contains("restart"), "{e}");
-        let e = LaunchDescription::parse(&DEFAULT.replace("heartbeat_timeout_s = ", "heartbeat_timeout_s = -"), "x").unwrap_err();
+        let e = LaunchDescription::parse(
+            &DEFAULT.replace("heartbeat_timeout_s = ", "heartbeat_timeout_s = -"),
+            "x",
+        )
+        .unwrap_err();
         assert!(e.contains("heartbeat_timeout_s"), "{e}");
     }
 }

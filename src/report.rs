@@ -186,10 +186,45 @@ impl Report {
             if self.requirements.met { "yes" } else { "NO" }
         );
         if let Some(t) = &self.timing {
-            let _ = writeln!(o, "Timing: {}", t);
+            let lat = |v: &serde_json::Value| {
+                format!(
+                    "p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+                    v["p50"].as_f64().unwrap_or(f64::NAN),
+                    v["p99"].as_f64().unwrap_or(f64::NAN),
+                    v["max"].as_f64().unwrap_or(f64::NAN)
+                )
+            };
+            if t["pacing"] == "realtime" {
+                let _ = writeln!(
+                    o,
+                    "Real-time ×{} (tick period {:.0} µs): End-to-end latency {}; missed deadlines {}; samples lost {}",
+                    t["time_scale"],
+                    t["period_us"].as_f64().unwrap_or(f64::NAN),
+                    lat(&t["end_to_end_latency_us"]),
+                    t["missed_deadlines"],
+                    t["samples_lost"]
+                );
+                if let Some(hops) = t["hop_latency_us"].as_object() {
+                    for (hop, v) in hops {
+                        let _ = writeln!(o, "  hop {hop:<17} {}", lat(v));
+                    }
+                }
+            } else {
+                let _ = writeln!(
+                    o,
+                    "Accelerated lock-step: samples lost {}",
+                    t["samples_lost"]
+                );
+            }
         }
         if let Some(r) = &self.restarts {
             let _ = writeln!(o, "Restarts: {}", r);
+        }
+        if let Some(a) = self.estimator_loop_allocations {
+            let _ = writeln!(o, "Heap allocations in the estimator's filter loop: {a}");
+        }
+        if let Some(w) = self.wall_time_s {
+            let _ = writeln!(o, "Wall time: {w:.2} s");
         }
         o
     }

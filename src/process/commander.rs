@@ -11,7 +11,14 @@ use std::time::Duration;
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
     let period = args.period_ns(&s)?;
-    let mut link = Link::new("taiji-commander", PROC_COMMANDER, "commander", None, Some(("plant", PROC_PLANT)), args)?;
+    let mut link = Link::new(
+        "taiji-commander",
+        PROC_COMMANDER,
+        "commander",
+        None,
+        Some(("plant", PROC_PLANT)),
+        args,
+    )?;
     let out = bus::publisher::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
     let mut commander = Commander::new(&s);
     link.beat()?;

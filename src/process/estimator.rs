@@ -6,9 +6,7 @@ use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
 use crate::estimate::{Estimator, EstimatorConfig};
-use crate::msg::{
-    EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING,
-};
+use crate::msg::{EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 
 /// Checkpoint every this many ticks (100 s at 10 Hz): at most this much is replayed
@@ -36,7 +34,14 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         ),
     };
     let mut ckpt = Checkpointer::new(&ckpt_path, &est)?;
-    let mut link = Link::new("taiji-estimator", PROC_ESTIMATOR, "estimator", Some("fee"), None, args)?;
+    let mut link = Link::new(
+        "taiji-estimator",
+        PROC_ESTIMATOR,
+        "estimator",
+        Some("fee"),
+        None,
+        args,
+    )?;
     let input = bus::subscriber::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
     let out = bus::publisher::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE)?;
     let n = s.n_samples();
@@ -71,7 +76,8 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         }
         link.progress.state = STATE_RUNNING;
         let received = monotonic_ns();
-        link.hop.record(received.saturating_sub(sample.header.publish_ns));
+        link.hop
+            .record(received.saturating_sub(sample.header.publish_ns));
         if tick > next {
             link.progress.samples_lost += tick - next;
         }

@@ -15,7 +15,14 @@ pub const RING: u64 = 8192;
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
-    let mut link = Link::new("taiji-fee", PROC_FEE, "fee", Some("plant"), Some(("estimator", PROC_ESTIMATOR)), args)?;
+    let mut link = Link::new(
+        "taiji-fee",
+        PROC_FEE,
+        "fee",
+        Some("plant"),
+        Some(("estimator", PROC_ESTIMATOR)),
+        args,
+    )?;
     let input = bus::subscriber::<TruthState>(&link.node, bus::SVC_TRUTH)?;
     let out = bus::publisher::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
     let mut fee = FrontEnd::new(&s, seed, true);

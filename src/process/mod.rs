@@ -75,7 +75,9 @@ impl StageArgs {
                 self.time_scale
             ));
         }
-        Ok((1e9 / (s.sample_rate_hz * self.time_scale)).round().max(1.0) as u64)
+        Ok((1e9 / (s.sample_rate_hz * self.time_scale))
+            .round()
+            .max(1.0) as u64)
     }
 }
 
@@ -244,7 +246,11 @@ impl Link {
         let _ = self.wake.try_wait_all(|_| {});
         while let Some(c) = bus::receive(&self.control_sub)? {
             match c.command {
-                CMD_START => self.started = true,
+                CMD_START => {
+                    self.started = true;
+                    // Neighbours may have started after our first heartbeat: grant credit now.
+                    self.beat()?;
+                }
                 CMD_STOP => self.stop = true,
                 _ => {}
             }

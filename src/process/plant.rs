@@ -11,7 +11,14 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
     let realtime = args.realtime;
-    let mut link = Link::new("taiji-plant", PROC_PLANT, "plant", Some("commander"), Some(("fee", PROC_FEE)), args)?;
+    let mut link = Link::new(
+        "taiji-plant",
+        PROC_PLANT,
+        "plant",
+        Some("commander"),
+        Some(("fee", PROC_FEE)),
+        args,
+    )?;
     let input = bus::subscriber::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
     let out = bus::publisher::<TruthState>(&link.node, bus::SVC_TRUTH)?;
     let mut plant = Plant::new(&s, seed, PlantNoise::ALL);

@@ -101,6 +101,8 @@ struct Member {
 
 struct Set {
     members: Vec<Member>,
+    /// Bus prefix of the run (for cleaning a dead member's resources).
+    prefix: String,
     common: Vec<String>,
     bin_dir: PathBuf,
 }
@@ -194,7 +196,8 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     match supervise(args, &s, &launch) {
         Ok(Supervised::Done(final_est, members, wall)) => {
             let seed = args.seed.unwrap_or(s.seed);
-            let mut report = Report::new(&s, seed, "multi-process", &args.method, &final_est, &crlb);
+            let mut report =
+                Report::new(&s, seed, "multi-process", &args.method, &final_est, &crlb);
             report.wall_time_s = Some(wall);
             report.timing = Some(timing_json(args, &s, &members));
             let restarts: BTreeMap<String, u32> = members
@@ -229,7 +232,7 @@ struct MemberSummary {
 }
 
 enum Supervised {
-    Done(EstimateMsg, Vec<MemberSummary>, f64),
+    Done(Box<EstimateMsg>, Vec<MemberSummary>, f64),
     Interrupted,
 }
 
@@ -242,7 +245,11 @@ fn latency_json(v: [f64; 3]) -> serde_json::Value {
     json!({"p50": v[0], "p99": v[1], "max": v[2]})
 }
 
-fn timing_json(args: &SupervisorArgs, s: &Scenario, members: &[MemberSummary]) -> serde_json::Value {
+fn timing_json(
+    args: &SupervisorArgs,
+    s: &Scenario,
+    members: &[MemberSummary],
+) -> serde_json::Value {
     let get = |id: u32| members.iter().find(|m| m.id == id).and_then(|m| m.last);
     let lost: u64 = members
         .iter()
@@ -269,6 +276,10 @@ fn timing_json(args: &SupervisorArgs, s: &Scenario, members: &[MemberSummary]) -
         },
         "latency_samples": est.latency_count,
         "missed_deadlines": missed,
+        "missed_deadlines_by_stage": {
+            "commander (tick published late)": get(PROC_COMMANDER).map_or(0, |p| p.missed_deadlines),
+            "estimator (end-to-end over one period)": est.missed_deadlines,
+        },
         "samples_lost": lost,
     })
 }
@@ -326,7 +337,9 @@ fn supervise(
         None => std::env::current_exe()
             .ok()
             .and_then(|p| p.parent().map(|d| d.to_path_buf()))
-            .ok_or_else(|| user("cannot find the directory of the supervisor's executable".into()))?,
+            .ok_or_else(|| {
+                user("cannot find the directory of the supervisor's executable".into())
+            })?,
     };
     let mut common: Vec<String> = vec![
         "--bus-prefix".into(),
@@ -351,6 +364,7 @@ fn supervise(
     }
     let mut set = Set {
         members: Vec::new(),
+        prefix: args.bus_prefix.clone(),
         common,
         bin_dir,
     };
@@ -371,16 +385,7 @@ fn supervise(
         }
     }
 
-    let result = watch(
-        &node,
-        &progress,
-        &estimates,
-        &send,
-        &mut set,
-        launch,
-        s,
-        &args.bus_prefix,
-    );
+    let result = watch(&node, &progress, &estimates, &send, &mut set, launch, s);
     // Whatever happened: stop everyone, then clear what killed processes left behind.
     let _ = send(CMD_STOP, 1);
     set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
@@ -398,7 +403,7 @@ fn supervise(
         })
         .collect();
     match result {
-        Ok(Some(est)) => Ok(Supervised::Done(est, members, wall)),
+        Ok(Some(est)) => Ok(Supervised::Done(Box::new(est), members, wall)),
         Ok(None) => Ok(Supervised::Interrupted),
         Err(e) => Err(e),
     }
@@ -413,7 +418,6 @@ fn watch(
     set: &mut Set,
     launch: &LaunchDescription,
     s: &Scenario,
-    prefix: &str,
 ) -> Result<Option<EstimateMsg>, SupervisorError> {
     let set_err = SupervisorError::Set;
     let heartbeat = Duration::from_secs_f64(launch.heartbeat_timeout_s);
@@ -445,14 +449,22 @@ fn watch(
             let status = match set.members[i].child.try_wait() {
                 Ok(Some(st)) => st,
                 Ok(None) => continue,
-                Err(e) => return Err(set_err(format!("cannot watch {}: {e}", set.members[i].spec.name))),
+                Err(e) => {
+                    return Err(set_err(format!(
+                        "cannot watch {}: {e}",
+                        set.members[i].spec.name
+                    )))
+                }
             };
             if interrupted(status) {
                 return Ok(None);
             }
             let m = &set.members[i];
             let name = m.spec.name.clone();
-            if m.spec.restart == Restart::OnFailure && !status.success() && m.restarts < m.spec.max_restarts {
+            if m.spec.restart == Restart::OnFailure
+                && !status.success()
+                && m.restarts < m.spec.max_restarts
+            {
                 log::warn!(
                     "{name} died ({}); restarting it ({} of at most {})",
                     describe(status),
@@ -462,7 +474,7 @@ fn watch(
                 std::thread::sleep(Duration::from_millis(m.spec.restart_delay_ms));
                 let spec = m.spec.clone();
                 // Release the dead process's shared memory before its successor opens it.
-                if let Ok(sv) = bus::cleanup_stale(prefix) {
+                if let Ok(sv) = bus::cleanup_stale(&set.prefix) {
                     log::info!("removed {} dead node(s)", sv.removed_dead);
                 }
                 let child = set.spawn(&spec).map_err(set_err)?;
@@ -473,9 +485,15 @@ fn watch(
                 continue;
             }
             let why = match m.spec.restart {
-                Restart::Never => format!("{name} is not restartable (restart = \"never\" in the launch description)"),
-                Restart::OnFailure if status.success() => format!("{name} exited before the campaign ended"),
-                Restart::OnFailure => format!("{name} exhausted its {} restarts", m.spec.max_restarts),
+                Restart::Never => format!(
+                    "{name} is not restartable (restart = \"never\" in the launch description)"
+                ),
+                Restart::OnFailure if status.success() => {
+                    format!("{name} exited before the campaign ended")
+                }
+                Restart::OnFailure => {
+                    format!("{name} exhausted its {} restarts", m.spec.max_restarts)
+                }
             };
             return Err(set_err(format!(
                 "{name} died ({}); {why}; stopping the set",
@@ -516,7 +534,11 @@ fn watch(
                 launch.heartbeat_timeout_s
             )));
         }
-        if let Some(m) = set.members.iter().find(|m| m.last_seen.elapsed() > heartbeat) {
+        if let Some(m) = set
+            .members
+            .iter()
+            .find(|m| m.last_seen.elapsed() > heartbeat)
+        {
             return Err(set_err(format!(
                 "{} published no progress for {:.0} s (hung?); stopping the set",
                 m.spec.name, launch.heartbeat_timeout_s
