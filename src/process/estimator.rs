@@ -105,10 +105,10 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             done = true;
             link.progress.state = STATE_DONE;
         }
-        if let Some(a) = allocs_before {
-            link.progress.loop_allocations = alloc_count::allocations().unwrap_or(a) - a;
-        }
         if next % 32 == 0 || done {
+            if let Some(a) = allocs_before {
+                link.progress.loop_allocations = alloc_count::allocations().unwrap_or(a) - a;
+            }
             link.beat()?;
         }
     };

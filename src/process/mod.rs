@@ -57,11 +57,7 @@ impl StageArgs {
     }
 
     pub fn method(&self) -> Result<Method, String> {
-        match self.method.as_str() {
-            "joint" => Ok(Method::Joint),
-            "paper" => Ok(Method::Paper),
-            m => Err(format!("--method must be joint or paper, not {m:?}")),
-        }
+        parse_method(&self.method)
     }
 
     /// Real-time tick period [ns] (0 in accelerated mode).
@@ -114,7 +110,6 @@ pub struct Link {
     wake: bus::Listener,
     wake_up: Option<bus::Notifier>,
     wake_down: Option<bus::Notifier>,
-    process: u32,
     downstream_id: Option<u32>,
     progress_pub: Pub<Progress>,
     progress_sub: Sub<Progress>,
@@ -173,7 +168,6 @@ impl Link {
             wake,
             wake_up,
             wake_down,
-            process,
             downstream_id,
             progress_pub,
             progress_sub,
@@ -332,9 +326,14 @@ impl Link {
             }
         }
     }
+}
 
-    pub fn process(&self) -> u32 {
-        self.process
+/// `--method` of the stages and the supervisor.
+pub fn parse_method(name: &str) -> Result<Method, String> {
+    match name {
+        "joint" => Ok(Method::Joint),
+        "paper" => Ok(Method::Paper),
+        m => Err(format!("--method must be joint or paper, not {m:?}")),
     }
 }
 

@@ -176,11 +176,8 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
         Ok(l) => l,
         Err(e) => return Outcome::UserError(e),
     };
-    if args.method != "joint" && args.method != "paper" {
-        return Outcome::UserError(format!(
-            "--method must be joint or paper, not {:?}",
-            args.method
-        ));
+    if let Err(e) = super::parse_method(&args.method) {
+        return Outcome::UserError(e);
     }
     if args.realtime && !(args.time_scale.is_finite() && args.time_scale > 0.0) {
         return Outcome::UserError(format!(
