@@ -7,6 +7,7 @@ use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::EstimateMsg;
 use crate::scenario::Scenario;
+use crate::telemetry::Telemetry;
 
 /// The stages of one campaign, built from a scenario and seed.
 pub struct Stages {
@@ -28,38 +29,56 @@ impl Stages {
     }
 }
 
-/// Result of a campaign: the final estimate and the estimates at every solve.
+/// Result of a campaign: the final estimate.
 pub struct CampaignResult {
     pub estimate: EstimateMsg,
-    pub history: Vec<EstimateMsg>,
 }
 
 /// Run the campaign; `progress` is called with the fraction done now and then.
-pub fn run(
+pub fn run(s: &Scenario, seed: u64, method: Method, progress: impl FnMut(f64)) -> CampaignResult {
+    run_with(s, seed, method, progress, None)
+}
+
+/// Run the campaign and record every stream (for `telemetry.h5`). Recording only
+/// copies the stages' outputs: the estimates are those of [`run`], bit for bit.
+pub fn run_recorded(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    progress: impl FnMut(f64),
+) -> (CampaignResult, Telemetry) {
+    let mut tel = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, s.n_samples());
+    let res = run_with(s, seed, method, progress, Some(&mut tel));
+    (res, tel)
+}
+
+fn run_with(
     s: &Scenario,
     seed: u64,
     method: Method,
     mut progress: impl FnMut(f64),
+    mut rec: Option<&mut Telemetry>,
 ) -> CampaignResult {
     let mut st = Stages::new(s, seed, method);
     let n = s.n_samples();
-    let mut history = Vec::new();
-    let mut last_solved = u64::MAX;
     for tick in 0..n {
         let cmd = st.commander.step(tick);
         let truth = st.plant.step(tick, &cmd.torque_cmd_b);
         let sample = st.fee.step(&truth);
         let est = st.estimator.step(&sample);
-        if est.solved_tick != last_solved && method == Method::Joint {
-            last_solved = est.solved_tick;
-            history.push(est);
+        if let Some(t) = rec.as_deref_mut() {
+            t.record_truth(&truth);
+            t.record_sensor(&sample);
+            t.record_estimate(&est);
         }
         if tick % 10_000 == 0 {
             progress(tick as f64 / n as f64);
         }
     }
     let estimate = st.estimator.finish();
-    history.push(estimate);
+    if let Some(t) = rec {
+        t.record_estimate(&estimate);
+    }
     progress(1.0);
-    CampaignResult { estimate, history }
+    CampaignResult { estimate }
 }

@@ -17,5 +17,7 @@ pub mod msg;
 pub mod process;
 pub mod report;
 pub mod rng;
+pub mod replay;
 pub mod scenario;
+pub mod telemetry;
 pub mod timing;

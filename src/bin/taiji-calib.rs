@@ -8,6 +8,7 @@ use taiji::estimate::Method;
 use taiji::montecarlo;
 use taiji::report::Report;
 use taiji::scenario::Scenario;
+use taiji::telemetry::Meta;
 
 #[derive(Parser)]
 #[command(
@@ -49,6 +50,21 @@ enum Cmd {
         out: PathBuf,
         #[arg(long, value_enum, default_value = "joint")]
         method: MethodArg,
+        /// Record every stream to DIR/telemetry.h5.
+        #[arg(long)]
+        record: bool,
+    },
+    /// Run the estimator on a recording's star-tracker and IS channels (never truth)
+    /// and write DIR/report.json.
+    Replay {
+        /// A telemetry.h5 (ours, or another tool's in the documented layout).
+        #[arg(long)]
+        telemetry: PathBuf,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Estimator (default: the recording's `method` attribute, else joint).
+        #[arg(long, value_enum)]
+        method: Option<MethodArg>,
     },
     /// Run N seeds and report RMS error, normalized error, CRLB ratio and pass count.
     Montecarlo {
@@ -83,6 +99,24 @@ fn main() -> ExitCode {
     }
 }
 
+fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, String> {
+    taiji::crlb::crlb(s).ok_or_else(|| {
+        "the Fisher information of this scenario is singular: the maneuver does not excite every parameter".into()
+    })
+}
+
+/// Write the report, print the table; exit 0 when the requirements are met, else 1.
+fn finish(out: &std::path::Path, report: &Report) -> Result<ExitCode, String> {
+    taiji::report::write(out, report)?;
+    print!("{}", report.table());
+    println!("Report: {}", out.join("report.json").display());
+    Ok(if report.requirements.met {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
 fn run(cli: Cli) -> Result<ExitCode, String> {
     match cli.cmd {
         Cmd::Run {
@@ -90,24 +124,52 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             seed,
             out,
             method,
+            record,
         } => {
             let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
             let seed = seed.unwrap_or(s.seed);
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
-            let crlb = taiji::crlb::crlb(&s).ok_or("the Fisher information of this scenario is singular: the maneuver does not excite every parameter")?;
-            let res = taiji::campaign::run(&s, seed, method, |_| {});
-            let mut report =
-                Report::new(&s, seed, "in-process", method.name(), &res.estimate, &crlb);
-            report.wall_time_s = Some(t0.elapsed().as_secs_f64());
-            taiji::report::write(&out, &report)?;
-            print!("{}", report.table());
-            println!("Report: {}", out.join("report.json").display());
-            Ok(if report.requirements.met {
-                ExitCode::SUCCESS
+            let crlb = crlb_of(&s)?;
+            let estimate = if record {
+                let (res, tel) = taiji::campaign::run_recorded(&s, seed, method, |_| {});
+                std::fs::create_dir_all(&out)
+                    .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+                let meta = Meta::of(&s, seed, method.name(), "in-process");
+                tel.write(&out.join("telemetry.h5"), &meta)?;
+                res.estimate
             } else {
-                ExitCode::from(1)
-            })
+                taiji::campaign::run(&s, seed, method, |_| {}).estimate
+            };
+            let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
+            report.wall_time_s = Some(t0.elapsed().as_secs_f64());
+            finish(&out, &report)
+        }
+        Cmd::Replay {
+            telemetry,
+            out,
+            method,
+        } => {
+            let t0 = std::time::Instant::now();
+            let rec = taiji::telemetry::read::open(&telemetry)?;
+            let method: Method = match (method, rec.method.as_deref()) {
+                (Some(m), _) => m.into(),
+                (None, Some(name)) => taiji::process::parse_method(name)
+                    .map_err(|e| format!("{}: attribute `method`: {e}", telemetry.display()))?,
+                (None, None) => Method::Joint,
+            };
+            let crlb = crlb_of(&rec.scenario)?;
+            let res = taiji::replay::run(&rec, method, |_| {});
+            let mut report = Report::new(
+                &rec.scenario,
+                rec.seed,
+                "replay",
+                method.name(),
+                &res.estimate,
+                &crlb,
+            );
+            report.wall_time_s = Some(t0.elapsed().as_secs_f64());
+            finish(&out, &report)
         }
         Cmd::Montecarlo {
             runs,

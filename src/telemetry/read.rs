@@ -1,0 +1,242 @@
+//! Reading `telemetry.h5` (ours, or one another tool wrote in the documented layout)
+//! for replay: the scenario and the star-tracker and IS channels, never truth. Every
+//! problem is an error naming the file, the dataset and what is wrong.
+
+use super::layout as l;
+use crate::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
+use crate::scenario::Scenario;
+use hdf5_pure::{AttrValue, File};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// What a replay needs from a recording.
+#[derive(Debug, Clone)]
+pub struct Recording {
+    /// The scenario of the file's `scenario` attribute, or the default scenario with
+    /// the file's sample rate, duration and number of IS.
+    pub scenario: Scenario,
+    /// The run's seed (`seed` attribute, else the scenario's).
+    pub seed: u64,
+    /// The estimator the recording was made with (`method` attribute), if any.
+    pub method: Option<String>,
+    /// The sensor stream, in tick order.
+    pub samples: Vec<SensorSample>,
+}
+
+fn text_attr(v: &AttrValue) -> Option<String> {
+    match v {
+        AttrValue::VarLenString(s)
+        | AttrValue::String(s)
+        | AttrValue::AsciiString(s)
+        | AttrValue::VarLenAsciiString(s) => Some(s.clone()),
+        _ => None,
+    }
+}
+
+fn num_attr(v: &AttrValue) -> Option<f64> {
+    match *v {
+        AttrValue::F64(x) => Some(x),
+        AttrValue::F32(x) => Some(x as f64),
+        AttrValue::I64(x) => Some(x as f64),
+        AttrValue::U64(x) => Some(x as f64),
+        AttrValue::I32(x) => Some(x as f64),
+        AttrValue::U32(x) => Some(x as f64),
+        _ => None,
+    }
+}
+
+struct Reader<'a> {
+    file: File,
+    origin: &'a Path,
+}
+
+impl Reader<'_> {
+    fn err(&self, what: impl std::fmt::Display) -> String {
+        format!("{}: {what}", self.origin.display())
+    }
+
+    fn has(&self, path: &str) -> bool {
+        self.file.dataset(path).is_ok()
+    }
+
+    /// Dataset `path` as f64 with exactly `shape`.
+    fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, String> {
+        let d = self
+            .file
+            .dataset(path)
+            .map_err(|_| self.err(format!("missing dataset /{path}")))?;
+        let got = d
+            .shape()
+            .map_err(|e| self.err(format!("/{path}: unreadable shape ({e})")))?;
+        if got != shape {
+            return Err(self.err(format!(
+                "/{path} has shape {got:?}, the layout needs {shape:?} ({})",
+                l::channel(path).shape
+            )));
+        }
+        d.read_f64()
+            .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
+    }
+
+    fn ints(&self, path: &str, n: u64) -> Result<Vec<u64>, String> {
+        let d = self
+            .file
+            .dataset(path)
+            .map_err(|_| self.err(format!("missing dataset /{path}")))?;
+        let got = d
+            .shape()
+            .map_err(|e| self.err(format!("/{path}: unreadable shape ({e})")))?;
+        if got != [n] {
+            return Err(self.err(format!(
+                "/{path} has shape {got:?}, the layout needs [{n}]"
+            )));
+        }
+        d.read_u64()
+            .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
+    }
+}
+
+/// Open `path` and read what a replay needs.
+pub fn open(path: &Path) -> Result<Recording, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    // The HDF5 reader is defensive, but a malformed file must never take the process
+    // down with a panic trace: treat a panic as "corrupt".
+    let file = std::panic::catch_unwind(|| File::from_bytes(bytes))
+        .map_err(|_| format!("{}: corrupt HDF5 file", path.display()))?
+        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
+    let r = Reader { file, origin: path };
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read(&r)))
+        .map_err(|_| r.err("corrupt HDF5 file (its structure could not be decoded)"))?
+}
+
+fn read(r: &Reader) -> Result<Recording, String> {
+    let attrs: HashMap<String, AttrValue> = r
+        .file
+        .root()
+        .attrs()
+        .map_err(|e| r.err(format!("unreadable root attributes ({e})")))?;
+    let time = {
+        let d = r
+            .file
+            .dataset(l::TIME)
+            .map_err(|_| r.err(format!("missing dataset /{}", l::TIME)))?;
+        let shape = d.shape().map_err(|e| r.err(format!("/time: {e}")))?;
+        if shape.len() != 1 || shape[0] == 0 {
+            return Err(r.err(format!(
+                "/time has shape {shape:?}, the layout needs [N] with N > 0"
+            )));
+        }
+        d.read_f64()
+            .map_err(|e| r.err(format!("/time: cannot read its data ({e})")))?
+    };
+    let n = time.len() as u64;
+    if let Some(bad) = time.iter().position(|t| !t.is_finite()) {
+        return Err(r.err(format!("/time[{bad}] is not finite")));
+    }
+    let two = r.has(l::IS_VOLTAGE[1]);
+    if !r.has(l::IS_VOLTAGE[0]) {
+        return Err(r.err(format!("missing dataset /{}", l::IS_VOLTAGE[0])));
+    }
+    let scenario = match attrs.get("scenario") {
+        Some(v) => {
+            let text = text_attr(v)
+                .ok_or_else(|| r.err("root attribute `scenario` is not a string"))?;
+            Scenario::from_toml_str(&text)
+                .map_err(|e| r.err(format!("root attribute `scenario`: {e}")))?
+        }
+        None => {
+            // Another tool's file: the default scenario at the file's rate and length.
+            let fs = match attrs.get("sample_rate_hz") {
+                Some(v) => num_attr(v)
+                    .ok_or_else(|| r.err("root attribute `sample_rate_hz` is not a number"))?,
+                None if n >= 2 => 1.0 / (time[1] - time[0]),
+                None => return Err(r.err("one sample and no `sample_rate_hz` attribute")),
+            };
+            let mut s = Scenario {
+                sample_rate_hz: fs,
+                duration_s: n as f64 / fs,
+                ..Scenario::default()
+            };
+            s.star_tracker.rate_hz = s.star_tracker.rate_hz.min(fs);
+            if !two {
+                s.inertial_sensor.truncate(1);
+            }
+            s.validated()
+                .map_err(|e| r.err(format!("no `scenario` attribute, and {e}")))?
+        }
+    };
+    if scenario.n_samples() != n {
+        return Err(r.err(format!(
+            "/time has {n} rows, but the scenario ({} s at {} Hz) has {} samples",
+            scenario.duration_s,
+            scenario.sample_rate_hz,
+            scenario.n_samples()
+        )));
+    }
+    let n_is = scenario.inertial_sensor.len();
+    if n_is == 2 && !two {
+        return Err(r.err(format!(
+            "the scenario has two inertial sensors but /{} is missing",
+            l::IS_VOLTAGE[1]
+        )));
+    }
+    let seed = match attrs.get("seed") {
+        Some(v) => num_attr(v).ok_or_else(|| r.err("root attribute `seed` is not a number"))?
+            as u64,
+        None => scenario.seed,
+    };
+    let method = attrs.get("method").and_then(text_attr);
+
+    let ticks = if r.has(l::TICK) {
+        r.ints(l::TICK, n)?
+    } else {
+        (0..n).collect()
+    };
+    if let Some(i) = (1..ticks.len()).find(|&i| ticks[i] <= ticks[i - 1]) {
+        return Err(r.err(format!(
+            "/tick is not strictly increasing at row {i} ({} after {})",
+            ticks[i],
+            ticks[i - 1]
+        )));
+    }
+    let star_q = r.f64s(l::STAR_Q, &[n, 4])?;
+    let star_valid = r.ints(l::STAR_VALID, n)?;
+    let mut volts = Vec::new();
+    let mut flags = Vec::new();
+    for i in 0..n_is {
+        volts.push(r.f64s(l::IS_VOLTAGE[i], &[n, 3, 2])?);
+        flags.push(r.ints(l::IS_FLAGS[i], n)?);
+    }
+    let fs = scenario.sample_rate_hz;
+    let samples = (0..n as usize)
+        .map(|k| {
+            let mut s = SensorSample {
+                header: Header::at(k as u64, ticks[k], fs),
+                star: StarSample {
+                    q_bn: std::array::from_fn(|j| star_q[4 * k + j]),
+                    valid: u8::from(star_valid[k] != 0),
+                    _pad: [0; 7],
+                },
+                ..Default::default()
+            };
+            for i in 0..2 {
+                if i >= n_is {
+                    s.is[i].flags = FLAG_ABSENT;
+                    continue;
+                }
+                s.is[i] = IsSample {
+                    volts: std::array::from_fn(|j| [volts[i][6 * k + 2 * j], volts[i][6 * k + 2 * j + 1]]),
+                    flags: flags[i][k].min(255) as u8,
+                    _pad: [0; 7],
+                };
+            }
+            s
+        })
+        .collect();
+    Ok(Recording {
+        scenario,
+        seed,
+        method,
+        samples,
+    })
+}
