@@ -58,32 +58,107 @@ pub const EST_FINAL: &str = "estimate/final";
 
 /// Every dataset, in file order. `is2/*` is present only with two inertial sensors.
 pub const CHANNELS: &[Channel] = &[
-    ch(TIME, "N", "s", "simulation time at the end of each sample interval"),
+    ch(
+        TIME,
+        "N",
+        "s",
+        "simulation time at the end of each sample interval",
+    ),
     ch(TICK, "N", "1", "sample index n (interval [n, n+1)/fs)"),
     ch(TORQUE_CMD, "N×3", "N m", "commanded torque, body frame"),
-    ch(TORQUE, "N×3", "N m", "applied thruster torque (mean over the interval), body frame"),
-    ch(ATTITUDE, "N×4", "1", "true attitude quaternion q_BN (w, x, y, z)"),
+    ch(
+        TORQUE,
+        "N×3",
+        "N m",
+        "applied thruster torque (mean over the interval), body frame",
+    ),
+    ch(
+        ATTITUDE,
+        "N×4",
+        "1",
+        "true attitude quaternion q_BN (w, x, y, z)",
+    ),
     ch(OMEGA, "N×3", "rad/s", "true angular velocity, body frame"),
-    ch(OMEGA_DOT, "N×3", "rad/s^2", "true angular acceleration (mean over the interval), body frame"),
-    ch(TM_ACC, "N×I×3", "m/s^2", "true electrostatic acceleration of each test mass, body frame"),
-    ch(SRP_ACC, "N×3", "m/s^2", "true non-gravitational (SRP + thruster force noise) acceleration, body frame"),
-    ch(STAR_Q, "N×4", "1", "star-tracker attitude quaternion q_BN (w, x, y, z); NaN-free only where valid"),
-    ch(STAR_VALID, "N", "1", "1 where the star-tracker sample is valid, 0 in an outage or between samples"),
-    ch(IS_VOLTAGE[0], "N×3×2", "V", "IS1 electrode drive voltages V_{j,1}, V_{j,2} for j = x, y, z"),
-    ch(IS_FLAGS[0], "N", "1", "IS1 flags: bit j linear saturation, bit 3+j angular saturation, bit 7 absent"),
+    ch(
+        OMEGA_DOT,
+        "N×3",
+        "rad/s^2",
+        "true angular acceleration (mean over the interval), body frame",
+    ),
+    ch(
+        TM_ACC,
+        "N×I×3",
+        "m/s^2",
+        "true electrostatic acceleration of each test mass, body frame",
+    ),
+    ch(
+        SRP_ACC,
+        "N×3",
+        "m/s^2",
+        "true non-gravitational (SRP + thruster force noise) acceleration, body frame",
+    ),
+    ch(
+        STAR_Q,
+        "N×4",
+        "1",
+        "star-tracker attitude quaternion q_BN (w, x, y, z); NaN-free only where valid",
+    ),
+    ch(
+        STAR_VALID,
+        "N",
+        "1",
+        "1 where the star-tracker sample is valid, 0 in an outage or between samples",
+    ),
+    ch(
+        IS_VOLTAGE[0],
+        "N×3×2",
+        "V",
+        "IS1 electrode drive voltages V_{j,1}, V_{j,2} for j = x, y, z",
+    ),
+    ch(
+        IS_FLAGS[0],
+        "N",
+        "1",
+        "IS1 flags: bit j linear saturation, bit 3+j angular saturation, bit 7 absent",
+    ),
     ch(IS_VOLTAGE[1], "N×3×2", "V", "IS2 electrode drive voltages"),
     ch(IS_FLAGS[1], "N", "1", "IS2 flags"),
     ch(EST_TIME, "M", "s", "simulation time of each estimate row"),
-    ch(EST_TICK, "M", "1", "sample index of the last solve behind the row"),
-    ch(EST_BETA, "M×I×3", "rad s^-2 V^-1", "angular scale factors β"),
+    ch(
+        EST_TICK,
+        "M",
+        "1",
+        "sample index of the last solve behind the row",
+    ),
+    ch(
+        EST_BETA,
+        "M×I×3",
+        "rad s^-2 V^-1",
+        "angular scale factors β",
+    ),
     ch(EST_BETA_SIGMA, "M×I×3", "rad s^-2 V^-1", "1σ of β"),
-    ch(EST_K, "M×I×3", "m s^-2 V^-1", "linear scale factors k (eq. 2)"),
+    ch(
+        EST_K,
+        "M×I×3",
+        "m s^-2 V^-1",
+        "linear scale factors k (eq. 2)",
+    ),
     ch(EST_K_SIGMA, "M×I×3", "m s^-2 V^-1", "1σ of k"),
     ch(EST_R, "M×I×3", "m", "test-mass CoM offsets r, body frame"),
     ch(EST_R_SIGMA, "M×I×3", "m", "1σ of r"),
     ch(EST_N_USED, "M", "1", "samples used so far"),
-    ch(EST_N_REJECTED, "M", "1", "samples rejected so far (non-finite, saturated, invalid)"),
-    ch(EST_FINAL, "M", "1", "1 on the final estimate of the campaign (the last row)"),
+    ch(
+        EST_N_REJECTED,
+        "M",
+        "1",
+        "samples rejected so far (non-finite, saturated, invalid)",
+    ),
+    ch(
+        EST_FINAL,
+        "M",
+        "1",
+        "1 on the final estimate of the campaign (the last row)",
+    ),
 ];
 
 /// The channel at `path`.
@@ -98,7 +173,10 @@ pub fn channel(path: &str) -> &'static Channel {
 pub fn markdown_table() -> String {
     let mut s = String::from("| dataset | shape | units | content |\n|---|---|---|---|\n");
     for c in CHANNELS {
-        s += &format!("| `/{}` | {} | {} | {} |\n", c.path, c.shape, c.units, c.description);
+        s += &format!(
+            "| `/{}` | {} | {} | {} |\n",
+            c.path, c.shape, c.units, c.description
+        );
     }
     s
 }

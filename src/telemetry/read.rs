@@ -87,9 +87,7 @@ impl Reader<'_> {
             .shape()
             .map_err(|e| self.err(format!("/{path}: unreadable shape ({e})")))?;
         if got != [n] {
-            return Err(self.err(format!(
-                "/{path} has shape {got:?}, the layout needs [{n}]"
-            )));
+            return Err(self.err(format!("/{path} has shape {got:?}, the layout needs [{n}]")));
         }
         d.read_u64()
             .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
@@ -104,6 +102,16 @@ pub fn open(path: &Path) -> Result<Recording, String> {
     let file = std::panic::catch_unwind(|| File::from_bytes(bytes))
         .map_err(|_| format!("{}: corrupt HDF5 file", path.display()))?
         .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
+    // Contiguous data past the end of a truncated file would read as fill values.
+    let sb = file.superblock();
+    let needed = sb.base_address.get().saturating_add(sb.eof_address);
+    if needed > file.file_size() {
+        return Err(format!(
+            "{}: truncated HDF5 file: it declares {needed} bytes but has {}",
+            path.display(),
+            file.file_size()
+        ));
+    }
     let r = Reader { file, origin: path };
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read(&r)))
         .map_err(|_| r.err("corrupt HDF5 file (its structure could not be decoded)"))?
@@ -139,8 +147,8 @@ fn read(r: &Reader) -> Result<Recording, String> {
     }
     let scenario = match attrs.get("scenario") {
         Some(v) => {
-            let text = text_attr(v)
-                .ok_or_else(|| r.err("root attribute `scenario` is not a string"))?;
+            let text =
+                text_attr(v).ok_or_else(|| r.err("root attribute `scenario` is not a string"))?;
             Scenario::from_toml_str(&text)
                 .map_err(|e| r.err(format!("root attribute `scenario`: {e}")))?
         }
@@ -181,8 +189,9 @@ fn read(r: &Reader) -> Result<Recording, String> {
         )));
     }
     let seed = match attrs.get("seed") {
-        Some(v) => num_attr(v).ok_or_else(|| r.err("root attribute `seed` is not a number"))?
-            as u64,
+        Some(v) => {
+            num_attr(v).ok_or_else(|| r.err("root attribute `seed` is not a number"))? as u64
+        }
         None => scenario.seed,
     };
     let method = attrs.get("method").and_then(text_attr);
@@ -225,7 +234,9 @@ fn read(r: &Reader) -> Result<Recording, String> {
                     continue;
                 }
                 s.is[i] = IsSample {
-                    volts: std::array::from_fn(|j| [volts[i][6 * k + 2 * j], volts[i][6 * k + 2 * j + 1]]),
+                    volts: std::array::from_fn(|j| {
+                        [volts[i][6 * k + 2 * j], volts[i][6 * k + 2 * j + 1]]
+                    }),
                     flags: flags[i][k].min(255) as u8,
                     _pad: [0; 7],
                 };

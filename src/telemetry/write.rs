@@ -82,7 +82,11 @@ pub(super) fn write(t: &Telemetry, path: &std::path::Path, meta: &Meta) -> Resul
     tree.add(l::STAR_Q, &[n, 4], Data::F64(t.star_q.clone()));
     tree.add(l::STAR_VALID, &[n], Data::U8(t.star_valid.clone()));
     for i in 0..ni {
-        tree.add(l::IS_VOLTAGE[i], &[n, 3, 2], Data::F64(t.is_volts[i].clone()));
+        tree.add(
+            l::IS_VOLTAGE[i],
+            &[n, 3, 2],
+            Data::F64(t.is_volts[i].clone()),
+        );
         tree.add(l::IS_FLAGS[i], &[n], Data::U8(t.is_flags[i].clone()));
     }
     let e = &t.estimates;
@@ -105,7 +109,11 @@ pub(super) fn write(t: &Telemetry, path: &std::path::Path, meta: &Meta) -> Resul
         Data::U64(e.iter().map(|r| r.solved_tick).collect()),
     );
     tree.add(l::EST_BETA, &[m, ni, 3], per_is(&|r, i| r.beta[i]));
-    tree.add(l::EST_BETA_SIGMA, &[m, ni, 3], per_is(&|r, i| r.beta_sigma[i]));
+    tree.add(
+        l::EST_BETA_SIGMA,
+        &[m, ni, 3],
+        per_is(&|r, i| r.beta_sigma[i]),
+    );
     tree.add(l::EST_K, &[m, ni, 3], per_is(&|r, i| r.k[i]));
     tree.add(l::EST_K_SIGMA, &[m, ni, 3], per_is(&|r, i| r.k_sigma[i]));
     tree.add(l::EST_R, &[m, ni, 3], per_is(&|r, i| r.r_b[i]));
@@ -135,7 +143,11 @@ pub(super) fn write(t: &Telemetry, path: &std::path::Path, meta: &Meta) -> Resul
     b.set_attr("format_version", AttrValue::U64(l::FORMAT_VERSION));
     b.set_attr(
         "software",
-        text(concat!(env!("CARGO_PKG_NAME"), " ", env!("CARGO_PKG_VERSION"))),
+        text(concat!(
+            env!("CARGO_PKG_NAME"),
+            " ",
+            env!("CARGO_PKG_VERSION")
+        )),
     );
     b.set_attr("scenario", text(&meta.scenario_toml));
     b.set_attr("scenario_name", text(&meta.scenario_name));

@@ -1,0 +1,264 @@
+//! Telemetry: `run --record` writes a telemetry.h5 that h5py opens and that matches the
+//! run's report; `replay` reproduces the live estimates bit for bit, reads a file that
+//! an independent numpy/h5py simulation wrote, and rejects bad files with a clear error.
+//! Needs python3 with numpy and h5py (`.ci/run` installs them).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn calib() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("taiji-tel-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn tool(script: &str) -> Command {
+    let mut c = Command::new("python3");
+    c.arg(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tools")
+            .join(script),
+    );
+    c
+}
+
+fn ok(out: Output, what: &str) -> Output {
+    assert!(
+        out.status.success(),
+        "{what} failed ({:?}):\n{}\n{}\n(the telemetry tests need python3 with numpy and h5py: pip install numpy h5py)",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
+}
+
+/// The estimates and σ of every IS, and the sample counts.
+fn estimates(r: &serde_json::Value) -> Vec<serde_json::Value> {
+    let mut v: Vec<serde_json::Value> = r["inertial_sensors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|is| {
+            ["beta", "k", "com_offset"]
+                .into_iter()
+                .flat_map(move |q| [is[q]["estimate"].clone(), is[q]["sigma"].clone()])
+        })
+        .collect();
+    v.push(r["samples_used"].clone());
+    v.push(r["samples_rejected"].clone());
+    v
+}
+
+const SHORT: &str = r#"
+name = "short-other-truth"
+seed = 5
+duration_s = 3000.0
+[[inertial_sensor]]
+com_offset_m = [0.18, -0.11, 0.004]
+beta = [5.60e-8, 5.48e-8, 7.30e-8]
+[[inertial_sensor]]
+com_offset_m = [0.19, 0.13, -0.003]
+"#;
+
+#[test]
+fn recording_opens_in_h5py_matches_the_report_and_replays_bit_for_bit() {
+    let dir = tmp("record");
+    let sc = dir.join("short.toml");
+    std::fs::write(&sc, SHORT).unwrap();
+    let run = ok(
+        calib()
+            .args(["run", "--record", "--seed", "9", "--scenario"])
+            .arg(&sc)
+            .arg("--out")
+            .arg(&dir)
+            .output()
+            .unwrap(),
+        "taiji-calib run --record",
+    );
+    assert!(String::from_utf8_lossy(&run.stdout).contains("Requirements met: yes"));
+    let check = ok(
+        tool("check_telemetry.py").arg(&dir).output().unwrap(),
+        "check_telemetry.py",
+    );
+    assert!(String::from_utf8_lossy(&check.stdout).contains("telemetry check passed"));
+
+    let replay_dir = dir.join("replay");
+    ok(
+        calib()
+            .args(["replay", "--telemetry"])
+            .arg(dir.join("telemetry.h5"))
+            .arg("--out")
+            .arg(&replay_dir)
+            .output()
+            .unwrap(),
+        "taiji-calib replay",
+    );
+    let live = report(&dir);
+    let replayed = report(&replay_dir);
+    assert_eq!(replayed["mode"], "replay");
+    assert_eq!(replayed["seed"], 9);
+    assert_eq!(replayed["scenario"], "short-other-truth");
+    assert_eq!(estimates(&live), estimates(&replayed));
+    // The truth in the replayed report comes from the file's scenario attribute.
+    assert_eq!(
+        live["inertial_sensors"][0]["com_offset"]["truth"],
+        replayed["inertial_sensors"][0]["com_offset"]["truth"]
+    );
+}
+
+#[test]
+fn replay_of_an_independently_simulated_h5py_file_meets_the_requirements() {
+    let dir = tmp("external");
+    let file = dir.join("external.h5");
+    ok(
+        tool("make_external_telemetry.py")
+            .arg(&file)
+            .output()
+            .unwrap(),
+        "make_external_telemetry.py",
+    );
+    let out = ok(
+        calib()
+            .args(["replay", "--telemetry"])
+            .arg(&file)
+            .arg("--out")
+            .arg(&dir)
+            .output()
+            .unwrap(),
+        "taiji-calib replay of an external file",
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("Requirements met: yes"));
+    let r = report(&dir);
+    assert_eq!(r["scenario"], "external");
+    // The truths declared by the external file, recovered from its voltages and
+    // star-tracker samples alone.
+    for is in r["inertial_sensors"].as_array().unwrap() {
+        for a in 0..3 {
+            let b = &is["beta"];
+            let rel = (b["estimate"][a].as_f64().unwrap() - b["truth"][a].as_f64().unwrap())
+                / b["truth"][a].as_f64().unwrap();
+            assert!(rel.abs() < 1e-4, "β error {rel}");
+            let c = &is["com_offset"];
+            let err = c["estimate"][a].as_f64().unwrap() - c["truth"][a].as_f64().unwrap();
+            assert!(err.abs() < 20e-6, "r error {err}");
+        }
+    }
+    // Without a scenario attribute the file is read against the default scenario at
+    // the file's own sample rate and length.
+    let bare = dir.join("bare.h5");
+    ok(
+        tool("make_external_telemetry.py")
+            .arg(&bare)
+            .args(["--no-scenario", "--duration", "6000"])
+            .output()
+            .unwrap(),
+        "make_external_telemetry.py --no-scenario",
+    );
+    let out = ok(
+        calib()
+            .args(["replay", "--telemetry"])
+            .arg(&bare)
+            .arg("--out")
+            .arg(dir.join("bare"))
+            .output()
+            .unwrap(),
+        "taiji-calib replay of a file without a scenario",
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("Requirements met: yes"));
+    assert_eq!(report(&dir.join("bare"))["duration_s"], 6000.0);
+}
+
+fn replay_error(file: &Path) -> String {
+    let out = calib()
+        .args(["replay", "--telemetry"])
+        .arg(file)
+        .arg("--out")
+        .arg(file.with_extension("out"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(2), "{}: {err}", file.display());
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+#[test]
+fn bad_telemetry_files_get_a_clear_error() {
+    let dir = tmp("bad");
+    // Mis-shaped, missing, non-monotonic and invalid-scenario files from h5py.
+    for (kind, expect) in [
+        (
+            "shape",
+            "/is2/voltage has shape [30000, 6], the layout needs [30000, 3, 2]",
+        ),
+        ("missing", "missing dataset /star_tracker/attitude"),
+        ("tick", "/tick is not strictly increasing at row 15000"),
+        ("scenario", "root attribute `scenario`: `duration_s`"),
+    ] {
+        let f = dir.join(format!("{kind}.h5"));
+        ok(
+            tool("make_external_telemetry.py")
+                .arg(&f)
+                .args(["--duration", "3000", "--break", kind])
+                .output()
+                .unwrap(),
+            "make_external_telemetry.py --break",
+        );
+        let err = replay_error(&f);
+        assert!(err.contains(expect), "{kind}: {err}");
+    }
+    // A good file, truncated and corrupted.
+    let good = dir.join("good.h5");
+    ok(
+        tool("make_external_telemetry.py")
+            .arg(&good)
+            .args(["--duration", "3000"])
+            .output()
+            .unwrap(),
+        "make_external_telemetry.py",
+    );
+    let bytes = std::fs::read(&good).unwrap();
+    for frac in [0.001, 0.5, 0.99] {
+        let f = dir.join(format!("truncated-{frac}.h5"));
+        std::fs::write(&f, &bytes[..(bytes.len() as f64 * frac) as usize]).unwrap();
+        let err = replay_error(&f);
+        assert!(
+            err.contains("truncated") || err.contains("not a readable HDF5 file"),
+            "{err}"
+        );
+    }
+    let mut corrupt = bytes.clone();
+    for b in &mut corrupt[..8] {
+        *b = 0;
+    }
+    let f = dir.join("no-signature.h5");
+    std::fs::write(&f, &corrupt).unwrap();
+    assert!(replay_error(&f).contains("not a readable HDF5 file"));
+    // Scrambled metadata (the object headers and heaps at the start of the file).
+    let mut corrupt = bytes.clone();
+    let mut x = 12345u64;
+    for _ in 0..200 {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let i = 100 + (x >> 33) as usize % 3000;
+        corrupt[i] ^= 0xa5;
+    }
+    let f = dir.join("scrambled.h5");
+    std::fs::write(&f, &corrupt).unwrap();
+    replay_error(&f);
+    let f = dir.join("text.h5");
+    std::fs::write(&f, "time,voltage\n0.1,0.2\n").unwrap();
+    assert!(replay_error(&f).contains("not a readable HDF5 file"));
+    assert!(replay_error(&dir.join("absent.h5")).contains("cannot read"));
+}
