@@ -14,6 +14,14 @@ fn main() -> std::process::ExitCode {
             }
             print!("{}", report.table());
             println!("Report: {}", args.out.join("report.json").display());
+            if args.record {
+                println!(
+                    "Telemetry: {}",
+                    args.out
+                        .join(taiji::process::recorder::TELEMETRY_FILE)
+                        .display()
+                );
+            }
         }
         Outcome::UserError(e) => eprintln!("taiji-supervisor: error: {e}"),
         Outcome::SetFailed(e) => eprintln!("taiji-supervisor: the process set failed: {e}"),

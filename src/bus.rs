@@ -5,9 +5,9 @@
 //! | service             | payload         | publisher  | subscribers                    |
 //! |---------------------|-----------------|------------|--------------------------------|
 //! | `taiji/torque_cmd`  | `TorqueCommand` | commander  | plant                          |
-//! | `taiji/truth`       | `TruthState`    | plant      | fee (and a recorder) only      |
-//! | `taiji/sensor`      | `SensorSample`  | fee        | estimator                      |
-//! | `taiji/estimate`    | `EstimateMsg`   | estimator  | supervisor                     |
+//! | `taiji/truth`       | `TruthState`    | plant      | fee, recorder (never estimator)|
+//! | `taiji/sensor`      | `SensorSample`  | fee        | estimator, recorder            |
+//! | `taiji/estimate`    | `EstimateMsg`   | estimator  | supervisor, recorder           |
 //! | `taiji/progress`    | `Progress`      | every stage| upstream stage, supervisor     |
 //! | `taiji/control`     | `Control`       | supervisor | every stage                    |
 
@@ -32,6 +32,12 @@ pub const QUEUE: usize = 512;
 /// Flow-control window [ticks]: a stage publishes tick t only when its downstream has
 /// consumed every tick below t − WINDOW, so a queue never overflows and no sample is lost.
 pub const WINDOW: u64 = 256;
+/// Recorder's credit window [ticks]: with recording on, the commander publishes tick t
+/// only while t < (every tick below it recorded) + RECORDER_WINDOW. Wider than the
+/// three stage windows together, so the recorder never throttles a healthy set.
+pub const RECORDER_WINDOW: u64 = 4 * WINDOW;
+/// Recorder's subscriber queue depth: more than any stream can be ahead of it.
+pub const RECORDER_QUEUE: usize = 2 * RECORDER_WINDOW as usize;
 /// Queue depth of the progress and control services (only the latest matters).
 pub const SMALL_QUEUE: usize = 64;
 
@@ -89,11 +95,25 @@ fn service<T: Debug + ZeroCopySend>(
         .map_err(|e| format!("cannot open service {name}: {e:?}"))
 }
 
+fn is_small(name: &str) -> bool {
+    name == SVC_PROGRESS || name == SVC_CONTROL
+}
+
+/// Default subscriber queue depth of a service.
 fn queue_of(name: &str) -> usize {
-    if name == SVC_PROGRESS || name == SVC_CONTROL {
+    if is_small(name) {
         SMALL_QUEUE
     } else {
         QUEUE
+    }
+}
+
+/// Deepest subscriber queue a service allows (the recorder's, on data services).
+fn max_queue_of(name: &str) -> usize {
+    if is_small(name) {
+        SMALL_QUEUE
+    } else {
+        RECORDER_QUEUE
     }
 }
 
@@ -101,7 +121,7 @@ pub fn publisher<T: Debug + ZeroCopySend>(
     node: &Node<ipc::Service>,
     name: &str,
 ) -> Result<Pub<T>, String> {
-    service::<T>(node, name, queue_of(name))?
+    service::<T>(node, name, max_queue_of(name))?
         .publisher_builder()
         .create()
         .map_err(|e| format!("cannot create publisher on {name}: {e:?}"))
@@ -111,8 +131,16 @@ pub fn subscriber<T: Debug + ZeroCopySend>(
     node: &Node<ipc::Service>,
     name: &str,
 ) -> Result<Sub<T>, String> {
-    let q = queue_of(name);
-    service::<T>(node, name, q)?
+    subscriber_with_queue(node, name, queue_of(name))
+}
+
+/// A subscriber with its own queue depth (the recorder's is deeper).
+pub fn subscriber_with_queue<T: Debug + ZeroCopySend>(
+    node: &Node<ipc::Service>,
+    name: &str,
+    q: usize,
+) -> Result<Sub<T>, String> {
+    service::<T>(node, name, max_queue_of(name))?
         .subscriber_builder()
         .buffer_size(q)
         .create()

@@ -28,6 +28,9 @@ pub struct ProcessSpec {
     pub max_restarts: u32,
     #[serde(default = "hundred")]
     pub restart_delay_ms: u64,
+    /// Started only when the run records telemetry (`--record`).
+    #[serde(default)]
+    pub record_only: bool,
 }
 
 fn never() -> Restart {
@@ -55,6 +58,9 @@ pub struct LaunchDescription {
 
 /// The default launch description (the same as `tools/launch.toml`).
 pub const DEFAULT: &str = include_str!("../tools/launch.toml");
+
+/// The recorder: optional, started with `--record` only.
+pub const RECORDER: &str = "taiji-recorder";
 
 /// The processes a set must contain.
 pub const REQUIRED: [&str; 4] = [
@@ -90,15 +96,27 @@ impl LaunchDescription {
         if let Some(p) = d
             .process
             .iter()
-            .find(|p| !REQUIRED.contains(&p.name.as_str()))
+            .find(|p| !REQUIRED.contains(&p.name.as_str()) && p.name != RECORDER)
         {
             return Err(format!(
-                "launch description {origin}: unknown process {:?} (known: {})",
+                "launch description {origin}: unknown process {:?} (known: {}, {RECORDER})",
                 p.name,
                 REQUIRED.join(", ")
             ));
         }
+        if d.process.iter().filter(|p| p.name == RECORDER).count() > 1 {
+            return Err(format!(
+                "launch description {origin}: process {RECORDER} is listed more than once"
+            ));
+        }
         Ok(d)
+    }
+
+    /// The processes of a run, recording or not, in start order.
+    pub fn processes(&self, record: bool) -> impl Iterator<Item = &ProcessSpec> {
+        self.process
+            .iter()
+            .filter(move |p| record || !p.record_only)
     }
 
     pub fn load_or_default(path: Option<&Path>) -> Result<Self, String> {

@@ -175,6 +175,7 @@ pub const PROC_COMMANDER: u32 = 1;
 pub const PROC_PLANT: u32 = 2;
 pub const PROC_FEE: u32 = 3;
 pub const PROC_ESTIMATOR: u32 = 4;
+pub const PROC_RECORDER: u32 = 5;
 
 /// `Progress::state`: ports created, waiting for the supervisor's start.
 pub const STATE_READY: u32 = 1;

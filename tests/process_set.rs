@@ -181,6 +181,24 @@ fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     assert_eq!(r["estimator_loop_allocations"], 0);
 }
 
+/// Every dataset of the layout holds the same values in both files.
+fn same_telemetry(a: &Path, b: &Path) {
+    let fa = hdf5_pure::File::open(a).unwrap();
+    let fb = hdf5_pure::File::open(b).unwrap();
+    for c in taiji::telemetry::layout::CHANNELS {
+        let (Ok(da), Ok(db)) = (fa.dataset(c.path), fb.dataset(c.path)) else {
+            panic!("/{} missing", c.path);
+        };
+        assert_eq!(da.shape().unwrap(), db.shape().unwrap(), "/{}", c.path);
+        let (va, vb) = (da.read_f64().unwrap(), db.read_f64().unwrap());
+        assert!(
+            va.iter().zip(&vb).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "/{} differs",
+            c.path
+        );
+    }
+}
+
 #[test]
 fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
     let _serial = serial();
@@ -188,7 +206,8 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
     let sc = write_scenario(&dir, "name = \"paper\"\nseed = 5\n");
     let out = dir.join("out");
     let pfx = prefix("k");
-    let child = supervisor(&sc, &out, &pfx, &[]).spawn().unwrap();
+    // Recording too: the recorder must skip what the front-end resends after the restart.
+    let child = supervisor(&sc, &out, &pfx, &["--record"]).spawn().unwrap();
     // Kill the estimator once it has checkpointed, i.e. mid-run.
     let ckpt = out.join("estimator.ckpt");
     wait_for("the first checkpoint", Duration::from_secs(60), || {
@@ -212,6 +231,16 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
     // It resumed from its checkpoint and the front-end resent what it missed: the
     // campaign is bit-identical to one that never crashed.
     assert_eq!(estimates(&r), in_process(&sc, 5));
+    // And so is its recording, stream by stream.
+    let s = Scenario::load(&sc).unwrap();
+    let (_, tel) = taiji::campaign::run_recorded(&s, 5, Method::Joint, |_| {});
+    let reference = dir.join("in-process.h5");
+    tel.write(
+        &reference,
+        &taiji::telemetry::Meta::of(&s, 5, "joint", "in-process"),
+    )
+    .unwrap();
+    same_telemetry(&out.join("telemetry.h5"), &reference);
 }
 
 #[test]

@@ -49,7 +49,9 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                 link.progress.missed_deadlines += 1;
             }
         }
-        if !link.downstream.credit(t) {
+        let recorder_credit = !args.record
+            || (link.recorder.heard && t < link.recorder.next_tick + bus::RECORDER_WINDOW);
+        if !(link.downstream.credit(t) && recorder_credit) {
             if let Some(e) = link.idle(super::IDLE) {
                 return Ok(e);
             }

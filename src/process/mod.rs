@@ -10,11 +10,12 @@ pub mod commander;
 pub mod estimator;
 pub mod fee;
 pub mod plant;
+pub mod recorder;
 pub mod supervisor;
 
 use crate::bus::{self, Pub, Sub};
 use crate::estimate::Method;
-use crate::msg::{Control, Header, Progress, CMD_START, CMD_STOP, STATE_READY};
+use crate::msg::{Control, Header, Progress, CMD_START, CMD_STOP, PROC_RECORDER, STATE_READY};
 use crate::scenario::Scenario;
 use crate::timing::{monotonic_ns, LatencyHistogram};
 use iceoryx2::prelude::*;
@@ -45,6 +46,9 @@ pub struct StageArgs {
     /// Estimator: joint (default) or paper.
     #[arg(long, default_value = "joint")]
     pub method: String,
+    /// A recorder runs in the set: the commander also obeys its credit.
+    #[arg(long)]
+    pub record: bool,
 }
 
 impl StageArgs {
@@ -116,6 +120,8 @@ pub struct Link {
     control_sub: Sub<Control>,
     pub progress: Progress,
     pub downstream: Downstream,
+    /// The recorder's progress (the commander obeys its credit when recording).
+    pub recorder: Downstream,
     pub hop: LatencyHistogram,
     pub e2e: LatencyHistogram,
     last_beat_ns: u64,
@@ -174,6 +180,7 @@ impl Link {
             control_sub,
             progress,
             downstream: Downstream::default(),
+            recorder: Downstream::default(),
             hop: LatencyHistogram::default(),
             e2e: LatencyHistogram::default(),
             last_beat_ns: 0,
@@ -250,14 +257,17 @@ impl Link {
             }
         }
         while let Some(p) = bus::receive(&self.progress_sub)? {
+            let heard = Downstream {
+                heard: true,
+                incarnation: p.incarnation,
+                next_tick: p.next_tick,
+                resume_tick: p.resume_tick,
+                state: p.state,
+            };
             if Some(p.process) == self.downstream_id {
-                self.downstream = Downstream {
-                    heard: true,
-                    incarnation: p.incarnation,
-                    next_tick: p.next_tick,
-                    resume_tick: p.resume_tick,
-                    state: p.state,
-                };
+                self.downstream = heard;
+            } else if p.process == PROC_RECORDER {
+                self.recorder = heard;
             }
         }
         if self.stop {

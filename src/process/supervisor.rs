@@ -7,7 +7,7 @@ use crate::bus;
 use crate::launch::{LaunchDescription, ProcessSpec, Restart};
 use crate::msg::{
     Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_COMMANDER,
-    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, STATE_DONE,
+    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER, STATE_DONE,
 };
 use crate::process::estimator::CHECKPOINT_FILE;
 use crate::report::Report;
@@ -50,6 +50,9 @@ pub struct SupervisorArgs {
     /// Prefix of this run's iceoryx2 resources (runs in parallel need different ones).
     #[arg(long, default_value = bus::DEFAULT_PREFIX)]
     pub bus_prefix: String,
+    /// Start the recorder too: every stream to OUT/telemetry.h5.
+    #[arg(long)]
+    pub record: bool,
     /// Directory holding the process binaries (default: beside this executable).
     #[arg(long)]
     pub bin_dir: Option<PathBuf>,
@@ -85,6 +88,7 @@ fn proc_id(name: &str) -> u32 {
         "taiji-commander" => PROC_COMMANDER,
         "taiji-plant" => PROC_PLANT,
         "taiji-fee" => PROC_FEE,
+        "taiji-recorder" => PROC_RECORDER,
         _ => PROC_ESTIMATOR,
     }
 }
@@ -352,6 +356,9 @@ fn supervise(
     if let Some(seed) = args.seed {
         common.extend(["--seed".into(), seed.to_string()]);
     }
+    if args.record {
+        common.push("--record".into());
+    }
     if args.realtime {
         common.extend([
             "--realtime".into(),
@@ -365,7 +372,7 @@ fn supervise(
         common,
         bin_dir,
     };
-    for spec in &launch.process {
+    for spec in launch.processes(args.record) {
         match set.spawn(spec) {
             Ok(child) => set.members.push(Member {
                 spec: spec.clone(),
@@ -547,7 +554,13 @@ fn watch(
             .find(|m| m.id == PROC_ESTIMATOR)
             .and_then(|m| m.last)
             .is_some_and(|p| p.state == STATE_DONE && p.next_tick >= n);
-        if est_done {
+        // When recording, the run ends once telemetry.h5 is written too.
+        let recorded = set
+            .members
+            .iter()
+            .filter(|m| m.id == PROC_RECORDER)
+            .all(|m| m.last.is_some_and(|p| p.state == STATE_DONE));
+        if est_done && recorded {
             if let Some(e) = final_est {
                 return Ok(Some(e));
             }

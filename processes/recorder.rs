@@ -1,0 +1,20 @@
+//! `taiji-recorder`: wiring only — see `taiji::process::recorder`.
+use clap::Parser;
+
+#[derive(Parser)]
+#[command(
+    name = "taiji-recorder",
+    version,
+    about = "Calibration process set: records every stream to telemetry.h5"
+)]
+struct Args {
+    #[command(flatten)]
+    stage: taiji::process::StageArgs,
+}
+
+fn main() -> std::process::ExitCode {
+    let args = Args::parse();
+    taiji::process::main_of("taiji-recorder", || {
+        taiji::process::recorder::run(&args.stage)
+    })
+}

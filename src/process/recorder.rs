@@ -1,0 +1,135 @@
+//! `taiji-recorder`: subscribes to the truth, sensor and estimate streams and writes
+//! `telemetry.h5` at the end of the campaign. It only reads: the estimates are those of
+//! the set without it, bit for bit. Its credit paces the commander (never the
+//! estimator directly), so no sample is dropped however the OS schedules it.
+
+use super::{Exit, Link, StageArgs};
+use crate::bus;
+use crate::msg::{
+    EstimateMsg, SensorSample, TruthState, EST_FINAL, PROC_RECORDER, STATE_DONE, STATE_RUNNING,
+};
+use crate::telemetry::{Meta, Telemetry};
+use std::time::Duration;
+
+/// File name of the recording in the run directory.
+pub const TELEMETRY_FILE: &str = "telemetry.h5";
+
+/// Next expected tick of one stream; duplicates (resent after an estimator restart)
+/// are skipped, gaps counted.
+#[derive(Default)]
+struct Cursor {
+    next: u64,
+    lost: u64,
+}
+
+impl Cursor {
+    /// Should the sample of `tick` be recorded?
+    fn take(&mut self, tick: u64) -> bool {
+        if tick < self.next {
+            return false;
+        }
+        self.lost += tick - self.next;
+        self.next = tick + 1;
+        true
+    }
+}
+
+pub fn run(args: &StageArgs) -> Result<Exit, String> {
+    let s = args.scenario()?;
+    let seed = args.seed(&s);
+    let method = args.method()?;
+    std::fs::create_dir_all(&args.run_dir)
+        .map_err(|e| format!("cannot create {}: {e}", args.run_dir.display()))?;
+    let path = args.run_dir.join(TELEMETRY_FILE);
+    let mut link = Link::new(
+        "taiji-recorder",
+        PROC_RECORDER,
+        "recorder",
+        Some("commander"),
+        None,
+        args,
+    )?;
+    let q = bus::RECORDER_QUEUE;
+    let truth = bus::subscriber_with_queue::<TruthState>(&link.node, bus::SVC_TRUTH, q)?;
+    let sensor = bus::subscriber_with_queue::<SensorSample>(&link.node, bus::SVC_SENSOR, q)?;
+    let estimate = bus::subscriber_with_queue::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE, q)?;
+    let n = s.n_samples();
+    let mut tel = Some(Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n));
+    let (mut c_truth, mut c_sensor, mut c_est) =
+        (Cursor::default(), Cursor::default(), Cursor::default());
+    let mut final_seen = false;
+    let mut writer: Option<std::thread::JoinHandle<Result<(), String>>> = None;
+    link.beat()?;
+    loop {
+        if let Some(e) = link.poll()? {
+            if writer.is_some() || tel.is_some() {
+                log::warn!(
+                    "taiji-recorder: stopped before {} was written",
+                    path.display()
+                );
+            }
+            return Ok(e);
+        }
+        let mut got = 0u64;
+        if let Some(t) = tel.as_mut() {
+            while let Some(m) = bus::receive(&truth)? {
+                got += 1;
+                if c_truth.take(m.header.tick) {
+                    t.record_truth(&m);
+                }
+            }
+            while let Some(m) = bus::receive(&sensor)? {
+                got += 1;
+                if c_sensor.take(m.header.tick) {
+                    t.record_sensor(&m);
+                }
+            }
+            while let Some(m) = bus::receive(&estimate)? {
+                got += 1;
+                if m.flags & EST_FINAL != 0 {
+                    if !final_seen {
+                        t.record_estimate(&m);
+                        final_seen = true;
+                    }
+                } else if c_est.take(m.header.tick) {
+                    t.record_estimate(&m);
+                }
+            }
+        }
+        if got > 0 {
+            link.progress.state = STATE_RUNNING;
+            link.progress.next_tick = c_truth.next.min(c_sensor.next).min(c_est.next);
+            link.progress.resume_tick = link.progress.next_tick;
+            link.progress.samples_lost = c_truth.lost + c_sensor.lost + c_est.lost;
+            link.beat()?;
+        }
+        let complete = c_truth.next >= n && c_sensor.next >= n && final_seen;
+        if complete {
+            if let Some(t) = tel.take() {
+                if link.progress.samples_lost > 0 {
+                    return Err(format!(
+                        "{} samples never reached the recorder; {} not written",
+                        link.progress.samples_lost,
+                        path.display()
+                    ));
+                }
+                // Write on a thread: the heartbeat goes on while tens of MB are encoded.
+                let meta = Meta::of(&s, seed, method.name(), "multi-process");
+                let p = path.clone();
+                writer = Some(std::thread::spawn(move || t.write(&p, &meta)));
+            }
+            if writer.as_ref().is_some_and(|w| w.is_finished()) {
+                let w = writer.take().expect("checked above");
+                w.join()
+                    .map_err(|_| "the telemetry writer panicked".to_string())??;
+                log::info!("taiji-recorder: wrote {}", path.display());
+                return link.linger(STATE_DONE);
+            }
+        }
+        if got == 0 {
+            if let Some(e) = link.idle(Duration::from_millis(1)) {
+                return Ok(e);
+            }
+        }
+    }
+}
