@@ -4,11 +4,12 @@ use taiji::process::supervisor::{run, Outcome, SupervisorArgs};
 
 fn main() -> std::process::ExitCode {
     taiji::process::init_logging();
-    let args = SupervisorArgs::parse();
+    let mut args = SupervisorArgs::parse();
+    args.record |= args.plots;
     let outcome = run(&args);
     match &outcome {
         Outcome::Completed { report, .. } => {
-            if let Err(e) = taiji::report::write(&args.out, report) {
+            if let Err(e) = write_reports(&args, report) {
                 eprintln!("taiji-supervisor: error: {e}");
                 return std::process::ExitCode::from(2);
             }
@@ -28,4 +29,15 @@ fn main() -> std::process::ExitCode {
         Outcome::Interrupted => eprintln!("taiji-supervisor: interrupted; every process stopped"),
     }
     std::process::ExitCode::from(outcome.exit_code())
+}
+
+/// report.json, report.md, report.html, and the figures from the recording.
+fn write_reports(args: &SupervisorArgs, report: &taiji::report::Report) -> Result<(), String> {
+    taiji::report::write(&args.out, report)?;
+    if args.plots {
+        let path = args.out.join(taiji::process::recorder::TELEMETRY_FILE);
+        let (tel, s) = taiji::telemetry::read::full(&path)?;
+        taiji::plots::write_all(&tel, &s, &args.out)?;
+    }
+    taiji::report_doc::write(report, &args.out, args.plots)
 }

@@ -116,31 +116,20 @@ impl Report {
         }
     }
 
-    /// The result table: truth, estimate ± 1σ, error, requirement, pass/fail, CRLB.
-    pub fn table(&self) -> String {
-        use std::fmt::Write;
-        let mut o = String::new();
-        let _ = writeln!(
-            o,
-            "Scenario {:?}, seed {}, {} s, {} ({} estimator)",
-            self.scenario, self.seed, self.duration_s, self.mode, self.method
-        );
-        let _ = writeln!(
-            o,
-            "{:<10} {:>14} {:>14} {:>11} {:>11} {:>11} {:>9} {:>5} {:>11}",
-            "parameter", "truth", "estimate", "1σ", "error", "CRLB", "req", "pass", "err/σ"
-        );
+    /// One row per parameter and axis, formatted as the tables print it.
+    pub fn rows(&self) -> Vec<Row> {
         let axes = ["x", "y", "z"];
+        let mut out = Vec::new();
         for is in &self.inertial_sensors {
-            let rows: [(&str, &Quantity, bool); 3] = [
+            let groups: [(&str, &Quantity, bool); 3] = [
                 ("β", &is.beta, true),
                 ("k", &is.k, true),
                 ("r", &is.com_offset, false),
             ];
-            for (name, q, rel) in rows {
+            for (name, q, rel) in groups {
                 for a in 0..3 {
                     let err = q.estimate[a] - q.truth[a];
-                    let (err_s, sig_s, crlb_s, req_s, pass) = if rel {
+                    let (error, sigma, crlb, requirement, pass) = if rel {
                         let e = err / q.truth[a];
                         (
                             format!("{:+.2e}", e),
@@ -158,26 +147,55 @@ impl Report {
                             err.abs() < REQ_COM_M,
                         )
                     };
-                    let z = if q.sigma[a] > 0.0 {
-                        err / q.sigma[a]
-                    } else {
-                        f64::NAN
-                    };
-                    let _ = writeln!(
-                        o,
-                        "{:<10} {:>14.6e} {:>14.6e} {:>11} {:>11} {:>11} {:>9} {:>5} {:>+11.2}",
-                        format!("IS{} {}{}", is.id, name, axes[a]),
-                        q.truth[a],
-                        q.estimate[a],
-                        sig_s,
-                        err_s,
-                        crlb_s,
-                        req_s,
-                        if pass { "ok" } else { "FAIL" },
-                        z
-                    );
+                    out.push(Row {
+                        name: format!("IS{} {}{}", is.id, name, axes[a]),
+                        truth: q.truth[a],
+                        estimate: q.estimate[a],
+                        sigma,
+                        error,
+                        crlb,
+                        requirement,
+                        pass,
+                        z: if q.sigma[a] > 0.0 {
+                            err / q.sigma[a]
+                        } else {
+                            f64::NAN
+                        },
+                    });
                 }
             }
+        }
+        out
+    }
+
+    /// The result table: truth, estimate ± 1σ, error, requirement, pass/fail, CRLB.
+    pub fn table(&self) -> String {
+        use std::fmt::Write;
+        let mut o = String::new();
+        let _ = writeln!(
+            o,
+            "Scenario {:?}, seed {}, {} s, {} ({} estimator)",
+            self.scenario, self.seed, self.duration_s, self.mode, self.method
+        );
+        let _ = writeln!(
+            o,
+            "{:<10} {:>14} {:>14} {:>11} {:>11} {:>11} {:>9} {:>5} {:>11}",
+            "parameter", "truth", "estimate", "1σ", "error", "CRLB", "req", "pass", "err/σ"
+        );
+        for r in self.rows() {
+            let _ = writeln!(
+                o,
+                "{:<10} {:>14.6e} {:>14.6e} {:>11} {:>11} {:>11} {:>9} {:>5} {:>+11.2}",
+                r.name,
+                r.truth,
+                r.estimate,
+                r.sigma,
+                r.error,
+                r.crlb,
+                r.requirement,
+                if r.pass { "ok" } else { "FAIL" },
+                r.z
+            );
         }
         let _ = writeln!(o, "(β, k: 1σ, error and CRLB relative; r: absolute)");
         let _ = writeln!(
@@ -228,6 +246,21 @@ impl Report {
         }
         o
     }
+}
+
+/// One parameter on one axis, formatted for the tables (β, k relative; r in µm).
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub name: String,
+    pub truth: f64,
+    pub estimate: f64,
+    pub sigma: String,
+    pub error: String,
+    pub crlb: String,
+    pub requirement: String,
+    pub pass: bool,
+    /// error / σ.
+    pub z: f64,
 }
 
 /// Write `DIR/report.json` (creating DIR).

@@ -53,6 +53,9 @@ enum Cmd {
         /// Record every stream to DIR/telemetry.h5.
         #[arg(long)]
         record: bool,
+        /// Draw the figures to DIR/plots/ (PNG and SVG) and write DIR/report.md, .html.
+        #[arg(long)]
+        plots: bool,
     },
     /// Run the estimator on a recording's star-tracker and IS channels (never truth)
     /// and write DIR/report.json.
@@ -105,9 +108,11 @@ fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, String> {
     })
 }
 
-/// Write the report, print the table; exit 0 when the requirements are met, else 1.
-fn finish(out: &std::path::Path, report: &Report) -> Result<ExitCode, String> {
+/// Write report.json, .md and .html, print the table; exit 0 when the requirements
+/// are met, else 1.
+fn finish(out: &std::path::Path, report: &Report, figures: bool) -> Result<ExitCode, String> {
     taiji::report::write(out, report)?;
+    taiji::report_doc::write(report, out, figures)?;
     print!("{}", report.table());
     println!("Report: {}", out.join("report.json").display());
     Ok(if report.requirements.met {
@@ -125,25 +130,34 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             out,
             method,
             record,
+            plots,
         } => {
             let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
             let seed = seed.unwrap_or(s.seed);
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
             let crlb = crlb_of(&s)?;
-            let estimate = if record {
+            let (estimate, tel) = if record || plots {
                 let (res, tel) = taiji::campaign::run_recorded(&s, seed, method, |_| {});
                 std::fs::create_dir_all(&out)
                     .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
-                let meta = Meta::of(&s, seed, method.name(), "in-process");
-                tel.write(&out.join("telemetry.h5"), &meta)?;
-                res.estimate
+                if record {
+                    let meta = Meta::of(&s, seed, method.name(), "in-process");
+                    tel.write(&out.join("telemetry.h5"), &meta)?;
+                }
+                (res.estimate, Some(tel))
             } else {
-                taiji::campaign::run(&s, seed, method, |_| {}).estimate
+                (
+                    taiji::campaign::run(&s, seed, method, |_| {}).estimate,
+                    None,
+                )
             };
             let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
-            finish(&out, &report)
+            if let (true, Some(tel)) = (plots, &tel) {
+                taiji::plots::write_all(tel, &s, &out)?;
+            }
+            finish(&out, &report, plots)
         }
         Cmd::Replay {
             telemetry,
@@ -169,7 +183,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 &crlb,
             );
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
-            finish(&out, &report)
+            finish(&out, &report, false)
         }
         Cmd::Montecarlo {
             runs,

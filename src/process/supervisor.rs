@@ -53,6 +53,9 @@ pub struct SupervisorArgs {
     /// Start the recorder too: every stream to OUT/telemetry.h5.
     #[arg(long)]
     pub record: bool,
+    /// Draw the figures from the recording to OUT/plots/ (implies --record).
+    #[arg(long)]
+    pub plots: bool,
     /// Directory holding the process binaries (default: beside this executable).
     #[arg(long)]
     pub bin_dir: Option<PathBuf>,

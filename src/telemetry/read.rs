@@ -3,6 +3,7 @@
 //! problem is an error naming the file, the dataset and what is wrong.
 
 use super::layout as l;
+use super::Telemetry;
 use crate::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
 use crate::scenario::Scenario;
 use hdf5_pure::{AttrValue, File};
@@ -250,4 +251,88 @@ fn read(r: &Reader) -> Result<Recording, String> {
         method,
         samples,
     })
+}
+
+/// Every stream of a complete recording (truth included): for figures, not replay.
+pub fn full(path: &Path) -> Result<(Telemetry, Scenario), String> {
+    let rec = open(path)?;
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let file = File::from_bytes(bytes)
+        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
+    let r = Reader { file, origin: path };
+    let s = rec.scenario;
+    let n = s.n_samples();
+    let ni = s.inertial_sensor.len() as u64;
+    let m = r
+        .file
+        .dataset(l::EST_TIME)
+        .and_then(|d| d.shape())
+        .map_err(|_| r.err(format!("missing dataset /{}", l::EST_TIME)))?
+        .first()
+        .copied()
+        .unwrap_or(0);
+    let mut t = Telemetry::new(ni as usize, s.sample_rate_hz, 0);
+    t.truth_tick = rec.samples.iter().map(|x| x.header.tick).collect();
+    t.sensor_tick = t.truth_tick.clone();
+    t.torque_cmd = r.f64s(l::TORQUE_CMD, &[n, 3])?;
+    t.torque = r.f64s(l::TORQUE, &[n, 3])?;
+    t.attitude = r.f64s(l::ATTITUDE, &[n, 4])?;
+    t.omega = r.f64s(l::OMEGA, &[n, 3])?;
+    t.omega_dot = r.f64s(l::OMEGA_DOT, &[n, 3])?;
+    t.tm_acc = r.f64s(l::TM_ACC, &[n, ni, 3])?;
+    t.srp_acc = r.f64s(l::SRP_ACC, &[n, 3])?;
+    for x in &rec.samples {
+        t.star_q.extend_from_slice(&x.star.q_bn);
+        t.star_valid.push(x.star.valid);
+        for i in 0..ni as usize {
+            t.is_volts[i].extend(x.is[i].volts.iter().flatten());
+            t.is_flags[i].push(x.is[i].flags);
+        }
+    }
+    let e_tick = r.ints(l::EST_TICK, m)?;
+    let e_time = r.f64s(l::EST_TIME, &[m])?;
+    let used = r.ints(l::EST_N_USED, m)?;
+    let rejected = r.ints(l::EST_N_REJECTED, m)?;
+    let fin = r.ints(l::EST_FINAL, m)?;
+    let block = |p: &str| r.f64s(p, &[m, ni, 3]);
+    let (beta, beta_s, k, k_s, rr, rr_s) = (
+        block(l::EST_BETA)?,
+        block(l::EST_BETA_SIGMA)?,
+        block(l::EST_K)?,
+        block(l::EST_K_SIGMA)?,
+        block(l::EST_R)?,
+        block(l::EST_R_SIGMA)?,
+    );
+    let fs = s.sample_rate_hz;
+    for row in 0..m as usize {
+        let mut e = crate::msg::EstimateMsg {
+            header: Header::at(
+                row as u64,
+                ((e_time[row] * fs).round() as u64).saturating_sub(1),
+                fs,
+            ),
+            solved_tick: e_tick[row],
+            n_used: used[row],
+            n_rejected: rejected[row],
+            flags: if fin[row] != 0 {
+                crate::msg::EST_FINAL
+            } else {
+                0
+            },
+            ..Default::default()
+        };
+        for i in 0..ni as usize {
+            let at = |v: &[f64], a: usize| v[(row * ni as usize + i) * 3 + a];
+            for a in 0..3 {
+                e.beta[i][a] = at(&beta, a);
+                e.beta_sigma[i][a] = at(&beta_s, a);
+                e.k[i][a] = at(&k, a);
+                e.k_sigma[i][a] = at(&k_s, a);
+                e.r_b[i][a] = at(&rr, a);
+                e.r_sigma[i][a] = at(&rr_s, a);
+            }
+        }
+        t.estimates.push(e);
+    }
+    Ok((t, s))
 }
