@@ -16,6 +16,7 @@ pub mod montecarlo;
 pub mod msg;
 pub mod plots;
 pub mod process;
+pub mod progress;
 pub mod replay;
 pub mod report;
 pub mod report_doc;

@@ -43,12 +43,14 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
         .unwrap_or(1)
         .min(seeds.len().max(1));
     let mut reports: Vec<Option<Report>> = vec![None; seeds.len()];
+    let bar = crate::progress::Bar::new(seeds.len() as u64, "montecarlo");
     std::thread::scope(|sc| {
         let chunks: Vec<_> = reports
             .chunks_mut(seeds.len().div_ceil(workers))
             .zip(seeds.chunks(seeds.len().div_ceil(workers)))
             .collect();
         for (out, seeds) in chunks {
+            let bar = bar.clone();
             sc.spawn(move || {
                 for (o, &seed) in out.iter_mut().zip(seeds) {
                     let mut sc = s.clone();
@@ -62,10 +64,12 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
                         &r.estimate,
                         &bound,
                     ));
+                    bar.inc(1);
                 }
             });
         }
     });
+    bar.finish();
     let reports: Vec<Report> = reports.into_iter().flatten().collect();
     let mut params = Vec::new();
     let mut group = [(0.0, 0usize); 3];

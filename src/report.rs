@@ -198,6 +198,17 @@ impl Report {
             );
         }
         let _ = writeln!(o, "(β, k: 1σ, error and CRLB relative; r: absolute)");
+        if let [a, b] = &self.inertial_sensors[..] {
+            // Common-mode errors (e.g. thruster force noise) cancel in the difference.
+            let d: Vec<String> = (0..3)
+                .map(|j| {
+                    let e = (a.com_offset.estimate[j] - b.com_offset.estimate[j])
+                        - (a.com_offset.truth[j] - b.com_offset.truth[j]);
+                    format!("{:+.2}", e * 1e6)
+                })
+                .collect();
+            let _ = writeln!(o, "r1 − r2 error (x, y, z): [{}] µm", d.join(", "));
+        }
         let _ = writeln!(
             o,
             "Requirements met: {}",

@@ -88,3 +88,36 @@ fn implausible_priors_are_rejected() {
 fn a_frequency_too_low_for_the_duration_is_rejected() {
     assert!(err("[maneuver]\nfrequency_hz = 1e-5").contains("maneuver.frequency_hz"));
 }
+
+#[test]
+fn every_shipped_scenario_loads_and_says_what_it_shows() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let p = entry.unwrap().path();
+        if p.extension().is_some_and(|e| e == "toml") {
+            let text = std::fs::read_to_string(&p).unwrap();
+            assert!(
+                text.starts_with("# "),
+                "{} has no leading comment",
+                p.display()
+            );
+            let s = taiji::scenario::Scenario::load(&p)
+                .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            assert!(taiji::crlb::crlb(&s).is_some(), "{}", p.display());
+            names.push(s.name);
+        }
+    }
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "com-shifted",
+            "one-is",
+            "paper",
+            "srp-doubled",
+            "star-tracker-4hz",
+            "thruster-force-noise"
+        ]
+    );
+}

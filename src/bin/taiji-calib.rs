@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use taiji::estimate::Method;
 use taiji::montecarlo;
+use taiji::progress::Bar;
 use taiji::report::Report;
 use taiji::scenario::Scenario;
 use taiji::telemetry::Meta;
@@ -137,8 +138,10 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
             let crlb = crlb_of(&s)?;
+            let bar = Bar::new(1000, "campaign");
+            let tick = |f: f64| bar.set((f * 1000.0) as u64);
             let (estimate, tel) = if record || plots {
-                let (res, tel) = taiji::campaign::run_recorded(&s, seed, method, |_| {});
+                let (res, tel) = taiji::campaign::run_recorded(&s, seed, method, tick);
                 std::fs::create_dir_all(&out)
                     .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
                 if record {
@@ -147,11 +150,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 }
                 (res.estimate, Some(tel))
             } else {
-                (
-                    taiji::campaign::run(&s, seed, method, |_| {}).estimate,
-                    None,
-                )
+                (taiji::campaign::run(&s, seed, method, tick).estimate, None)
             };
+            bar.finish();
             let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
             if let (true, Some(tel)) = (plots, &tel) {
@@ -173,7 +174,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 (None, None) => Method::Joint,
             };
             let crlb = crlb_of(&rec.scenario)?;
-            let res = taiji::replay::run(&rec, method, |_| {});
+            let bar = Bar::new(1000, "replay");
+            let res = taiji::replay::run(&rec, method, |f| bar.set((f * 1000.0) as u64));
+            bar.finish();
             let mut report = Report::new(
                 &rec.scenario,
                 rec.seed,

@@ -112,6 +112,8 @@ struct Set {
     prefix: String,
     common: Vec<String>,
     bin_dir: PathBuf,
+    /// Progress of the campaign (the estimator's tick), on a terminal only.
+    bar: crate::progress::Bar,
 }
 
 impl Set {
@@ -374,6 +376,7 @@ fn supervise(
         prefix: args.bus_prefix.clone(),
         common,
         bin_dir,
+        bar: crate::progress::Bar::new(s.n_samples(), "process set"),
     };
     for spec in launch.processes(args.record) {
         match set.spawn(spec) {
@@ -393,6 +396,7 @@ fn supervise(
     }
 
     let result = watch(&node, &progress, &estimates, &send, &mut set, launch, s);
+    set.bar.finish();
     // Whatever happened: stop everyone, then clear what killed processes left behind.
     let _ = send(CMD_STOP, 1);
     set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
@@ -441,6 +445,9 @@ fn watch(
             return Ok(None);
         }
         while let Some(p) = bus::receive(progress).map_err(set_err)? {
+            if p.process == PROC_ESTIMATOR {
+                set.bar.set(p.next_tick);
+            }
             if let Some(m) = set.members.iter_mut().find(|m| m.id == p.process) {
                 m.last = Some(p);
                 m.last_seen = Instant::now();
