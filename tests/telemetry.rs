@@ -262,3 +262,10 @@ fn bad_telemetry_files_get_a_clear_error() {
     assert!(replay_error(&f).contains("not a readable HDF5 file"));
     assert!(replay_error(&dir.join("absent.h5")).contains("cannot read"));
 }
+
+#[test]
+fn the_readme_documents_the_layout_the_code_writes() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    assert!(readme.contains(&taiji::telemetry::layout::markdown_table()));
+}
