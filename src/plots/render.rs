@@ -122,11 +122,12 @@ fn finite_range(vals: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-/// Axis tick text: plain for ordinary magnitudes, scientific otherwise.
-fn tick_label(v: f64) -> String {
+/// Axis tick text: plain for ordinary magnitudes, scientific otherwise. `span` is the
+/// axis range (on a log axis, its upper end).
+fn tick_label(v: f64, span: f64) -> String {
     let a = v.abs();
-    // Below any plotted quantity: a rounding artefact of the tick position.
-    if a < 1e-20 {
+    // Far below the axis range: a rounding artefact of the zero tick's position.
+    if a < 1e-9 * span.abs() {
         "0".into()
     } else if (1e-2..1e4).contains(&a) {
         let s = format!("{v:.3}");
@@ -164,7 +165,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
                 .y_desc(&p.y_label)
                 .axis_desc_style(label_style)
                 .label_style(("sans-serif", 12))
-                .y_label_formatter(&|v| tick_label(*v))
+                .y_label_formatter(&|v| tick_label(*v, y1 - y0))
                 .x_label_formatter(&|v| {
                     if p.log_log {
                         format!("{v:.0e}")
