@@ -460,50 +460,40 @@ fn fig_asd(d: &Data) -> Figure {
     let is = &s.inertial_sensor[0];
     let fe = &s.front_end;
     let wd_true = d.col(&d.tel.omega_dot, 3, 0);
-    let ang_err: Vec<f64> = d
-        .dv(0, 0)
-        .iter()
-        .zip(&wd_true)
-        .map(|(v, w)| is.beta[0] * v - w)
-        .collect();
-    let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
-    let mut p_ang = Panel::new(
-        "IS1 angular readout noise (x)",
-        "frequency [Hz]",
-        "ASD [rad s⁻² /√Hz]",
-    );
-    p_ang.log_log = true;
-    p_ang
-        .series
-        .push(asd_series("β·ΔV − dω/dt (truth)", &ang_err, 0));
-    p_ang.series.push(flat(
-        "model: readout ⊕ ripple",
-        (fe.angular_noise_rthz.powi(2) + (fe.ripple_rthz * rms(&wd_true)).powi(2)).sqrt(),
-        5,
-    ));
-
-    let k = is.k();
+    let wd_meas: Vec<f64> = d.dv(0, 0).iter().map(|v| is.beta[0] * v).collect();
     let a_true: Vec<f64> = d.tel.tm_acc.chunks(3 * d.tel.n_is).map(|c| c[0]).collect();
-    let lin_err: Vec<f64> = d
-        .sv(0, 0)
-        .iter()
-        .zip(&a_true)
-        .map(|(v, a)| k[0] * v - a)
-        .collect();
-    let mut p_lin = Panel::new(
-        "IS1 linear readout noise (x)",
-        "frequency [Hz]",
-        "ASD [m s⁻² /√Hz]",
+    let a_meas: Vec<f64> = d.sv(0, 0).iter().map(|v| is.k()[0] * v).collect();
+    // IS readout noise (x): measurement with the true scale factor minus truth, against
+    // the additive readout noise ⊕ the ripple on the signal's RMS.
+    let readout = |title: &str, units: &str, label: &str, meas: &[f64], truth: &[f64], asd: f64| {
+        let err: Vec<f64> = meas.iter().zip(truth).map(|(m, t)| m - t).collect();
+        let rms = (truth.iter().map(|v| v * v).sum::<f64>() / truth.len() as f64).sqrt();
+        let mut p = Panel::new(title, "frequency [Hz]", units);
+        p.log_log = true;
+        p.series.push(asd_series(label, &err, 0));
+        p.series.push(flat(
+            "model: readout ⊕ ripple",
+            (asd.powi(2) + (fe.ripple_rthz * rms).powi(2)).sqrt(),
+            5,
+        ));
+        p
+    };
+    let p_ang = readout(
+        "IS1 angular readout noise (x)",
+        "ASD [rad s⁻² /√Hz]",
+        "β·ΔV − dω/dt (truth)",
+        &wd_meas,
+        &wd_true,
+        fe.angular_noise_rthz,
     );
-    p_lin.log_log = true;
-    p_lin
-        .series
-        .push(asd_series("k·ΣV − a (truth)", &lin_err, 0));
-    p_lin.series.push(flat(
-        "model: readout ⊕ ripple",
-        (fe.linear_noise_rthz.powi(2) + (fe.ripple_rthz * rms(&a_true)).powi(2)).sqrt(),
-        5,
-    ));
+    let p_lin = readout(
+        "IS1 linear readout noise (x)",
+        "ASD [m s⁻² /√Hz]",
+        "k·ΣV − a (truth)",
+        &a_meas,
+        &a_true,
+        fe.linear_noise_rthz,
+    );
 
     // SRP fluctuation along the sun: |a_srp| minus its mean.
     let srp: Vec<f64> = d

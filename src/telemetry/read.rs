@@ -60,8 +60,8 @@ impl Reader<'_> {
         self.file.dataset(path).is_ok()
     }
 
-    /// Dataset `path` as f64 with exactly `shape`.
-    fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, String> {
+    /// Dataset `path`, which must exist with exactly `shape`.
+    fn shaped(&self, path: &str, shape: &[u64]) -> Result<hdf5_pure::Dataset, String> {
         let d = self
             .file
             .dataset(path)
@@ -75,28 +75,36 @@ impl Reader<'_> {
                 l::channel(path).shape
             )));
         }
-        d.read_f64()
+        Ok(d)
+    }
+
+    fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, String> {
+        self.shaped(path, shape)?
+            .read_f64()
             .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
     }
 
     fn ints(&self, path: &str, n: u64) -> Result<Vec<u64>, String> {
-        let d = self
-            .file
-            .dataset(path)
-            .map_err(|_| self.err(format!("missing dataset /{path}")))?;
-        let got = d
-            .shape()
-            .map_err(|e| self.err(format!("/{path}: unreadable shape ({e})")))?;
-        if got != [n] {
-            return Err(self.err(format!("/{path} has shape {got:?}, the layout needs [{n}]")));
-        }
-        d.read_u64()
+        self.shaped(path, &[n])?
+            .read_u64()
             .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
     }
 }
 
 /// Open `path` and read what a replay needs.
 pub fn open(path: &Path) -> Result<Recording, String> {
+    let r = load(path)?;
+    guarded(&r, read)
+}
+
+/// Run `f` on the file; a panic inside the HDF5 reader is reported as corruption.
+fn guarded<T>(r: &Reader, f: impl FnOnce(&Reader) -> Result<T, String>) -> Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(r)))
+        .map_err(|_| r.err("corrupt HDF5 file (its structure could not be decoded)"))?
+}
+
+/// Read and check the file as a whole (signature, superblock, length).
+fn load(path: &Path) -> Result<Reader<'_>, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     // The HDF5 reader is defensive, but a malformed file must never take the process
     // down with a panic trace: treat a panic as "corrupt".
@@ -113,9 +121,7 @@ pub fn open(path: &Path) -> Result<Recording, String> {
             file.file_size()
         ));
     }
-    let r = Reader { file, origin: path };
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read(&r)))
-        .map_err(|_| r.err("corrupt HDF5 file (its structure could not be decoded)"))?
+    Ok(Reader { file, origin: path })
 }
 
 fn read(r: &Reader) -> Result<Recording, String> {
@@ -255,11 +261,14 @@ fn read(r: &Reader) -> Result<Recording, String> {
 
 /// Every stream of a complete recording (truth included): for figures, not replay.
 pub fn full(path: &Path) -> Result<(Telemetry, Scenario), String> {
-    let rec = open(path)?;
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let file = File::from_bytes(bytes)
-        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
-    let r = Reader { file, origin: path };
+    let r = load(path)?;
+    guarded(&r, |r| {
+        let rec = read(r)?;
+        with_truth(r, rec)
+    })
+}
+
+fn with_truth(r: &Reader, rec: Recording) -> Result<(Telemetry, Scenario), String> {
     let s = rec.scenario;
     let n = s.n_samples();
     let ni = s.inertial_sensor.len() as u64;

@@ -4,6 +4,7 @@
 use super::layout::{self as l, Channel};
 use super::{Meta, Telemetry};
 use hdf5_pure::{AttrValue, DatasetBuilder, FileBuilder, GroupBuilder};
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 fn text(s: &str) -> AttrValue {
@@ -17,25 +18,26 @@ fn annotate(d: &mut DatasetBuilder, c: &Channel) {
 
 /// Datasets grouped by their parent group ("" for the root).
 #[derive(Default)]
-struct Tree {
-    groups: BTreeMap<&'static str, Vec<Item>>,
+struct Tree<'a> {
+    groups: BTreeMap<&'static str, Vec<Item<'a>>>,
 }
 
-enum Data {
-    F64(Vec<f64>),
-    U64(Vec<u64>),
-    U8(Vec<u8>),
+/// A channel's values: borrowed from the recording, or derived for the file.
+enum Data<'a> {
+    F64(Cow<'a, [f64]>),
+    U64(Cow<'a, [u64]>),
+    U8(Cow<'a, [u8]>),
 }
 
-struct Item {
+struct Item<'a> {
     name: &'static str,
     channel: &'static Channel,
     shape: Vec<u64>,
-    data: Data,
+    data: Data<'a>,
 }
 
-impl Tree {
-    fn add(&mut self, path: &'static str, shape: &[usize], data: Data) {
+impl<'a> Tree<'a> {
+    fn add(&mut self, path: &'static str, shape: &[usize], data: Data<'a>) {
         let channel = l::channel(path);
         let (group, name) = path.rsplit_once('/').unwrap_or(("", path));
         self.groups.entry(group).or_default().push(Item {
@@ -70,24 +72,36 @@ pub(super) fn write(t: &Telemetry, path: &std::path::Path, meta: &Meta) -> Resul
     let fs = t.fs;
     let mut tree = Tree::default();
     let time: Vec<f64> = t.truth_tick.iter().map(|&k| (k + 1) as f64 / fs).collect();
-    tree.add(l::TIME, &[n], Data::F64(time));
-    tree.add(l::TICK, &[n], Data::U64(t.truth_tick.clone()));
-    tree.add(l::TORQUE_CMD, &[n, 3], Data::F64(t.torque_cmd.clone()));
-    tree.add(l::TORQUE, &[n, 3], Data::F64(t.torque.clone()));
-    tree.add(l::ATTITUDE, &[n, 4], Data::F64(t.attitude.clone()));
-    tree.add(l::OMEGA, &[n, 3], Data::F64(t.omega.clone()));
-    tree.add(l::OMEGA_DOT, &[n, 3], Data::F64(t.omega_dot.clone()));
-    tree.add(l::TM_ACC, &[n, ni, 3], Data::F64(t.tm_acc.clone()));
-    tree.add(l::SRP_ACC, &[n, 3], Data::F64(t.srp_acc.clone()));
-    tree.add(l::STAR_Q, &[n, 4], Data::F64(t.star_q.clone()));
-    tree.add(l::STAR_VALID, &[n], Data::U8(t.star_valid.clone()));
+    tree.add(l::TIME, &[n], Data::F64(Cow::Owned(time)));
+    tree.add(l::TICK, &[n], Data::U64(Cow::Borrowed(&t.truth_tick)));
+    tree.add(
+        l::TORQUE_CMD,
+        &[n, 3],
+        Data::F64(Cow::Borrowed(&t.torque_cmd)),
+    );
+    tree.add(l::TORQUE, &[n, 3], Data::F64(Cow::Borrowed(&t.torque)));
+    tree.add(l::ATTITUDE, &[n, 4], Data::F64(Cow::Borrowed(&t.attitude)));
+    tree.add(l::OMEGA, &[n, 3], Data::F64(Cow::Borrowed(&t.omega)));
+    tree.add(
+        l::OMEGA_DOT,
+        &[n, 3],
+        Data::F64(Cow::Borrowed(&t.omega_dot)),
+    );
+    tree.add(l::TM_ACC, &[n, ni, 3], Data::F64(Cow::Borrowed(&t.tm_acc)));
+    tree.add(l::SRP_ACC, &[n, 3], Data::F64(Cow::Borrowed(&t.srp_acc)));
+    tree.add(l::STAR_Q, &[n, 4], Data::F64(Cow::Borrowed(&t.star_q)));
+    tree.add(l::STAR_VALID, &[n], Data::U8(Cow::Borrowed(&t.star_valid)));
     for i in 0..ni {
         tree.add(
             l::IS_VOLTAGE[i],
             &[n, 3, 2],
-            Data::F64(t.is_volts[i].clone()),
+            Data::F64(Cow::Borrowed(&t.is_volts[i])),
         );
-        tree.add(l::IS_FLAGS[i], &[n], Data::U8(t.is_flags[i].clone()));
+        tree.add(
+            l::IS_FLAGS[i],
+            &[n],
+            Data::U8(Cow::Borrowed(&t.is_flags[i])),
+        );
     }
     let e = &t.estimates;
     let m = e.len();
