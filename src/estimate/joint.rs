@@ -86,6 +86,11 @@ pub struct JointEstimator {
     dv_last: [[f64; 3]; 2],
     q_model: UnitQuaternion<f64>,
     m_star: [SMatrix<f64, 5, 5>; 3],
+    /// Innovations filter of the star-tracker residual, per axis: the IS angular noise
+    /// double-integrated into Φ is an integrated random walk (angle, rate) [rad, rad/s];
+    /// `st_x` is each signal's filter state, `st_p` the shared state covariance.
+    st_x: [[[f64; 2]; 5]; 3],
+    st_p: [[[f64; 2]; 2]; 3],
     m_ang: [SMatrix<f64, 2, 2>; 3],
     m_raw: [Gram; N_REG],
     m_filt: Gram,
@@ -179,6 +184,8 @@ impl JointEstimator {
             dv_last: [[0.0; 3]; 2],
             q_model: UnitQuaternion::identity(),
             m_star: [SMatrix::zeros(); 3],
+            st_x: [[[0.0; 2]; 5]; 3],
+            st_p: [[[0.0; 2]; 2]; 3],
             m_ang: [SMatrix::zeros(); 3],
             m_raw: [Gram::zeros(); N_REG],
             m_filt: Gram::zeros(),
@@ -380,6 +387,7 @@ impl JointEstimator {
             self.n_rejected += 1;
             self.whitening_time_update();
         }
+        self.star_time_update(&data, &dv);
         self.update_star(s, t);
 
         if (tick + 1 - self.tick_start) % self.cfg.solve_every == 0 {
@@ -471,6 +479,34 @@ impl JointEstimator {
         }
     }
 
+    /// Advance the star-tracker whitening filter by one sample: the angle error of the
+    /// IS-propagated attitude ½(β1 Φ1 + β2 Φ2) grows as the double integral of the IS
+    /// angular readout noise and drive ripple (per-sample variance from this sample's
+    /// voltages, integrated exactly as `step` integrates Φ).
+    fn star_time_update(&mut self, data: &[IsData; 2], dv: &[[f64; 3]; 2]) {
+        let c = &self.cfg;
+        let dt = 1.0 / c.fs;
+        let n_valid = (0..self.n_is()).filter(|&i| data[i].valid).count().max(1);
+        let (g0, g1) = (0.5 * dt * dt, dt);
+        for a in 0..3 {
+            let mut q = 0.0;
+            for (l, dvl) in dv.iter().enumerate().take(self.n_is()) {
+                let wd = c.beta_prior[l][a] * dvl[a];
+                q += self.w(l).powi(2) * (c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2));
+            }
+            // Borrowed voltages carry the other IS's noise in full.
+            q *= (self.n_is() / n_valid) as f64;
+            for x in self.st_x[a].iter_mut() {
+                x[0] += dt * x[1];
+            }
+            let p = &mut self.st_p[a];
+            let p00 = p[0][0] + 2.0 * dt * p[0][1] + dt * dt * p[1][1] + q * g0 * g0;
+            let p01 = p[0][1] + dt * p[1][1] + q * g0 * g1;
+            let p11 = p[1][1] + q * g1 * g1;
+            *p = [[p00, p01], [p01, p11]];
+        }
+    }
+
     fn update_star(&mut self, s: &SensorSample, t: f64) {
         if !s.star.usable() {
             return;
@@ -491,24 +527,60 @@ impl JointEstimator {
         let bp = self.cfg.beta_prior[0];
         let lin = Vector3::from_fn(|a, _| bp[a] * self.phi[0][a]);
         let kappa = crate::model::attitude::rotation_vector(&self.q_model) - lin;
-        let wgt = 1.0 / self.cfg.sigma_star_rad.powi(2);
+        let r = self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v =
                 SVector::<f64, 5>::new(theta[a] - kappa[a], 1.0, t, self.phi[0][a], self.phi[1][a]);
-            rank1_upper(&mut self.m_star[a], &v, wgt);
+            // Innovations of every signal through the same filter (measurement and
+            // regressors alike), normalised to unit variance.
+            let p = self.st_p[a];
+            let sv = p[0][0] + r;
+            let (k0, k1) = (p[0][0] / sv, p[0][1] / sv);
+            let inv_sqrt = 1.0 / sv.sqrt();
+            let mut vf = SVector::<f64, 5>::zeros();
+            for (m, x) in self.st_x[a].iter_mut().enumerate() {
+                let innov = v[m] - x[0];
+                vf[m] = innov * inv_sqrt;
+                x[0] += k0 * innov;
+                x[1] += k1 * innov;
+            }
+            self.st_p[a] = [
+                [p[0][0] - k0 * p[0][0], p[0][1] - k0 * p[0][1]],
+                [p[0][1] - k0 * p[0][1], p[1][1] - k1 * p[0][1]],
+            ];
+            rank1_upper(&mut self.m_star[a], &vf, 1.0);
         }
     }
 
-    fn coeffs(&self, p: &Par) -> Coeffs {
+    /// DC SRP acceleration in the body frame [m/s²]: the fitted DC of the linear
+    /// channels (reference sample plus bias), averaged over the IS.
+    fn srp_dc(&self, p: &Par) -> [f64; 3] {
         let n = self.n_is();
-        let mut lin = SMatrix::<f64, 6, NS>::zeros();
-        // SRP DC acceleration (body frame) for the rotation term.
         let mut bc = [0.0; 3];
         for i in 0..n {
             for (j, b) in bc.iter_mut().enumerate() {
                 *b += self.k_of(p, i, j) * (self.sum_ref[i][j] + p[P_B + 3 * i + j]) / n as f64;
             }
         }
+        bc
+    }
+
+    /// Direction of the coloured SRP noise in volts per slot, from the fitted DC: the
+    /// reference sample alone also holds the maneuver's A r at the first tick (≈1 %).
+    fn srp_direction(&self, p: &Par) -> SVector<f64, 6> {
+        let bc = self.srp_dc(p);
+        let g0 = Vector3::from(bc).norm().max(1e-30);
+        let mut h = SVector::<f64, 6>::zeros();
+        for s in 0..3 * self.n_is() {
+            h[s] = bc[s % 3] / self.k_of(p, s / 3, s % 3) / g0;
+        }
+        h
+    }
+
+    fn coeffs(&self, p: &Par) -> Coeffs {
+        let n = self.n_is();
+        let mut lin = SMatrix::<f64, 6, NS>::zeros();
+        let bc = self.srp_dc(p);
         let beta1 = |a: usize| p[P_BETA + a];
         for i in 0..n {
             for j in 0..3 {
@@ -627,13 +699,14 @@ impl JointEstimator {
             hm += d.transpose() * md;
             g += md.transpose() * c;
         };
+        let h = self.srp_direction(p);
         for reg in 0..N_REG {
             let (cnt, msq, wsq) = self.regime_stats(p, reg);
             if cnt < 1.0 {
                 continue;
             }
             let r = self.white_cov(p, &msq, &wsq);
-            let Some((linv, u, _)) = Self::whitening(&r, &self.h) else {
+            let Some((linv, u, _)) = Self::whitening(&r, &h) else {
                 continue;
             };
             let rows = Self::complement_rows(&linv, &u);
