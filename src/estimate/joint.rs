@@ -17,7 +17,8 @@
 //! * star tracker, per axis: θ_st − κ − θ0 − θ̇0 t − ½(β1 Φ1 + β2 Φ2)   (angle domain)
 //! * angular consistency, per axis: β1 ΔV1 − β2 ΔV2   (both IS see the same ω̇)
 //! * linear, per IS and axis (eq. 15, in volts): ΣV − [A(ω, ω̇) r + (Rᵀ − I) a_srp] / k − b' − α' t
-//!   with ω̇ = ½(β1 ΔV1 + β2 ΔV2), ω = β1 Ψ1, k = G β (eq. 2).
+//!   with ω̇ = ½(β1 ΔV1 + β2 ΔV2), ω = β1 Ψ1, k = G β (eq. 2), and the attitude
+//!   turning the SRP θ = β1 Φ1 + κ (κ: the rotation vector's non-commutative part).
 
 use super::config::EstimatorConfig;
 use crate::model::noise::{PowerLawBank, MAX_POLES};
@@ -25,7 +26,7 @@ use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Signals of the linear group.
-pub const NS: usize = 29;
+pub const NS: usize = 32;
 /// Parameters.
 pub const NP: usize = 30;
 /// Noise regimes of the linear channels (by the dominant rotation axis).
@@ -38,6 +39,7 @@ const S_PP: usize = 15; // + prod(a, b) : Ψ1_a Ψ1_b [V² s²]
 const S_ONE: usize = 21;
 const S_T: usize = 22;
 const S_QQ: usize = 23; // + prod(a, b) : Φ1_a Φ1_b [V² s⁴], second-order SRP rotation
+const S_KAP: usize = 29; // + a : κ_a [rad], non-commutative part of the rotation vector
 
 pub const P_BETA: usize = 0; // + 3 i + a
 pub const P_R: usize = 6; // + 3 i + a
@@ -372,7 +374,8 @@ impl JointEstimator {
 
         if all_valid {
             self.n_used += 1;
-            self.update_linear(&data, &dv, &psi_mid, &phi_mid, t);
+            let kappa = self.kappa();
+            self.update_linear(&data, &dv, &psi_mid, &phi_mid, &kappa, t);
             if n == 2 {
                 // Residual ΔV1 − (β2/β1) ΔV2 [V]: its noise (n1 − n2)/β1 weighted with the
                 // prior β1, so the group constrains the ratio only and cannot pull the
@@ -403,6 +406,7 @@ impl JointEstimator {
         dv: &[[f64; 3]; 2],
         psi_mid: &[[f64; 3]; 2],
         phi_mid: &[[f64; 3]; 2],
+        kappa: &Vector3<f64>,
         t: f64,
     ) {
         let n = self.n_is();
@@ -415,6 +419,7 @@ impl JointEstimator {
         }
         for a in 0..3 {
             s[S_PHI + a] = phi_mid[0][a];
+            s[S_KAP + a] = kappa[a];
             for b in a..3 {
                 s[S_PP + prod(a, b)] = psi_mid[0][a] * psi_mid[0][b];
                 s[S_QQ + prod(a, b)] = phi_mid[0][a] * phi_mid[0][b];
@@ -507,6 +512,15 @@ impl JointEstimator {
         }
     }
 
+    /// Second-order kinematics [rad]: the IS-propagated attitude's rotation vector minus
+    /// the plain double integral β Φ (prior β; κ is itself second order, so the prior's
+    /// error enters only at third order).
+    fn kappa(&self) -> Vector3<f64> {
+        let bp = self.cfg.beta_prior[0];
+        let lin = Vector3::from_fn(|a, _| bp[a] * self.phi[0][a]);
+        crate::model::attitude::rotation_vector(&self.q_model) - lin
+    }
+
     fn update_star(&mut self, s: &SensorSample, t: f64) {
         if !s.star.usable() {
             return;
@@ -523,10 +537,7 @@ impl JointEstimator {
         let q = UnitQuaternion::from_quaternion(q);
         let q_ref = *self.q_ref.get_or_insert(q);
         let theta = crate::model::attitude::rotation_vector(&(q_ref.inverse() * q));
-        // Second-order kinematics, from the IS-propagated attitude with the prior β.
-        let bp = self.cfg.beta_prior[0];
-        let lin = Vector3::from_fn(|a, _| bp[a] * self.phi[0][a]);
-        let kappa = crate::model::attitude::rotation_vector(&self.q_model) - lin;
+        let kappa = self.kappa();
         let r = self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v =
@@ -603,6 +614,8 @@ impl JointEstimator {
                 // SRP direction turning with the attitude: a_srp ≈ b − θ × b + ½ θ × (θ × b).
                 lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * bc[j2];
                 lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
+                lin[(row, S_KAP + j1)] += inv_k * bc[j2];
+                lin[(row, S_KAP + j2)] -= inv_k * bc[j1];
                 for a in [j1, j2] {
                     lin[(row, S_QQ + prod(j, a))] -= 0.5 * inv_k * beta1(j) * beta1(a) * bc[a];
                     lin[(row, S_QQ + prod(a, a))] += 0.5 * inv_k * bc[j] * beta1(a) * beta1(a);
