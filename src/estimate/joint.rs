@@ -303,7 +303,9 @@ impl JointEstimator {
         for i in 0..n {
             self.sum_ref[i] = data[i].sum;
         }
-        // SRP DC acceleration from the prior k; its direction in volts is exact per IS.
+        // SRP DC acceleration: the IS average in m/s² (prior k), which cancels the
+        // differential A r of the first tick; its volts per IS with the same prior k,
+        // so the direction lies in the common-mode subspace of the noise model below.
         let mut b = Vector3::<f64>::zeros();
         for i in 0..n {
             for j in 0..3 {
@@ -313,7 +315,7 @@ impl JointEstimator {
         let g0 = b.norm().max(1e-30);
         let mut msq = [0.0; 6];
         for s in 0..3 * n {
-            self.h[s] = self.sum_ref[s / 3][s % 3] / g0;
+            self.h[s] = b[s % 3] / self.k_of(&self.p, s / 3, s % 3) / g0;
             msq[s] = self.sum_ref[s / 3][s % 3].powi(2);
         }
         let r0 = self.white_cov(&self.p, &msq, &[[0.0; 3]; 2]);
