@@ -10,6 +10,9 @@ use std::path::Path;
 /// Arc-second in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
 
+/// Least ratio of the DC SRP [m/s²] to its fluctuation ASD at 3 mHz [m s⁻² Hz^-½].
+pub const SRP_DC_OVER_ASD: f64 = 5.0;
+
 /// A scenario that failed to load or validate; the message names the key.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScenarioError(pub String);
@@ -486,6 +489,20 @@ impl Scenario {
         let srp = &self.srp;
         pos("srp.asd_at_3mhz", srp.asd_at_3mhz)?;
         pos("srp.dc_m_s2", srp.dc_m_s2)?;
+        // The estimator learns the direction of the coloured SRP noise from the DC SRP
+        // it measures; that needs the DC to dominate the fluctuation (verified down to
+        // ~9× the ASD at 3 mHz; it fails at ~1×). Any sunlit spacecraft has ≳1e-8 m/s².
+        if srp.dc_m_s2 < SRP_DC_OVER_ASD * srp.asd_at_3mhz {
+            return err(
+                "srp.dc_m_s2",
+                &format!(
+                    "the DC SRP must be at least {SRP_DC_OVER_ASD}× srp.asd_at_3mhz (×1 Hz^½) = {:.2e} m/s², \
+                     got {:.2e}: the estimator takes the SRP noise direction from the DC",
+                    SRP_DC_OVER_ASD * srp.asd_at_3mhz,
+                    srp.dc_m_s2
+                ),
+            );
+        }
         let s = srp.sun_direction_b;
         if s.iter().any(|v| !v.is_finite()) || s.iter().map(|v| v * v).sum::<f64>() < 1e-12 {
             return err("srp.sun_direction_b", "must be a finite non-zero vector");

@@ -42,6 +42,15 @@ fn non_finite_values_are_rejected() {
 }
 
 #[test]
+fn an_srp_dc_buried_in_its_own_noise_is_rejected() {
+    let e = err("[srp]\ndc_m_s2 = 1e-12");
+    assert!(e.contains("srp.dc_m_s2") && e.contains("direction"), "{e}");
+    // Small but still dominant over its fluctuation: accepted.
+    let s = Scenario::from_toml_str("[srp]\ndc_m_s2 = 1e-10").unwrap();
+    assert_eq!(s.srp.dc_m_s2, 1e-10);
+}
+
+#[test]
 fn non_positive_definite_or_asymmetric_inertia_is_rejected() {
     let e = err(
         "[spacecraft]\ninertia_kg_m2 = [[1000.0, 0.0, 0.0], [0.0, -5.0, 0.0], [0.0, 0.0, 900.0]]",
