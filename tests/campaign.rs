@@ -100,3 +100,50 @@ fn one_inertial_sensor_only_is_supported() {
         "{beta:e} {r:e}"
     );
 }
+
+/// Honesty and efficiency over 30 seeds: mean (error/σ)² per group within [0.5, 2] and
+/// the RMS error of every parameter within 2× its Cramér–Rao bound.
+fn assert_honest_and_efficient(s: &Scenario) -> taiji::montecarlo::MonteCarlo {
+    let mc = taiji::montecarlo::run(s, 1, 30, Method::Joint).unwrap();
+    for (g, chi2) in ["β", "k", "r"].iter().zip(mc.chi2_by_group) {
+        assert!(
+            (0.5..=2.0).contains(&chi2),
+            "{}: mean (err/σ)² of {g} is {chi2:.2}",
+            s.name
+        );
+    }
+    for p in &mc.params {
+        assert!(
+            p.crlb_ratio < 2.0,
+            "{}: {} RMS/CRLB {:.2}",
+            s.name,
+            p.name,
+            p.crlb_ratio
+        );
+    }
+    mc
+}
+
+#[test]
+fn thirty_seeds_give_honest_sigma_and_reach_the_crlb() {
+    let mc = assert_honest_and_efficient(&Scenario::default());
+    assert_eq!(mc.runs_meeting_requirements, 30);
+}
+
+#[test]
+fn sigma_stays_honest_with_thruster_force_noise_and_other_truths() {
+    // Force noise degrades absolute r to ~200 µm (SPEC §3); σ must say so.
+    let s = Scenario::from_toml_str(
+        "name = \"force-noise\"\n[thruster]\nforce_noise_n_rthz = 1.0e-7\n",
+    )
+    .unwrap();
+    assert_honest_and_efficient(&s);
+    let s = Scenario::from_toml_str(
+        "name = \"other-truths\"\n[spacecraft]\ninertia_kg_m2 = [[1500.0, -20.0, 10.0], [-20.0, 800.0, 15.0], [10.0, 15.0, 1200.0]]\n\
+         [ground_calibration]\nbeta_rel_error = 0.02\ncom_offset_error_m = 0.005\n\
+         [[inertial_sensor]]\ncom_offset_m = [0.25, -0.10, 0.05]\nbeta = [6.0e-8, 5.0e-8, 7.0e-8]\n\
+         [[inertial_sensor]]\ncom_offset_m = [-0.15, 0.20, -0.08]\nbeta = [5.3e-8, 5.7e-8, 7.5e-8]\n",
+    )
+    .unwrap();
+    assert_honest_and_efficient(&s);
+}
