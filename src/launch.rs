@@ -31,6 +31,9 @@ pub struct ProcessSpec {
     /// Started only when the run records telemetry (`--record`).
     #[serde(default)]
     pub record_only: bool,
+    /// SCHED_FIFO priority in real-time runs (1–99; 0 = normal scheduling).
+    #[serde(default)]
+    pub rt_priority: u8,
 }
 
 fn never() -> Restart {
@@ -102,6 +105,12 @@ impl LaunchDescription {
                 "launch description {origin}: unknown process {:?} (known: {}, {RECORDER})",
                 p.name,
                 REQUIRED.join(", ")
+            ));
+        }
+        if let Some(p) = d.process.iter().find(|p| p.rt_priority > 99) {
+            return Err(format!(
+                "launch description {origin}: process {}: rt_priority must be 0–99, not {}",
+                p.name, p.rt_priority
             ));
         }
         if d.process.iter().filter(|p| p.name == RECORDER).count() > 1 {

@@ -23,6 +23,9 @@ pub struct Header {
     /// Monotonic clock when the plant published this tick's truth [ns]: carried
     /// downstream so the estimator can measure end-to-end latency (0 in-process).
     pub origin_ns: u64,
+    /// Real-time pacing: monotonic clock when the commander was due to start this tick
+    /// [ns], carried downstream; the tick's deadline is one period later (0 otherwise).
+    pub due_ns: u64,
 }
 
 /// Commander → plant: torque commanded for the interval.
@@ -166,6 +169,7 @@ impl Header {
             sim_time_ns: ((tick + 1) as f64 / fs * 1e9).round() as i64,
             publish_ns: 0,
             origin_ns: 0,
+            due_ns: 0,
         }
     }
 }
@@ -206,7 +210,8 @@ pub struct Progress {
     /// Ticks missing in this stage's input (gaps in the tick sequence).
     pub samples_lost: u64,
     /// Commander: ticks published later than one period after their due time.
-    /// Estimator: ticks whose end-to-end latency exceeded one period.
+    /// Estimator: ticks whose estimate was published more than one period after the
+    /// tick was due (`Header::due_ns`).
     pub missed_deadlines: u64,
     /// Heap allocations inside the processing loop since start-up (estimator).
     pub loop_allocations: u64,
@@ -216,6 +221,11 @@ pub struct Progress {
     pub e2e_latency_us: [f64; 3],
     /// Samples in the latency statistics above.
     pub latency_count: u64,
+    /// SCHED_FIFO priority the stage runs at (0: normal scheduling).
+    pub rt_priority: u32,
+    /// 1 once this stage and every stage downstream of it can take samples (each has
+    /// heard its downstream's credit): the commander starts the real-time clock then.
+    pub primed: u32,
 }
 
 /// `Control::command`: leave the ready state and start the campaign.

@@ -233,6 +233,13 @@ impl Report {
                     t["missed_deadlines"],
                     t["samples_lost"]
                 );
+                if let Some(sched) = t["scheduling"].as_object() {
+                    let list: Vec<String> = sched
+                        .iter()
+                        .map(|(k, v)| format!("{k} {}", v.as_str().unwrap_or("?")))
+                        .collect();
+                    let _ = writeln!(o, "  scheduling: {}", list.join(", "));
+                }
                 if let Some(hops) = t["hop_latency_us"].as_object() {
                     for (hop, v) in hops {
                         let _ = writeln!(o, "  hop {hop:<17} {}", lat(v));

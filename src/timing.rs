@@ -6,6 +6,22 @@ use serde::{Deserialize, Serialize};
 
 /// CLOCK_MONOTONIC in ns. The same clock in every process on the host, so a publish
 /// timestamp written by one process can be subtracted from a receive time in another.
+/// Switch the calling thread (and the threads it starts afterwards) to `SCHED_FIFO` at
+/// `priority` (1–99), as flight software runs its real-time tasks. Needs CAP_SYS_NICE
+/// or an RLIMIT_RTPRIO allowance; the error says why it was refused. (Locking memory
+/// with mlockall made no measurable difference here, so it is not done.)
+pub fn enter_fifo(priority: u8) -> Result<(), String> {
+    let p = libc::sched_param {
+        sched_priority: priority as libc::c_int,
+    };
+    // SAFETY: plain syscall on the calling thread with a valid parameter struct.
+    if unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &p) } == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error().to_string())
+    }
+}
+
 pub fn monotonic_ns() -> u64 {
     let mut ts = libc::timespec {
         tv_sec: 0,

@@ -22,7 +22,8 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let out = bus::publisher::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
     let mut commander = Commander::new(&s);
     link.beat()?;
-    while !link.started() {
+    // Start the clock only once the whole chain can take samples: tick 0 is due now.
+    while !(link.started() && link.downstream.primed && (!args.record || link.recorder.heard)) {
         if let Some(e) = link.poll()?.or_else(|| link.idle(Duration::from_millis(1))) {
             return Ok(e);
         }
@@ -45,9 +46,6 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                 }
                 continue;
             }
-            if now > due + period {
-                link.progress.missed_deadlines += 1;
-            }
         }
         let recorder_credit = !args.record
             || (link.recorder.heard && t < link.recorder.next_tick + bus::RECORDER_WINDOW);
@@ -59,6 +57,12 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         }
         let mut m = commander.step(t);
         m.header.publish_ns = monotonic_ns();
+        if period > 0 {
+            m.header.due_ns = t0 + t * period;
+            if m.header.publish_ns > m.header.due_ns + period {
+                link.progress.missed_deadlines += 1;
+            }
+        }
         bus::publish(&out, m)?;
         link.sent(period > 0);
         t += 1;

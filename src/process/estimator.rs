@@ -86,16 +86,21 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         let now = monotonic_ns();
         e.header.publish_ns = now;
         bus::publish(&out, e)?;
-        let latency = now.saturating_sub(sample.header.origin_ns);
-        link.e2e.record(latency);
-        if period > 0 && latency > period {
+        link.e2e.record(now.saturating_sub(sample.header.origin_ns));
+        // The tick's deadline: its estimate out within one period of the tick's due
+        // time, whichever stage was late (a lost plant tick carries no due time).
+        let due = sample.header.due_ns;
+        if period > 0 && due > 0 && now > due + period {
             link.progress.missed_deadlines += 1;
         }
         next = tick + 1;
         link.progress.next_tick = next;
         if next % CHECKPOINT_EVERY == 0 {
             ckpt.save(&est, next)?;
-            link.progress.resume_tick = next;
+        }
+        // The front-end keeps every sample from the newest checkpoint on disk.
+        if let Some(w) = ckpt.written() {
+            link.progress.resume_tick = w;
         }
         if next == n && !done {
             let mut f = est.finish();

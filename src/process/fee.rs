@@ -77,6 +77,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                 if tick >= produced {
                     let mut m = fee.step(&truth);
                     m.header.origin_ns = truth.header.origin_ns;
+                    m.header.due_ns = truth.header.due_ns;
                     ring[(tick % RING) as usize] = m;
                     produced = tick + 1;
                     link.progress.next_tick = produced;

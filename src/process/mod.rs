@@ -49,6 +49,10 @@ pub struct StageArgs {
     /// A recorder runs in the set: the commander also obeys its credit.
     #[arg(long)]
     pub record: bool,
+    /// With --realtime: run under SCHED_FIFO at this priority (1–99; 0 = normal
+    /// scheduling). Refused permission is logged and the stage runs on normally.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=99))]
+    pub rt_priority: u8,
 }
 
 impl StageArgs {
@@ -98,6 +102,8 @@ pub struct Downstream {
     pub next_tick: u64,
     pub resume_tick: u64,
     pub state: u32,
+    /// It and every stage below it can take samples.
+    pub primed: bool,
 }
 
 impl Downstream {
@@ -163,10 +169,23 @@ impl Link {
         let progress_pub = bus::publisher::<Progress>(&node, bus::SVC_PROGRESS)?;
         let progress_sub = bus::subscriber::<Progress>(&node, bus::SVC_PROGRESS)?;
         let control_sub = bus::subscriber::<Control>(&node, bus::SVC_CONTROL)?;
+        // Real-time stages run under SCHED_FIFO when allowed; threads started before
+        // this point (the estimator's checkpoint writer) stay at normal priority.
+        let mut rt_priority = 0;
+        if args.realtime && args.rt_priority > 0 {
+            match crate::timing::enter_fifo(args.rt_priority) {
+                Ok(()) => rt_priority = args.rt_priority as u32,
+                Err(e) => log::warn!(
+                    "{name}: SCHED_FIFO priority {} refused ({e}); running with normal scheduling",
+                    args.rt_priority
+                ),
+            }
+        }
         let progress = Progress {
             process,
             state: STATE_READY,
             incarnation: monotonic_ns(),
+            rt_priority,
             ..Default::default()
         };
         Ok(Link {
@@ -196,6 +215,7 @@ impl Link {
     /// Publish progress now.
     pub fn beat(&mut self) -> Result<(), String> {
         let now = monotonic_ns();
+        self.progress.primed = self.primed() as u32;
         let p = &mut self.progress;
         p.header = Header {
             seq: self.seq,
@@ -203,6 +223,7 @@ impl Link {
             sim_time_ns: 0,
             publish_ns: now,
             origin_ns: 0,
+            due_ns: 0,
         };
         let h = self.hop.summary_us();
         p.hop_latency_us = [h.p50, h.p99, h.max];
@@ -256,6 +277,7 @@ impl Link {
                 _ => {}
             }
         }
+        let was_primed = self.primed();
         while let Some(p) = bus::receive(&self.progress_sub)? {
             let heard = Downstream {
                 heard: true,
@@ -263,6 +285,7 @@ impl Link {
                 next_tick: p.next_tick,
                 resume_tick: p.resume_tick,
                 state: p.state,
+                primed: p.primed != 0,
             };
             if Some(p.process) == self.downstream_id {
                 self.downstream = heard;
@@ -273,7 +296,8 @@ impl Link {
         if self.stop {
             return Ok(Some(Exit::Stopped));
         }
-        if monotonic_ns() > self.last_beat_ns + BEAT_NS {
+        // Tell the upstream at once when the chain below became ready.
+        if self.primed() != was_primed || monotonic_ns() > self.last_beat_ns + BEAT_NS {
             // SAFETY: getppid has no preconditions.
             if unsafe { libc::getppid() } != self.parent {
                 return Ok(Some(Exit::Terminated));
@@ -281,6 +305,11 @@ impl Link {
             self.beat()?;
         }
         Ok(None)
+    }
+
+    /// Can this stage and every stage downstream of it take samples?
+    pub fn primed(&self) -> bool {
+        self.downstream_id.is_none() || self.downstream.primed
     }
 
     /// Has the supervisor said start?

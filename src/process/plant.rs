@@ -53,11 +53,11 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         // A lost command: the thrusters hold the last one (zero-order hold), as on board.
         while next < tick && next < n {
             link.progress.samples_lost += 1;
-            publish_truth(&out, plant.step(next, &held))?;
+            publish_truth(&out, plant.step(next, &held), 0)?;
             next += 1;
         }
         held = cmd.torque_cmd_b;
-        publish_truth(&out, plant.step(tick, &held))?;
+        publish_truth(&out, plant.step(tick, &held), cmd.header.due_ns)?;
         link.sent(realtime);
         next = tick + 1;
         link.progress.next_tick = next;
@@ -69,9 +69,10 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     link.linger(STATE_DONE)
 }
 
-fn publish_truth(out: &bus::Pub<TruthState>, mut t: TruthState) -> Result<(), String> {
+fn publish_truth(out: &bus::Pub<TruthState>, mut t: TruthState, due_ns: u64) -> Result<(), String> {
     let now = monotonic_ns();
     t.header.publish_ns = now;
     t.header.origin_ns = now;
+    t.header.due_ns = due_ns;
     bus::publish(out, t)
 }
