@@ -97,7 +97,7 @@ fn main() {
             .iter()
             .map(|(k, v)| format!("{k} {}", v.as_str().unwrap_or("?")))
             .collect();
-        println!("  scheduling  {}", v.join(", "));
+        println!("  scheduling  {}", v.join("; "));
     }
     platform_floor(20_000, 1_000_000);
     let _ = std::fs::remove_dir_all(&dir);

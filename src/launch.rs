@@ -34,6 +34,9 @@ pub struct ProcessSpec {
     /// SCHED_FIFO priority in real-time runs (1–99; 0 = normal scheduling).
     #[serde(default)]
     pub rt_priority: u8,
+    /// CPU to pin the process to in real-time runs (none: not pinned).
+    #[serde(default)]
+    pub cpu: Option<usize>,
 }
 
 fn never() -> Restart {

@@ -223,6 +223,9 @@ pub struct Progress {
     pub latency_count: u64,
     /// SCHED_FIFO priority the stage runs at (0: normal scheduling).
     pub rt_priority: u32,
+    /// CPU the stage is pinned to (−1: not pinned).
+    pub cpu: i32,
+    pub _pad: u32,
     /// 1 once this stage and every stage downstream of it can take samples (each has
     /// heard its downstream's credit): the commander starts the real-time clock then.
     pub primed: u32,

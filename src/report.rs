@@ -238,7 +238,7 @@ impl Report {
                         .iter()
                         .map(|(k, v)| format!("{k} {}", v.as_str().unwrap_or("?")))
                         .collect();
-                    let _ = writeln!(o, "  scheduling: {}", list.join(", "));
+                    let _ = writeln!(o, "  scheduling: {}", list.join("; "));
                 }
                 if let Some(hops) = t["hop_latency_us"].as_object() {
                     for (hop, v) in hops {

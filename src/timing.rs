@@ -22,6 +22,27 @@ pub fn enter_fifo(priority: u8) -> Result<(), String> {
     }
 }
 
+/// Pin the calling thread (and the threads it starts afterwards) to one CPU: the
+/// real-time chain shares a core, so each stage's wake-up of the next (higher-priority)
+/// one is a same-core preemption instead of a cross-core interrupt.
+pub fn pin_to_cpu(cpu: usize) -> Result<(), String> {
+    let n = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if cpu >= n || cpu >= libc::CPU_SETSIZE as usize {
+        return Err(format!("this machine has CPUs 0–{}", n - 1));
+    }
+    // SAFETY: a zeroed cpu_set_t is a valid empty set; CPU_SET stays within it.
+    let r = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error().to_string())
+    }
+}
+
 pub fn monotonic_ns() -> u64 {
     let mut ts = libc::timespec {
         tv_sec: 0,

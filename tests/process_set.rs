@@ -170,6 +170,20 @@ fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     assert_eq!(t["samples_lost"], 0);
     assert_eq!(t["missed_deadlines"], 0, "{t}");
     assert_eq!(t["latency_samples"], 3000);
+    // Every stage says how it was scheduled (SCHED_FIFO where permitted, else normal).
+    let sched = t["scheduling"].as_object().expect("timing.scheduling");
+    for stage in [
+        "taiji-commander",
+        "taiji-plant",
+        "taiji-fee",
+        "taiji-estimator",
+    ] {
+        let v = sched[stage].as_str().unwrap_or_default();
+        assert!(
+            v.starts_with("SCHED_FIFO") || v.starts_with("normal"),
+            "{stage}: {v}"
+        );
+    }
     let e2e = &t["end_to_end_latency_us"];
     let (p50, p99, max) = (
         e2e["p50"].as_f64().unwrap(),

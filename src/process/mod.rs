@@ -53,6 +53,9 @@ pub struct StageArgs {
     /// scheduling). Refused permission is logged and the stage runs on normally.
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=99))]
     pub rt_priority: u8,
+    /// With --realtime: pin the stage to this CPU.
+    #[arg(long)]
+    pub cpu: Option<usize>,
 }
 
 impl StageArgs {
@@ -172,6 +175,13 @@ impl Link {
         // Real-time stages run under SCHED_FIFO when allowed; threads started before
         // this point (the estimator's checkpoint writer) stay at normal priority.
         let mut rt_priority = 0;
+        let mut cpu = -1;
+        if let (true, Some(c)) = (args.realtime, args.cpu) {
+            match crate::timing::pin_to_cpu(c) {
+                Ok(()) => cpu = c as i32,
+                Err(e) => log::warn!("{name}: cannot pin to CPU {c} ({e}); running unpinned"),
+            }
+        }
         if args.realtime && args.rt_priority > 0 {
             match crate::timing::enter_fifo(args.rt_priority) {
                 Ok(()) => rt_priority = args.rt_priority as u32,
@@ -186,6 +196,7 @@ impl Link {
             state: STATE_READY,
             incarnation: monotonic_ns(),
             rt_priority,
+            cpu,
             ..Default::default()
         };
         Ok(Link {

@@ -126,6 +126,9 @@ impl Set {
         if self.realtime && spec.rt_priority > 0 {
             cmd.args(["--rt-priority", &spec.rt_priority.to_string()]);
         }
+        if let (true, Some(c)) = (self.realtime, spec.cpu) {
+            cmd.args(["--cpu", &c.to_string()]);
+        }
         cmd.args(&spec.args)
             .stdin(Stdio::null())
             .spawn()
@@ -281,10 +284,13 @@ fn timing_json(
         .filter(|m| m.id != PROC_RECORDER)
         .filter_map(|m| {
             let p = m.last?;
-            let policy = match p.rt_priority {
+            let mut policy = match p.rt_priority {
                 0 => "normal".to_string(),
                 n => format!("SCHED_FIFO {n}"),
             };
+            if p.cpu >= 0 {
+                policy.push_str(&format!(" on CPU {}", p.cpu));
+            }
             Some((m.spec.name.clone(), policy.into()))
         })
         .collect();
