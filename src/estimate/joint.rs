@@ -103,8 +103,6 @@ pub struct JointEstimator {
     hn: f64,
     /// Row mapping the 6 linear residuals onto that channel: u0ᵀ L0⁻¹.
     t_u: SVector<f64, 6>,
-    /// SRP direction in volts per (m/s²) along the sun, per slot.
-    h: SVector<f64, 6>,
     p: Par,
     p_prior: Par,
     p_sigma: Par,
@@ -196,7 +194,6 @@ impl JointEstimator {
             wx: [[0.0; MAX_POLES]; NS],
             hn: 0.0,
             t_u: SVector::zeros(),
-            h: SVector::zeros(),
             p,
             p_prior: p,
             p_sigma: ps,
@@ -314,12 +311,13 @@ impl JointEstimator {
         }
         let g0 = b.norm().max(1e-30);
         let mut msq = [0.0; 6];
+        let mut h = SVector::<f64, 6>::zeros();
         for s in 0..3 * n {
-            self.h[s] = b[s % 3] / self.k_of(&self.p, s / 3, s % 3) / g0;
+            h[s] = b[s % 3] / self.k_of(&self.p, s / 3, s % 3) / g0;
             msq[s] = self.sum_ref[s / 3][s % 3].powi(2);
         }
         let r0 = self.white_cov(&self.p, &msq, &[[0.0; 3]; 2]);
-        if let Some((linv, u, hn)) = Self::whitening(&r0, &self.h) {
+        if let Some((linv, u, hn)) = Self::whitening(&r0, &h) {
             self.t_u = linv.transpose() * u;
             self.hn = hn;
         }
@@ -502,7 +500,7 @@ impl JointEstimator {
                 q += self.w(l).powi(2) * (c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2));
             }
             // Borrowed voltages carry the other IS's noise in full.
-            q *= (self.n_is() / n_valid) as f64;
+            q *= self.n_is() as f64 / n_valid as f64;
             for x in self.st_x[a].iter_mut() {
                 x[0] += dt * x[1];
             }
