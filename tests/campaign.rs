@@ -83,6 +83,11 @@ fn the_paper_route_runs_and_is_worse_than_the_joint_estimator() {
     let (pb, pr) = errors(&s, &paper);
     let (jb, jr) = errors(&s, &joint);
     assert!(pb.is_finite() && pr.is_finite());
+    // SPEC §3's reference: β ≈ 4e-3 (worst 1e-2), r ≈ 0.7 mm: it misses the requirement.
+    assert!(
+        (REQ_SCALE_FACTOR_REL..2e-2).contains(&pb) && (REQ_COM_M..5e-3).contains(&pr),
+        "paper route: β {pb:e}, r {pr:e}"
+    );
     assert!(
         pb > 10.0 * jb && pr > 10.0 * jr,
         "paper {pb:e} {pr:e} vs joint {jb:e} {jr:e}"

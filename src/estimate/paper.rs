@@ -10,6 +10,13 @@ use crate::model::attitude::coupling_matrix;
 use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
+/// The paper's low-pass corner on both sides of the β regression [Hz].
+const FC: f64 = 0.05;
+/// The β regression starts once both low-passes have settled (5 time constants of the
+/// corner, 100 s): their start-up transients, driven by the star noise, otherwise bias
+/// the axis rocked first by up to ~15 %.
+const SETTLE_S: f64 = 5.0 / FC;
+
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Biquad {
@@ -62,7 +69,7 @@ pub struct PaperEstimator {
 impl PaperEstimator {
     pub fn new(cfg: EstimatorConfig) -> Self {
         let fs = cfg.fs;
-        let lp = Biquad::lowpass(0.05, fs);
+        let lp = Biquad::lowpass(FC, fs);
         // Variance of the low-passed double-differentiated star noise (impulse response).
         let mut f = lp;
         let dt2 = fs * fs;
@@ -162,7 +169,9 @@ impl PaperEstimator {
             if let Some(y) = y_star {
                 for a in 0..3 {
                     let x = self.lp_dv[i][a].step(0.5 * (dv[a] + self.dv_prev[i][a]));
-                    self.beta_kf[i][a].update(&SVector::<f64, 1>::new(x), y[a], self.r_beta);
+                    if t - t0 >= SETTLE_S {
+                        self.beta_kf[i][a].update(&SVector::<f64, 1>::new(x), y[a], self.r_beta);
+                    }
                 }
             }
             self.dv_prev[i] = dv;
