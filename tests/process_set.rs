@@ -1,6 +1,7 @@
 //! The real process set over iceoryx2: accelerated lock-step bit-identical to the
 //! in-process run, real-time pacing without loss, estimator `kill -9` and restart,
-//! plant death stopping the set, and a start after a crash that left stale shared memory.
+//! plant death stopping the set, a start after a crash that left stale shared memory, and
+//! SIGTERM stopping every process cleanly.
 //! Every test uses its own bus prefix; they still run one at a time (`serial`), so the
 //! real-time test measures the set alone rather than four sets sharing two cores.
 
@@ -338,4 +339,49 @@ fn bad_launch_description_and_arguments_are_user_errors() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("duration_s"));
+}
+
+#[test]
+fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
+    let _serial = serial();
+    let dir = tmp("term");
+    // 2000 s at ×100: 20 s of wall time, interrupted after the first checkpoint (~1 s).
+    let sc = write_scenario(
+        &dir,
+        "name = \"term\"\nduration_s = 2000.0\n[maneuver]\nfrequency_hz = 2e-3\n",
+    );
+    let out = dir.join("out");
+    let pfx = prefix("t");
+    let child = supervisor(&sc, &out, &pfx, &["--realtime", "--time-scale", "100"])
+        .spawn()
+        .unwrap();
+    wait_for("the first checkpoint", Duration::from_secs(60), || {
+        out.join("estimator.ckpt").exists()
+    });
+    let t0 = Instant::now();
+    // SAFETY: sending a signal has no memory-safety preconditions.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let o = finish(child);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{stderr}");
+    assert!(
+        t0.elapsed() < Duration::from_secs(10),
+        "took {:?}",
+        t0.elapsed()
+    );
+    assert!(!out.join("report.json").exists());
+    for exe in [
+        "taiji-commander",
+        "taiji-plant",
+        "taiji-fee",
+        "taiji-estimator",
+    ] {
+        assert!(pids_with(&pfx, exe).is_empty(), "{exe} still running");
+    }
+    // Every process exited by itself: the next run on this prefix finds nothing stale.
+    let sc2 = write_scenario(&dir, SHORT);
+    let o = supervisor(&sc2, &out, &pfx, &[]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(!stderr.contains("stale"), "{stderr}");
 }
