@@ -1,8 +1,8 @@
 //! Estimator checkpoint: the whole filter state serialised (postcard) into a buffer
 //! sized at start-up; a writer thread writes it to a temporary file and renames it over
 //! the checkpoint, so a process killed at any instant leaves the previous or the new
-//! checkpoint, never a torn one. Layout: magic (8 B) | next tick (u64 LE) | payload length (u64 LE) |
-//! FNV-1a 64 of the payload (u64 LE) | payload.
+//! checkpoint, never a torn one. Layout: magic (8 B) | next tick (u64 LE) | payload
+//! length (u64 LE) | FNV-1a 64 of the payload (u64 LE) | payload.
 
 use crate::estimate::Estimator;
 use std::io::Write;
