@@ -92,12 +92,8 @@ fn main() {
         "  missed deadlines {} (estimate out > 1 period after the tick was due)   samples lost {}",
         t["missed_deadlines"], t["samples_lost"]
     );
-    if let Some(sched) = t["scheduling"].as_object() {
-        let v: Vec<String> = sched
-            .iter()
-            .map(|(k, v)| format!("{k} {}", v.as_str().unwrap_or("?")))
-            .collect();
-        println!("  scheduling  {}", v.join("; "));
+    if let Some(line) = taiji::report::scheduling_line(t) {
+        println!("  scheduling  {line}");
     }
     platform_floor(20_000, 1_000_000);
     let _ = std::fs::remove_dir_all(&dir);

@@ -233,12 +233,8 @@ impl Report {
                     t["missed_deadlines"],
                     t["samples_lost"]
                 );
-                if let Some(sched) = t["scheduling"].as_object() {
-                    let list: Vec<String> = sched
-                        .iter()
-                        .map(|(k, v)| format!("{k} {}", v.as_str().unwrap_or("?")))
-                        .collect();
-                    let _ = writeln!(o, "  scheduling: {}", list.join("; "));
+                if let Some(line) = scheduling_line(t) {
+                    let _ = writeln!(o, "  scheduling: {line}");
                 }
                 if let Some(hops) = t["hop_latency_us"].as_object() {
                     for (hop, v) in hops {
@@ -287,4 +283,15 @@ pub fn write(out: &std::path::Path, report: &Report) -> Result<(), String> {
     let path = out.join("report.json");
     let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
     std::fs::write(&path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// How each real-time stage was scheduled, from a report's `timing`, on one line
+/// ("taiji-commander SCHED_FIFO 40 on CPU 1; …"); `None` without that field.
+pub fn scheduling_line(timing: &serde_json::Value) -> Option<String> {
+    let list: Vec<String> = timing["scheduling"]
+        .as_object()?
+        .iter()
+        .map(|(k, v)| format!("{k} {}", v.as_str().unwrap_or("?")))
+        .collect();
+    Some(list.join("; "))
 }

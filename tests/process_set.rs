@@ -185,12 +185,7 @@ fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     assert_eq!(t["latency_samples"], 3000);
     // Every stage says how it was scheduled (SCHED_FIFO where permitted, else normal).
     let sched = t["scheduling"].as_object().expect("timing.scheduling");
-    for stage in [
-        "taiji-commander",
-        "taiji-plant",
-        "taiji-fee",
-        "taiji-estimator",
-    ] {
+    for stage in taiji::launch::REQUIRED {
         let v = sched[stage].as_str().unwrap_or_default();
         assert!(
             v.starts_with("SCHED_FIFO") || v.starts_with("normal"),
@@ -382,12 +377,7 @@ fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
         t0.elapsed()
     );
     assert!(!out.join("report.json").exists());
-    for exe in [
-        "taiji-commander",
-        "taiji-plant",
-        "taiji-fee",
-        "taiji-estimator",
-    ] {
+    for exe in taiji::launch::REQUIRED {
         assert!(pids_with(&pfx, exe).is_empty(), "{exe} still running");
     }
     // Every process exited by itself: the next run on this prefix finds nothing stale.

@@ -300,20 +300,12 @@ impl JointEstimator {
         for i in 0..n {
             self.sum_ref[i] = data[i].sum;
         }
-        // SRP DC acceleration: the IS average in m/s² (prior k), which cancels the
-        // differential A r of the first tick; its volts per IS with the same prior k,
-        // so the direction lies in the common-mode subspace of the noise model below.
-        let mut b = Vector3::<f64>::zeros();
-        for i in 0..n {
-            for j in 0..3 {
-                b[j] += self.k_of(&self.p, i, j) * self.sum_ref[i][j] / n as f64;
-            }
-        }
-        let g0 = b.norm().max(1e-30);
+        // SRP direction at the priors: the IS average in m/s² cancels the differential
+        // A r of the first tick, and its volts per IS use the same prior k as the noise
+        // model below, so it lies in that model's common-mode subspace.
+        let h = self.srp_direction(&self.p);
         let mut msq = [0.0; 6];
-        let mut h = SVector::<f64, 6>::zeros();
         for s in 0..3 * n {
-            h[s] = b[s % 3] / self.k_of(&self.p, s / 3, s % 3) / g0;
             msq[s] = self.sum_ref[s / 3][s % 3].powi(2);
         }
         let r0 = self.white_cov(&self.p, &msq, &[[0.0; 3]; 2]);
@@ -372,9 +364,9 @@ impl JointEstimator {
         self.q_model *= UnitQuaternion::from_scaled_axis(w_model * dt);
         let t = (tick + 1) as f64 * dt;
 
+        let kappa = self.kappa();
         if all_valid {
             self.n_used += 1;
-            let kappa = self.kappa();
             self.update_linear(&data, &dv, &psi_mid, &phi_mid, &kappa, t);
             if n == 2 {
                 // Residual ΔV1 − (β2/β1) ΔV2 [V]: its noise (n1 − n2)/β1 weighted with the
@@ -391,7 +383,7 @@ impl JointEstimator {
             self.whitening_time_update();
         }
         self.star_time_update(&data, &dv);
-        self.update_star(s, t);
+        self.update_star(s, &kappa, t);
 
         if (tick + 1 - self.tick_start) % self.cfg.solve_every == 0 {
             self.solve(1, true);
@@ -521,7 +513,7 @@ impl JointEstimator {
         crate::model::attitude::rotation_vector(&self.q_model) - lin
     }
 
-    fn update_star(&mut self, s: &SensorSample, t: f64) {
+    fn update_star(&mut self, s: &SensorSample, kappa: &Vector3<f64>, t: f64) {
         if !s.star.usable() {
             return;
         }
@@ -537,7 +529,6 @@ impl JointEstimator {
         let q = UnitQuaternion::from_quaternion(q);
         let q_ref = *self.q_ref.get_or_insert(q);
         let theta = crate::model::attitude::rotation_vector(&(q_ref.inverse() * q));
-        let kappa = self.kappa();
         let r = self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v =

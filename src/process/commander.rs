@@ -36,8 +36,8 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         if let Some(e) = link.poll()? {
             return Ok(e);
         }
+        let due = t0 + t * period;
         if period > 0 {
-            let due = t0 + t * period;
             let now = monotonic_ns();
             if now < due {
                 let wait = Duration::from_nanos((due - now).min(1_000_000));
@@ -58,8 +58,8 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         let mut m = commander.step(t);
         m.header.publish_ns = monotonic_ns();
         if period > 0 {
-            m.header.due_ns = t0 + t * period;
-            if m.header.publish_ns > m.header.due_ns + period {
+            m.header.due_ns = due;
+            if m.header.publish_ns > due + period {
                 link.progress.missed_deadlines += 1;
             }
         }

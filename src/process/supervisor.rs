@@ -274,11 +274,11 @@ fn timing_json(
     }
     // A tick misses its deadline when its estimate is published more than one period
     // after the tick was due; the commander's own late starts are one cause of that.
-    let missed = get(PROC_ESTIMATOR).map_or(0, |p| p.missed_deadlines);
+    let est = get(PROC_ESTIMATOR).unwrap_or_default();
+    let missed = est.missed_deadlines;
     let commander_late = get(PROC_COMMANDER)
         .map_or(0, |p| p.missed_deadlines)
         .min(missed);
-    let est = get(PROC_ESTIMATOR).unwrap_or_default();
     let scheduling: serde_json::Map<String, serde_json::Value> = members
         .iter()
         .filter(|m| m.id != PROC_RECORDER)
