@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 const MAGIC: [u8; 8] = *b"TJCKPT01";
 const HEADER: usize = 32;
@@ -56,6 +57,13 @@ pub struct Checkpointer {
 impl Checkpointer {
     /// Size the buffers from the estimator's serialised size (fixed for a given method).
     pub fn new(path: &Path, est: &Estimator) -> Result<Self, String> {
+        Self::with_write_delay(path, est, Duration::ZERO)
+    }
+
+    /// As `new`, with every write held back by `delay`: fault injection for a slow or
+    /// contended disk (the filter loop must neither wait for the writer nor miss the
+    /// moment it finishes).
+    pub fn with_write_delay(path: &Path, est: &Estimator, delay: Duration) -> Result<Self, String> {
         let size = postcard::to_allocvec(est)
             .map_err(|e| format!("cannot serialise the estimator: {e}"))?
             .len();
@@ -79,7 +87,7 @@ impl Checkpointer {
         let sh = Arc::clone(&shared);
         let writer = std::thread::Builder::new()
             .name("checkpoint".into())
-            .spawn(move || write_loop(&sh, &path, &tmp, vec![0; cap]))
+            .spawn(move || write_loop(&sh, &path, &tmp, vec![0; cap], delay))
             .map_err(|e| format!("cannot start the checkpoint writer: {e}"))?;
         Ok(Checkpointer {
             buf: vec![0; cap],
@@ -125,7 +133,7 @@ impl Checkpointer {
     /// Wait until every queued checkpoint is on disk; returns a write error if any.
     pub fn flush(&mut self) -> Result<(), String> {
         while self.shared.busy.load(Ordering::Acquire) {
-            std::thread::sleep(std::time::Duration::from_micros(200));
+            std::thread::sleep(Duration::from_micros(200));
         }
         match lock(&self.shared.slot).error.take() {
             Some(e) => Err(e),
@@ -150,7 +158,7 @@ fn lock(m: &Mutex<Slot>) -> std::sync::MutexGuard<'_, Slot> {
 
 /// The writer thread: temporary file, then rename over the checkpoint, so a process
 /// killed at any instant leaves the previous or the new checkpoint, never a torn one.
-fn write_loop(sh: &Shared, path: &Path, tmp: &Path, mut buf: Vec<u8>) {
+fn write_loop(sh: &Shared, path: &Path, tmp: &Path, mut buf: Vec<u8>, delay: Duration) {
     loop {
         let (len, next_tick) = {
             let mut slot = lock(&sh.slot);
@@ -164,6 +172,9 @@ fn write_loop(sh: &Shared, path: &Path, tmp: &Path, mut buf: Vec<u8>) {
             slot.pending = false;
             (slot.len, slot.next_tick)
         };
+        if !delay.is_zero() {
+            std::thread::sleep(delay);
+        }
         let sum = fnv1a(&buf[HEADER..len]);
         buf[24..32].copy_from_slice(&sum.to_le_bytes());
         let res = std::fs::File::create(tmp)

@@ -266,6 +266,42 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
 }
 
 #[test]
+fn slow_checkpoint_disk_neither_stalls_the_set_nor_loses_a_sample() {
+    let _serial = serial();
+    let dir = tmp("slowdisk");
+    let sc = write_scenario(&dir, SHORT);
+    let out = dir.join("out");
+    let pfx = prefix("d");
+    // Every checkpoint write takes 100 ms: the writer falls thousands of ticks behind,
+    // the front-end's ring fills and it waits for the estimator to report a newer
+    // checkpoint on disk, which the writer finishes while the estimator has no sample.
+    let child = supervisor(&sc, &out, &pfx, &[])
+        .env(taiji::process::estimator::FAULT_CHECKPOINT_DELAY, "100")
+        .spawn()
+        .unwrap();
+    // And a restart in the middle resumes from whatever the slow disk holds.
+    let ckpt = out.join("estimator.ckpt");
+    wait_for("the first checkpoint", Duration::from_secs(60), || {
+        ckpt.exists()
+    });
+    let victims = pids_with(&pfx, "taiji-estimator");
+    assert_eq!(victims.len(), 1);
+    kill9(victims[0]);
+    let o = finish(child);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("every checkpoint write held 100 ms"),
+        "{stderr}"
+    );
+    let r = report(&out);
+    assert_eq!(r["restarts"]["taiji-estimator"], 1);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(r["samples_used"], 30000);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
+}
+
+#[test]
 fn plant_death_stops_the_set_with_a_clear_error() {
     let _serial = serial();
     let dir = tmp("plant");

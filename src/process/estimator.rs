@@ -8,6 +8,7 @@ use crate::checkpoint::{self, Checkpointer};
 use crate::estimate::{Estimator, EstimatorConfig};
 use crate::msg::{EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
+use std::time::Duration;
 
 /// Checkpoint every this many ticks (100 s at 10 Hz): at most this much is replayed
 /// after a restart. Must stay below `fee::RING − bus::WINDOW`.
@@ -15,6 +16,25 @@ pub const CHECKPOINT_EVERY: u64 = 1000;
 
 /// File name of the checkpoint in the run directory.
 pub const CHECKPOINT_FILE: &str = "estimator.ckpt";
+
+/// Fault injection: `TAIJI_FAULT_CHECKPOINT_DELAY_MS` holds back every checkpoint write
+/// (a slow disk), so tests can show that the set neither stalls nor loses a sample.
+pub const FAULT_CHECKPOINT_DELAY: &str = "TAIJI_FAULT_CHECKPOINT_DELAY_MS";
+
+fn fault_checkpoint_delay() -> Result<Duration, String> {
+    match std::env::var(FAULT_CHECKPOINT_DELAY) {
+        Err(_) => Ok(Duration::ZERO),
+        Ok(v) => match v.trim().parse::<u64>() {
+            Ok(ms) if ms <= 60_000 => {
+                log::warn!("taiji-estimator: fault injection: every checkpoint write held {ms} ms");
+                Ok(Duration::from_millis(ms))
+            }
+            _ => Err(format!(
+                "{FAULT_CHECKPOINT_DELAY} must be a whole number of milliseconds up to 60000, not {v:?}"
+            )),
+        },
+    }
+}
 
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
@@ -33,7 +53,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             0,
         ),
     };
-    let mut ckpt = Checkpointer::new(&ckpt_path, &est)?;
+    let mut ckpt = Checkpointer::with_write_delay(&ckpt_path, &est, fault_checkpoint_delay()?)?;
     let mut link = Link::new(
         "taiji-estimator",
         PROC_ESTIMATOR,
@@ -57,6 +77,15 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let exit = loop {
         if let Some(e) = link.poll()? {
             break e;
+        }
+        // The front-end keeps every sample from the newest checkpoint on disk. The
+        // writer may finish while this loop waits for samples, and the front-end may be
+        // waiting for exactly this news (its ring full), so look on every pass.
+        if let Some(w) = ckpt.written() {
+            if w != link.progress.resume_tick {
+                link.progress.resume_tick = w;
+                link.beat()?;
+            }
         }
         let Some(sample) = bus::receive(&input)? else {
             if let Some(e) = link.idle(super::IDLE) {
@@ -97,10 +126,6 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         link.progress.next_tick = next;
         if next % CHECKPOINT_EVERY == 0 {
             ckpt.save(&est, next)?;
-        }
-        // The front-end keeps every sample from the newest checkpoint on disk.
-        if let Some(w) = ckpt.written() {
-            link.progress.resume_tick = w;
         }
         if next == n && !done {
             let mut f = est.finish();

@@ -570,9 +570,18 @@ fn watch(
             ticks_seen = ticks;
             last_advance = Instant::now();
         } else if final_est.is_none() && last_advance.elapsed() > heartbeat {
+            let at: Vec<String> = set
+                .members
+                .iter()
+                .filter_map(|m| {
+                    m.last
+                        .map(|p| format!("{} at tick {}", m.spec.name, p.next_tick))
+                })
+                .collect();
             return Err(set_err(format!(
-                "the set stalled: no tick advanced for {:.0} s; stopping the set",
-                launch.heartbeat_timeout_s
+                "the set stalled: no tick advanced for {:.0} s ({}); stopping the set",
+                launch.heartbeat_timeout_s,
+                at.join(", ")
             )));
         }
         if let Some(m) = set
