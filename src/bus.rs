@@ -16,6 +16,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use std::fmt::Debug;
+use std::time::Duration;
 
 pub const SVC_TORQUE: &str = "taiji/torque_cmd";
 pub const SVC_TRUTH: &str = "taiji/truth";
@@ -175,9 +176,88 @@ pub struct BusSurvey {
     pub alive: Vec<String>,
 }
 
+/// Where POSIX shared memory lives on Linux.
+const SHM_DIR: &str = "/dev/shm";
+
+/// A shared-memory object of the run still empty and unreadable this long after it was
+/// made was abandoned: its creator was killed between creating and sizing it (a window
+/// of microseconds otherwise).
+pub const ABANDONED_AFTER: Duration = Duration::from_secs(1);
+
+/// The stale-resource cleanup gives up after this long.
+const CLEANUP_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// Remove this prefix's shared-memory objects abandoned half-made (see
+/// `ABANDONED_AFTER`); returns how many. iceoryx2 0.9.3 opens such an object in an
+/// endless retry (a zero-size mapping is taken for one still being made; as root the
+/// missing read permission does not stop it), which would hang any process that opens
+/// the connection of a peer `kill -9`ed while connecting, and the stale-node cleanup.
+/// Once the object is gone, the opener gets "does not exist" and carries on.
+pub fn sweep_abandoned(prefix: &str, min_age: Duration) -> usize {
+    let Ok(dir) = std::fs::read_dir(SHM_DIR) else {
+        return 0;
+    };
+    let now = std::time::SystemTime::now();
+    let mut removed = 0;
+    for entry in dir.flatten() {
+        if !entry.file_name().to_string_lossy().starts_with(prefix) {
+            continue;
+        }
+        let Ok(meta) = entry.metadata() else { continue };
+        use std::os::unix::fs::PermissionsExt;
+        let unreadable = meta.permissions().mode() & 0o444 == 0;
+        let old = meta
+            .modified()
+            .ok()
+            .and_then(|m| now.duration_since(m).ok())
+            .is_some_and(|age| age >= min_age);
+        if meta.is_file() && meta.len() == 0 && unreadable && old {
+            if std::fs::remove_file(entry.path()).is_ok() {
+                log::warn!(
+                    "removed shared memory {} abandoned half-made by a killed process",
+                    entry.file_name().to_string_lossy()
+                );
+                removed += 1;
+            }
+        }
+    }
+    removed
+}
+
 /// Remove the shared-memory resources of dead nodes in this prefix (left by a crashed
-/// earlier run) and list the nodes still alive.
+/// earlier run or a killed stage) and list the nodes still alive. Runs iceoryx2's
+/// cleanup on a thread while sweeping abandoned half-made objects, which would
+/// otherwise hang it.
 pub fn cleanup_stale(prefix: &str) -> Result<BusSurvey, String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let p = prefix.to_string();
+    std::thread::Builder::new()
+        .name("bus-cleanup".into())
+        .spawn(move || {
+            let _ = tx.send(cleanup_dead_nodes(&p));
+        })
+        .map_err(|e| format!("cannot start the shared-memory cleanup: {e}"))?;
+    let t0 = std::time::Instant::now();
+    loop {
+        match rx.recv_timeout(Duration::from_millis(100)) {
+            Ok(r) => return r,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                sweep_abandoned(prefix, ABANDONED_AFTER);
+                if t0.elapsed() > CLEANUP_TIMEOUT {
+                    return Err(format!(
+                        "the cleanup of stale shared memory (prefix {prefix:?}) did not finish in {} s",
+                        CLEANUP_TIMEOUT.as_secs()
+                    ));
+                }
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err("the shared-memory cleanup thread failed".into())
+            }
+        }
+    }
+}
+
+fn cleanup_dead_nodes(prefix: &str) -> Result<BusSurvey, String> {
     let cfg = config(prefix)?;
     let mut survey = BusSurvey::default();
     let mut dead = Vec::new();

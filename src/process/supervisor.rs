@@ -17,6 +17,8 @@ use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 #[derive(Debug, Clone, clap::Parser)]
@@ -316,6 +318,43 @@ fn timing_json(
     })
 }
 
+/// Sweeps the run's shared memory for objects abandoned half-made by a killed stage
+/// (`bus::sweep_abandoned`) while the set runs: a live stage connecting to the killed
+/// one would otherwise wait on such an object forever. Stops when dropped.
+struct Janitor {
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Janitor {
+    fn start(prefix: &str) -> Result<Self, String> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (flag, prefix) = (Arc::clone(&stop), prefix.to_string());
+        let thread = std::thread::Builder::new()
+            .name("shm-janitor".into())
+            .spawn(move || {
+                while !flag.load(Ordering::Relaxed) {
+                    bus::sweep_abandoned(&prefix, bus::ABANDONED_AFTER);
+                    std::thread::sleep(Duration::from_millis(250));
+                }
+            })
+            .map_err(|e| format!("cannot start the shared-memory janitor: {e}"))?;
+        Ok(Janitor {
+            stop,
+            thread: Some(thread),
+        })
+    }
+}
+
+impl Drop for Janitor {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 fn supervise(
     args: &SupervisorArgs,
     s: &Scenario,
@@ -338,6 +377,7 @@ fn supervise(
             survey.alive.join(", ")
         )));
     }
+    let _janitor = Janitor::start(&args.bus_prefix).map_err(set_err)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| user(format!("cannot create {}: {e}", args.out.display())))?;
     let ckpt = args.out.join(CHECKPOINT_FILE);

@@ -1,0 +1,125 @@
+//! Stale shared memory of killed processes is cleaned without hanging, even when a
+//! process died half-way through making a connection (an empty, unreadable object that
+//! iceoryx2 0.9.3 would wait on forever).
+
+use std::os::unix::fs::PermissionsExt;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use taiji::bus;
+
+const CHILD_ENV: &str = "TAIJI_BUS_TEST_CHILD";
+const PREFIX_ENV: &str = "TAIJI_BUS_TEST_PREFIX";
+const SERVICE: &str = "taiji/test/cleanup";
+
+/// Not a test of its own: the body of the child processes (publisher or subscriber)
+/// that the test below starts and kills.
+#[test]
+#[ignore]
+fn bus_child() {
+    let (Ok(role), Ok(prefix)) = (std::env::var(CHILD_ENV), std::env::var(PREFIX_ENV)) else {
+        return;
+    };
+    let node = bus::node(&format!("child-{role}"), &prefix).unwrap();
+    if role == "pub" {
+        let p = bus::publisher::<u64>(&node, SERVICE).unwrap();
+        for i in 0.. {
+            bus::publish(&p, i).unwrap();
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    } else {
+        let s = bus::subscriber::<u64>(&node, SERVICE).unwrap();
+        loop {
+            while bus::receive(&s).unwrap().is_some() {}
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+}
+
+fn child(role: &str, prefix: &str) -> Child {
+    Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", "bus_child", "--ignored", "--nocapture"])
+        .env(CHILD_ENV, role)
+        .env(PREFIX_ENV, prefix)
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap()
+}
+
+fn connections(prefix: &str) -> Vec<(PathBuf, u64)> {
+    std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .flatten()
+        .filter(|e| {
+            let n = e.file_name().to_string_lossy().to_string();
+            n.starts_with(prefix) && n.ends_with(".connection")
+        })
+        .map(|e| (e.path(), e.metadata().map(|m| m.len()).unwrap_or(0)))
+        .collect()
+}
+
+#[test]
+fn cleanup_of_a_connection_abandoned_half_made_does_not_hang() {
+    let prefix = format!("tjbus{}_", std::process::id());
+    let mut kids = [child("sub", &prefix), child("pub", &prefix)];
+    let t0 = Instant::now();
+    while connections(&prefix).iter().all(|(_, len)| *len == 0) {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "the children never connected"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    for k in &mut kids {
+        k.kill().unwrap();
+        k.wait().unwrap();
+    }
+    // Make the connection look as a process killed between creating and sizing it
+    // leaves it: empty and write-only, created a while ago.
+    let conns = connections(&prefix);
+    assert_eq!(conns.len(), 1, "{conns:?}");
+    let path = &conns[0].0;
+    let f = std::fs::OpenOptions::new().write(true).open(path).unwrap();
+    f.set_len(0).unwrap();
+    f.set_modified(std::time::SystemTime::now() - 2 * bus::ABANDONED_AFTER)
+        .unwrap();
+    drop(f);
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o200)).unwrap();
+
+    // The cleanup must come back (on a thread, so a hang fails the test instead).
+    let (tx, rx) = std::sync::mpsc::channel();
+    let p = prefix.clone();
+    std::thread::spawn(move || tx.send(bus::cleanup_stale(&p)));
+    let survey = rx
+        .recv_timeout(Duration::from_secs(60))
+        .expect("the cleanup hung on the abandoned connection")
+        .unwrap();
+    assert_eq!(survey.removed_dead, 2);
+    assert!(survey.alive.is_empty(), "{:?}", survey.alive);
+    assert!(!path.exists(), "{} left behind", path.display());
+}
+
+#[test]
+fn sweep_removes_only_empty_unreadable_objects_old_enough() {
+    let prefix = format!("tjsweep{}_", std::process::id());
+    let make = |name: &str, len: u64, mode: u32, age: Duration| {
+        let path = PathBuf::from("/dev/shm").join(format!("{prefix}{name}"));
+        let f = std::fs::File::create(&path).unwrap();
+        f.set_len(len).unwrap();
+        f.set_modified(std::time::SystemTime::now() - age).unwrap();
+        drop(f);
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(mode)).unwrap();
+        path
+    };
+    let old = 2 * bus::ABANDONED_AFTER;
+    let abandoned = make("abandoned", 0, 0o200, old);
+    let young = make("young", 0, 0o200, Duration::ZERO);
+    let readable = make("readable", 0, 0o600, old);
+    let sized = make("sized", 64, 0o200, old);
+    assert_eq!(bus::sweep_abandoned(&prefix, bus::ABANDONED_AFTER), 1);
+    assert!(!abandoned.exists());
+    for p in [young, readable, sized] {
+        assert!(p.exists(), "{} removed", p.display());
+        std::fs::remove_file(p).unwrap();
+    }
+}
