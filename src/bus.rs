@@ -211,14 +211,13 @@ pub fn sweep_abandoned(prefix: &str, min_age: Duration) -> usize {
             .ok()
             .and_then(|m| now.duration_since(m).ok())
             .is_some_and(|age| age >= min_age);
-        if meta.is_file() && meta.len() == 0 && unreadable && old {
-            if std::fs::remove_file(entry.path()).is_ok() {
-                log::warn!(
-                    "removed shared memory {} abandoned half-made by a killed process",
-                    entry.file_name().to_string_lossy()
-                );
-                removed += 1;
-            }
+        let empty = meta.is_file() && meta.len() == 0;
+        if empty && unreadable && old && std::fs::remove_file(entry.path()).is_ok() {
+            log::warn!(
+                "removed shared memory {} abandoned half-made by a killed process",
+                entry.file_name().to_string_lossy()
+            );
+            removed += 1;
         }
     }
     removed
