@@ -194,6 +194,10 @@ const CLEANUP_TIMEOUT: Duration = Duration::from_secs(20);
 /// the connection of a peer `kill -9`ed while connecting, and the stale-node cleanup.
 /// Once the object is gone, the opener gets "does not exist" and carries on.
 pub fn sweep_abandoned(prefix: &str, min_age: Duration) -> usize {
+    // Never everyone's objects: an empty prefix would match every name.
+    if prefix.is_empty() {
+        return 0;
+    }
     let Ok(dir) = std::fs::read_dir(SHM_DIR) else {
         return 0;
     };
