@@ -52,7 +52,8 @@ fn hundred() -> u64 {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LaunchDescription {
-    /// A process silent (no progress message) for this long is declared hung [s].
+    /// A process silent (no progress message) for this long is declared hung [s]:
+    /// restarted if restartable, otherwise the set stops.
     pub heartbeat_timeout_s: f64,
     /// Every process must report ready within this time of being started [s].
     pub ready_timeout_s: f64,

@@ -271,6 +271,46 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
 }
 
 #[test]
+fn a_hung_estimator_is_killed_and_restarted_by_the_watchdog() {
+    let _serial = serial();
+    let dir = tmp("hung");
+    let sc = write_scenario(&dir, SHORT);
+    let out = dir.join("out");
+    let pfx = prefix("h");
+    // The shipped launch description with a 2 s heartbeat timeout.
+    let shipped = taiji::launch::DEFAULT;
+    assert!(shipped.contains("heartbeat_timeout_s = 10.0"));
+    let launch = dir.join("launch.toml");
+    std::fs::write(
+        &launch,
+        shipped.replace("heartbeat_timeout_s = 10.0", "heartbeat_timeout_s = 2.0"),
+    )
+    .unwrap();
+    let child = supervisor(&sc, &out, &pfx, &["--launch", launch.to_str().unwrap()])
+        .spawn()
+        .unwrap();
+    wait_for("the first checkpoint", Duration::from_secs(60), || {
+        out.join("estimator.ckpt").exists()
+    });
+    // SIGSTOP: alive but silent, as a process stuck in a loop or a lock would be.
+    let victims = pids_with(&pfx, "taiji-estimator");
+    assert_eq!(victims.len(), 1);
+    // SAFETY: sending a signal has no memory-safety preconditions.
+    unsafe { libc::kill(victims[0], libc::SIGSTOP) };
+    let o = finish(child);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("taiji-estimator published no progress for 2 s (hung?); killing it"),
+        "{stderr}"
+    );
+    let r = report(&out);
+    assert_eq!(r["restarts"]["taiji-estimator"], 1);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
+}
+
+#[test]
 fn slow_checkpoint_disk_neither_stalls_the_set_nor_loses_a_sample() {
     let _serial = serial();
     let dir = tmp("slowdisk");

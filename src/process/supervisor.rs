@@ -601,6 +601,23 @@ fn watch(
             }
             continue;
         }
+        // Watchdog: a restartable process that publishes no progress (hung, stopped) is
+        // killed; the exit handling above restarts it on the next pass.
+        if let Some(m) = set.members.iter_mut().find(|m| {
+            m.last_seen.elapsed() > heartbeat
+                && m.spec.restart == Restart::OnFailure
+                && m.restarts < m.spec.max_restarts
+        }) {
+            log::warn!(
+                "{} published no progress for {:.0} s (hung?); killing it to restart it",
+                m.spec.name,
+                launch.heartbeat_timeout_s
+            );
+            let _ = m.child.kill();
+            m.last_seen = Instant::now();
+            last_advance = Instant::now();
+            continue;
+        }
         let ticks: u64 = set
             .members
             .iter()
