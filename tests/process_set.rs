@@ -108,6 +108,23 @@ fn kill9(pid: i32) {
     unsafe { libc::kill(pid, libc::SIGKILL) };
 }
 
+/// Wait until the run is under way: the estimator has written its first checkpoint.
+fn wait_mid_run(out: &Path) {
+    let ckpt = out.join("estimator.ckpt");
+    wait_for("the first checkpoint", Duration::from_secs(60), || {
+        ckpt.exists()
+    });
+}
+
+/// Mid-run, send `sig` to the one `exe` process of the set on bus prefix `pfx`.
+fn signal_mid_run(out: &Path, pfx: &str, exe: &str, sig: i32) {
+    wait_mid_run(out);
+    let victims = pids_with(pfx, exe);
+    assert_eq!(victims.len(), 1, "{exe}: {victims:?}");
+    // SAFETY: sending a signal has no memory-safety preconditions.
+    unsafe { libc::kill(victims[0], sig) };
+}
+
 fn wait_for(what: &str, timeout: Duration, mut cond: impl FnMut() -> bool) {
     let t0 = Instant::now();
     while !cond() {
@@ -118,6 +135,26 @@ fn wait_for(what: &str, timeout: Duration, mut cond: impl FnMut() -> bool) {
 
 fn finish(child: Child) -> Output {
     child.wait_with_output().unwrap()
+}
+
+/// Wait for a run in which the estimator was restarted once: it must succeed, log
+/// `expected`, lose no sample, and end bit-identical to the in-process run.
+fn restarted_once_and_unchanged(
+    child: Child,
+    out: &Path,
+    sc: &Path,
+    seed: u64,
+    expected: &str,
+) -> Value {
+    let o = finish(child);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains(expected), "{stderr}");
+    let r = report(out);
+    assert_eq!(r["restarts"]["taiji-estimator"], 1);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(estimates(&r), in_process(sc, seed));
+    r
 }
 
 const SHORT: &str = "name = \"short\"\nseed = 11\nduration_s = 3000.0\n";
@@ -235,29 +272,18 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
     let pfx = prefix("k");
     // Recording too: the recorder must skip what the front-end resends after the restart.
     let child = supervisor(&sc, &out, &pfx, &["--record"]).spawn().unwrap();
-    // Kill the estimator once it has checkpointed, i.e. mid-run.
-    let ckpt = out.join("estimator.ckpt");
-    wait_for("the first checkpoint", Duration::from_secs(60), || {
-        ckpt.exists()
-    });
-    let victims = pids_with(&pfx, "taiji-estimator");
-    assert_eq!(victims.len(), 1);
-    kill9(victims[0]);
-    let o = finish(child);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{stderr}");
-    assert!(
-        stderr.contains("taiji-estimator died (signal 9); restarting it"),
-        "{stderr}"
-    );
-    let r = report(&out);
-    assert_eq!(r["restarts"]["taiji-estimator"], 1);
-    assert_eq!(r["requirements"]["met"], true);
-    assert_eq!(r["timing"]["samples_lost"], 0);
-    assert_eq!(r["samples_used"], 100000);
-    // It resumed from its checkpoint and the front-end resent what it missed: the
+    signal_mid_run(&out, &pfx, "taiji-estimator", libc::SIGKILL);
+    // It resumes from its checkpoint and the front-end resends what it missed: the
     // campaign is bit-identical to one that never crashed.
-    assert_eq!(estimates(&r), in_process(&sc, 5));
+    let r = restarted_once_and_unchanged(
+        child,
+        &out,
+        &sc,
+        5,
+        "taiji-estimator died (signal 9); restarting it",
+    );
+    assert_eq!(r["requirements"]["met"], true);
+    assert_eq!(r["samples_used"], 100000);
     // And so is its recording, stream by stream.
     let s = Scenario::load(&sc).unwrap();
     let (_, tel) = taiji::campaign::run_recorded(&s, 5, Method::Joint, |_| {});
@@ -289,25 +315,15 @@ fn a_hung_estimator_is_killed_and_restarted_by_the_watchdog() {
     let child = supervisor(&sc, &out, &pfx, &["--launch", launch.to_str().unwrap()])
         .spawn()
         .unwrap();
-    wait_for("the first checkpoint", Duration::from_secs(60), || {
-        out.join("estimator.ckpt").exists()
-    });
     // SIGSTOP: alive but silent, as a process stuck in a loop or a lock would be.
-    let victims = pids_with(&pfx, "taiji-estimator");
-    assert_eq!(victims.len(), 1);
-    // SAFETY: sending a signal has no memory-safety preconditions.
-    unsafe { libc::kill(victims[0], libc::SIGSTOP) };
-    let o = finish(child);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{stderr}");
-    assert!(
-        stderr.contains("taiji-estimator published no progress for 2 s (hung?); killing it"),
-        "{stderr}"
+    signal_mid_run(&out, &pfx, "taiji-estimator", libc::SIGSTOP);
+    restarted_once_and_unchanged(
+        child,
+        &out,
+        &sc,
+        11,
+        "taiji-estimator published no progress for 2 s (hung?); killing it",
     );
-    let r = report(&out);
-    assert_eq!(r["restarts"]["taiji-estimator"], 1);
-    assert_eq!(r["timing"]["samples_lost"], 0);
-    assert_eq!(estimates(&r), in_process(&sc, 11));
 }
 
 #[test]
@@ -325,25 +341,10 @@ fn slow_checkpoint_disk_neither_stalls_the_set_nor_loses_a_sample() {
         .spawn()
         .unwrap();
     // And a restart in the middle resumes from whatever the slow disk holds.
-    let ckpt = out.join("estimator.ckpt");
-    wait_for("the first checkpoint", Duration::from_secs(60), || {
-        ckpt.exists()
-    });
-    let victims = pids_with(&pfx, "taiji-estimator");
-    assert_eq!(victims.len(), 1);
-    kill9(victims[0]);
-    let o = finish(child);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{stderr}");
-    assert!(
-        stderr.contains("every checkpoint write held 100 ms"),
-        "{stderr}"
-    );
-    let r = report(&out);
-    assert_eq!(r["restarts"]["taiji-estimator"], 1);
-    assert_eq!(r["timing"]["samples_lost"], 0);
+    signal_mid_run(&out, &pfx, "taiji-estimator", libc::SIGKILL);
+    let r =
+        restarted_once_and_unchanged(child, &out, &sc, 11, "every checkpoint write held 100 ms");
     assert_eq!(r["samples_used"], 30000);
-    assert_eq!(estimates(&r), in_process(&sc, 11));
 }
 
 #[test]
@@ -354,12 +355,7 @@ fn plant_death_stops_the_set_with_a_clear_error() {
     let out = dir.join("out");
     let pfx = prefix("p");
     let child = supervisor(&sc, &out, &pfx, &[]).spawn().unwrap();
-    wait_for("the first checkpoint", Duration::from_secs(60), || {
-        out.join("estimator.ckpt").exists()
-    });
-    for pid in pids_with(&pfx, "taiji-plant") {
-        kill9(pid);
-    }
+    signal_mid_run(&out, &pfx, "taiji-plant", libc::SIGKILL);
     let o = finish(child);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{stderr}");
@@ -382,9 +378,7 @@ fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
     let pfx = prefix("s");
     // Crash a whole run: kill -9 the supervisor and every process, mid-run.
     let child = supervisor(&sc, &out, &pfx, &[]).spawn().unwrap();
-    wait_for("the first checkpoint", Duration::from_secs(60), || {
-        out.join("estimator.ckpt").exists()
-    });
+    wait_mid_run(&out);
     for exe in [
         "taiji-supervisor",
         "taiji-commander",
@@ -443,9 +437,7 @@ fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
     let child = supervisor(&sc, &out, &pfx, &["--realtime", "--time-scale", "100"])
         .spawn()
         .unwrap();
-    wait_for("the first checkpoint", Duration::from_secs(60), || {
-        out.join("estimator.ckpt").exists()
-    });
+    wait_mid_run(&out);
     let t0 = Instant::now();
     // SAFETY: sending a signal has no memory-safety preconditions.
     unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
