@@ -335,7 +335,7 @@ impl Janitor {
             .spawn(move || {
                 while !flag.load(Ordering::Relaxed) {
                     bus::sweep_abandoned(&prefix, bus::ABANDONED_AFTER);
-                    std::thread::sleep(Duration::from_millis(250));
+                    std::thread::park_timeout(Duration::from_millis(250));
                 }
             })
             .map_err(|e| format!("cannot start the shared-memory janitor: {e}"))?;
@@ -350,6 +350,7 @@ impl Drop for Janitor {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(t) = self.thread.take() {
+            t.thread().unpark();
             let _ = t.join();
         }
     }
