@@ -103,9 +103,9 @@ fn pids_with(prefix: &str, exe: &str) -> Vec<i32> {
     pids
 }
 
-fn kill9(pid: i32) {
+fn signal(pid: i32, sig: i32) {
     // SAFETY: sending a signal has no memory-safety preconditions.
-    unsafe { libc::kill(pid, libc::SIGKILL) };
+    unsafe { libc::kill(pid, sig) };
 }
 
 /// Wait until the run is under way: the estimator has written its first checkpoint.
@@ -121,8 +121,7 @@ fn signal_mid_run(out: &Path, pfx: &str, exe: &str, sig: i32) {
     wait_mid_run(out);
     let victims = pids_with(pfx, exe);
     assert_eq!(victims.len(), 1, "{exe}: {victims:?}");
-    // SAFETY: sending a signal has no memory-safety preconditions.
-    unsafe { libc::kill(victims[0], sig) };
+    signal(victims[0], sig);
 }
 
 fn wait_for(what: &str, timeout: Duration, mut cond: impl FnMut() -> bool) {
@@ -387,7 +386,7 @@ fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
         "taiji-estimator",
     ] {
         for pid in pids_with(&pfx, exe) {
-            kill9(pid);
+            signal(pid, libc::SIGKILL);
         }
     }
     let _ = finish(child);
@@ -439,8 +438,7 @@ fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
         .unwrap();
     wait_mid_run(&out);
     let t0 = Instant::now();
-    // SAFETY: sending a signal has no memory-safety preconditions.
-    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    signal(child.id() as i32, libc::SIGTERM);
     let o = finish(child);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(130), "{stderr}");
