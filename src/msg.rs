@@ -26,6 +26,9 @@ pub struct Header {
     /// Real-time pacing: monotonic clock when the commander was due to start this tick
     /// [ns], carried downstream; the tick's deadline is one period later (0 otherwise).
     pub due_ns: u64,
+    /// Sensor samples: incarnation of the estimator the front-end addressed this to
+    /// (changes when it resends after an estimator restart; 0 elsewhere).
+    pub epoch: u64,
 }
 
 /// Commander → plant: torque commanded for the interval.
@@ -75,6 +78,8 @@ pub struct StarSample {
 /// Saturation flags of an IS sample: bit j for the linear channel j, bit 3+j angular.
 pub const FLAG_SATURATED_LINEAR: u8 = 0b0000_0111;
 pub const FLAG_SATURATED_ANGULAR: u8 = 0b0011_1000;
+/// No data this interval (an IS dropout); the voltages are not meaningful.
+pub const FLAG_DROPOUT: u8 = 0b0100_0000;
 /// The IS sample is not present (IS absent in the scenario).
 pub const FLAG_ABSENT: u8 = 0b1000_0000;
 
@@ -97,10 +102,10 @@ pub struct IsSample {
 }
 
 impl IsSample {
-    /// Present, finite and not saturated.
+    /// Present, finite, not saturated and no flag bit set (an unknown bit, e.g. from an
+    /// upset, makes the sample untrustworthy too).
     pub fn usable(&self) -> bool {
-        self.flags & (FLAG_ABSENT | FLAG_SATURATED_LINEAR | FLAG_SATURATED_ANGULAR) == 0
-            && self.volts.iter().flatten().all(|v| v.is_finite())
+        self.flags == 0 && self.volts.iter().flatten().all(|v| v.is_finite())
     }
 
     /// Voltage differences per angular axis a (ω̇_a = β_a ΔV_a, Table 1) [V].
@@ -118,9 +123,9 @@ impl IsSample {
 }
 
 impl StarSample {
-    /// Valid and finite.
+    /// Valid (exactly 1: any other value is a corrupted flag) and finite.
     pub fn usable(&self) -> bool {
-        self.valid != 0 && self.q_bn.iter().all(|v| v.is_finite())
+        self.valid == 1 && self.q_bn.iter().all(|v| v.is_finite())
     }
 }
 
@@ -151,11 +156,96 @@ pub struct EstimateMsg {
     /// CoM offsets per IS, body frame [m], and their 1σ.
     pub r_b: [[f64; 3]; 2],
     pub r_sigma: [[f64; 3]; 2],
-    /// Samples used and samples rejected (non-finite, saturated, invalid).
+    /// Ticks whose IS data entered the linear statistics, and ticks whose did not
+    /// (rejected, invalid or missing); together every tick from the first on.
     pub n_used: u64,
     pub n_rejected: u64,
     /// `EST_FINAL` on the estimate of the whole campaign (after the last sample).
     pub flags: u64,
+    /// `ST_*` bits: how far the estimate can be trusted (0: a verified solution).
+    pub status: u64,
+    /// Rejections since start by cause (`CAUSE_*` index; a sample may count in several).
+    pub rejected_by_cause: [u64; N_CAUSES],
+    /// `1 << CAUSE_*` of what was rejected in the sample behind this message.
+    pub tick_rejections: u64,
+    /// χ² per degree of freedom of the whitened residuals at the last solve, per
+    /// residual group (`GROUP_*`): 1 when the noise model fits the data.
+    pub chi2_per_dof: [f64; N_GROUPS],
+    /// Factor the σ above were inflated by because a group's χ²/dof was too large (1: none).
+    pub sigma_inflation: f64,
+}
+
+/// Why an input was rejected: index into `EstimateMsg::rejected_by_cause`.
+pub const CAUSE_IS_FLAGGED: usize = 0;
+pub const CAUSE_NON_FINITE: usize = 1;
+pub const CAUSE_OUT_OF_RANGE: usize = 2;
+pub const CAUSE_STUCK: usize = 3;
+pub const CAUSE_ANGULAR_MISMATCH: usize = 4;
+pub const CAUSE_LINEAR_OUTLIER: usize = 5;
+pub const CAUSE_STAR_INVALID: usize = 6;
+pub const CAUSE_STAR_OUTLIER: usize = 7;
+pub const CAUSE_TICK_ORDER: usize = 8;
+pub const CAUSE_TICK_MISSING: usize = 9;
+pub const CAUSE_TICK_JUMP: usize = 10;
+pub const N_CAUSES: usize = 11;
+/// Report names of the causes, by index.
+pub const CAUSE_NAMES: [&str; N_CAUSES] = [
+    "is_flagged",
+    "non_finite",
+    "out_of_range",
+    "stuck_channel",
+    "angular_mismatch",
+    "linear_outlier",
+    "star_invalid",
+    "star_outlier",
+    "tick_order",
+    "tick_missing",
+    "tick_jump",
+];
+
+/// Residual groups of the joint estimator (`EstimateMsg::chi2_per_dof`).
+pub const GROUP_LINEAR: usize = 0;
+pub const GROUP_COMMON_MODE: usize = 1;
+pub const GROUP_STAR: usize = 2;
+pub const GROUP_ANGULAR: usize = 3;
+pub const N_GROUPS: usize = 4;
+pub const GROUP_NAMES: [&str; N_GROUPS] = ["linear", "common_mode", "star_tracker", "angular"];
+
+/// `EstimateMsg::status`: no solution yet (the priors are shown).
+pub const ST_NO_SOLUTION: u64 = 1;
+/// The last solve failed (singular normal equations); the previous solution is shown.
+pub const ST_SOLVE_FAILED: u64 = 2;
+/// The final Gauss–Newton iterations did not converge.
+pub const ST_NOT_CONVERGED: u64 = 4;
+/// A residual group's χ²/dof says the model does not fit the data; σ inflated.
+pub const ST_INCONSISTENT: u64 = 8;
+/// Many inputs rejected (over 2 % of ticks) or the tick sequence broke.
+pub const ST_DEGRADED: u64 = 16;
+/// Bits that make a result unverified (the exit code says so).
+pub const ST_UNVERIFIED: u64 =
+    ST_NO_SOLUTION | ST_SOLVE_FAILED | ST_NOT_CONVERGED | ST_INCONSISTENT;
+/// Report names of the status bits, lowest first.
+pub const STATUS_NAMES: [&str; 5] = [
+    "no_solution",
+    "solve_failed",
+    "not_converged",
+    "inconsistent",
+    "degraded",
+];
+
+/// The status bits' names, comma-separated ("ok" when none is set).
+pub fn status_text(status: u64) -> String {
+    let names: Vec<&str> = STATUS_NAMES
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| status & (1 << i) != 0)
+        .map(|(_, n)| *n)
+        .collect();
+    if names.is_empty() {
+        "ok".into()
+    } else {
+        names.join(", ")
+    }
 }
 
 /// `EstimateMsg::flags`: this is the final estimate of the campaign.
@@ -166,10 +256,11 @@ impl Header {
         Header {
             seq,
             tick,
-            sim_time_ns: ((tick + 1) as f64 / fs * 1e9).round() as i64,
+            sim_time_ns: ((tick as f64 + 1.0) / fs * 1e9).round() as i64,
             publish_ns: 0,
             origin_ns: 0,
             due_ns: 0,
+            epoch: 0,
         }
     }
 }

@@ -30,7 +30,29 @@ pub struct IsReport {
 pub struct Requirements {
     pub scale_factor_rel: f64,
     pub com_offset_m: f64,
+    /// Every error within its requirement (judged against the scenario's truths).
     pub met: bool,
+    /// The estimator vouches for its own result (no solve failure, converged, every
+    /// residual group consistent with its noise model): what onboard software knows.
+    #[serde(default = "yes")]
+    pub verified: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// What the estimator says of its own result (`EstimateMsg::status`).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct EstimatorStatus {
+    /// `ST_*` bits and their names ("ok" when none).
+    pub bits: u64,
+    pub text: String,
+    /// χ²/dof of the whitened residuals per group at the final solve (1: the noise
+    /// model fits).
+    pub chi2_per_dof: std::collections::BTreeMap<String, f64>,
+    /// Factor the σ were inflated by for inconsistent groups (1: none).
+    pub sigma_inflation: f64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -45,6 +67,14 @@ pub struct Report {
     /// Samples the estimator used and rejected (non-finite, saturated, invalid).
     pub samples_used: u64,
     pub samples_rejected: u64,
+    /// Rejections by cause (a sample may count under several; see docs/integrity.md).
+    #[serde(default)]
+    pub samples_rejected_by_cause: std::collections::BTreeMap<String, u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimator_status: Option<EstimatorStatus>,
+    /// Injected faults and how many the estimator detected, by kind (with `[faults]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub faults: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wall_time_s: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -106,9 +136,26 @@ impl Report {
                 scale_factor_rel: REQ_SCALE_FACTOR_REL,
                 com_offset_m: REQ_COM_M,
                 met,
+                verified: est.status & crate::msg::ST_UNVERIFIED == 0,
             },
             samples_used: est.n_used,
             samples_rejected: est.n_rejected,
+            samples_rejected_by_cause: crate::msg::CAUSE_NAMES
+                .iter()
+                .zip(est.rejected_by_cause)
+                .map(|(n, c)| (n.to_string(), c))
+                .collect(),
+            estimator_status: Some(EstimatorStatus {
+                bits: est.status,
+                text: crate::msg::status_text(est.status),
+                chi2_per_dof: crate::msg::GROUP_NAMES
+                    .iter()
+                    .zip(est.chi2_per_dof)
+                    .map(|(n, c)| (n.to_string(), c))
+                    .collect(),
+                sigma_inflation: est.sigma_inflation,
+            }),
+            faults: None,
             wall_time_s: None,
             timing: None,
             restarts: None,
@@ -209,10 +256,53 @@ impl Report {
                 .collect();
             let _ = writeln!(o, "r1 − r2 error (x, y, z): [{}] µm", d.join(", "));
         }
+        if let Some(st) = &self.estimator_status {
+            let chi: Vec<String> = st
+                .chi2_per_dof
+                .iter()
+                .map(|(k, v)| format!("{k} {v:.2}"))
+                .collect();
+            let _ = writeln!(
+                o,
+                "Estimator status: {}; χ²/dof {}{}",
+                st.text,
+                chi.join(", "),
+                if st.sigma_inflation > 1.0 {
+                    format!("; σ inflated ×{:.2}", st.sigma_inflation)
+                } else {
+                    String::new()
+                }
+            );
+        }
+        let rejected: Vec<String> = self
+            .samples_rejected_by_cause
+            .iter()
+            .filter(|(_, c)| **c > 0)
+            .map(|(k, c)| format!("{k} {c}"))
+            .collect();
         let _ = writeln!(
             o,
-            "Requirements met: {}",
-            if self.requirements.met { "yes" } else { "NO" }
+            "Samples used {}, rejected {}{}",
+            self.samples_used,
+            self.samples_rejected,
+            if rejected.is_empty() {
+                String::new()
+            } else {
+                format!(" (by cause: {})", rejected.join(", "))
+            }
+        );
+        if let Some(f) = &self.faults {
+            let _ = writeln!(o, "Faults injected / detected: {}", fault_line(f));
+        }
+        let _ = writeln!(
+            o,
+            "Requirements met: {}{}",
+            if self.requirements.met { "yes" } else { "NO" },
+            if self.requirements.verified {
+                ""
+            } else {
+                " — but the estimator marks the result UNVERIFIED (see its status)"
+            }
         );
         if let Some(t) = &self.timing {
             let lat = |v: &serde_json::Value| {
@@ -275,6 +365,25 @@ pub struct Row {
     pub pass: bool,
     /// error / σ.
     pub z: f64,
+}
+
+/// "upset 11/11, star_jump 10/10, …" from a report's `faults`.
+pub fn fault_line(f: &serde_json::Value) -> String {
+    let Some(kinds) = f["by_kind"].as_object() else {
+        return "none".into();
+    };
+    let list: Vec<String> = kinds
+        .iter()
+        .map(|(k, v)| {
+            format!(
+                "{k} {}/{} (missed {})",
+                v["detected"].as_u64().unwrap_or(0),
+                v["injected"].as_u64().unwrap_or(0),
+                v["missed"].as_u64().unwrap_or(0)
+            )
+        })
+        .collect();
+    list.join(", ")
 }
 
 /// Write `DIR/report.json` (creating DIR).

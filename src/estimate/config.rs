@@ -28,6 +28,13 @@ pub struct EstimatorConfig {
     pub sigma_force: f64,
     /// Solve (publish new estimates) every this many samples.
     pub solve_every: u64,
+    /// IS measurement ranges (the front-end clips and flags beyond them): linear
+    /// [m/s²] and angular [rad/s²]; a voltage no in-range acceleration can give is rejected.
+    pub full_scale_linear: f64,
+    pub full_scale_angular: f64,
+    /// Longest run of missing ticks bridged as a dropout (bounds the work of one call);
+    /// a longer jump of the tick is rejected as implausible.
+    pub max_gap_ticks: u64,
 }
 
 impl EstimatorConfig {
@@ -47,6 +54,9 @@ impl EstimatorConfig {
             srp_asd_at_3mhz: s.srp.asd_at_3mhz,
             sigma_force: white_sigma(s.thruster.force_noise_n_rthz / s.spacecraft.mass_kg, fs),
             solve_every: (60.0 * fs).round().max(1.0) as u64,
+            full_scale_linear: fe.full_scale_m_s2,
+            full_scale_angular: fe.full_scale_rad_s2,
+            max_gap_ticks: (600.0 * fs).round().max(1.0) as u64,
         };
         for (i, (is, p)) in s.inertial_sensor.iter().zip(priors).enumerate() {
             c.geometry_m[i] = is.geometry_m;

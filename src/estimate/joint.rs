@@ -21,8 +21,9 @@
 //!   turning the SRP θ = β1 Φ1 + κ (κ: the rotation vector's non-commutative part).
 
 use super::config::EstimatorConfig;
+use super::integrity::{RatioFit, Stuck, Track, GATE};
 use crate::model::noise::{PowerLawBank, MAX_POLES};
-use crate::msg::{EstimateMsg, Header, SensorSample};
+use crate::msg::*;
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Signals of the linear group.
@@ -79,8 +80,10 @@ struct Coeffs {
 pub struct JointEstimator {
     cfg: EstimatorConfig,
     started: bool,
-    tick_start: u64,
-    last_tick: u64,
+    /// Next tick expected: every tick below it was processed or bridged.
+    next_tick: u64,
+    /// Ticks processed or bridged since the first usable sample (the solve schedule).
+    n_ticks: u64,
     sum_ref: [[f64; 3]; 2],
     q_ref: Option<UnitQuaternion<f64>>,
     psi: [[f64; 3]; 2],
@@ -111,18 +114,54 @@ pub struct JointEstimator {
     n_used: u64,
     n_rejected: u64,
     seq: u64,
+    /// Star-tracker samples used.
+    n_star: u64,
+    /// Integrity: rejections by cause, this tick's causes, status word, χ²/dof per
+    /// group at the last solve, the weights that give inconsistent groups their
+    /// observed noise, and the resulting σ inflation.
+    causes: [u64; N_CAUSES],
+    tick_mask: u64,
+    status: u64,
+    chi2: [f64; N_GROUPS],
+    group_weight: [f64; N_GROUPS],
+    inflation: f64,
+    stuck: [Stuck; 2],
+    /// Cross-IS angular test: fitted β2/β1 voltage ratio per axis.
+    ratio: [RatioFit; 3],
+    /// Variance of the sample-to-sample change of ω̇ per axis [rad²/s⁴]: the error of
+    /// bridging a sample with the previous ω̇ (the star filter's process noise then).
+    jerk_var: [f64; 3],
+    /// Linear test: whitened residual rows (5 complement + common mode) of the
+    /// current solution's coefficients, their tracks and the last accepted signals.
+    gate_c: SMatrix<f64, 6, NS>,
+    gate_w: SMatrix<f64, 6, 6>,
+    gate_s: Sig,
+    lin_track: [Track; 6],
+    /// Star-tracker test: attitude residual at the prior β, per axis [rad].
+    star_track: [Track; 3],
 }
+
+/// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
+const ALPHA_LIN: f64 = 1.0 / 64.0;
+const ALPHA_STAR: f64 = 1.0 / 16.0;
+const ALPHA_JERK: f64 = 1.0 / 256.0;
+/// Margin on the measurement range for the voltage range test (priors and ripple).
+const RANGE_MARGIN: f64 = 1.25;
+/// Degrees of freedom a group needs before its χ² is judged.
+const CHI2_MIN_DOF: f64 = 2000.0;
+/// A group is inconsistent above 1 + max(this, 10 √(2/dof)) (model approximations
+/// stay well below it on clean data; an unmodelled effect or a wrong noise level
+/// does not).
+const CHI2_TOL: f64 = 0.25;
 
 /// Outcome of one IS sample.
 struct IsData {
-    valid: bool,
     dv: [f64; 3],
     sum: [f64; 3],
 }
 
 fn is_data(s: &crate::msg::IsSample) -> IsData {
     IsData {
-        valid: s.usable(),
         dv: s.angular_volts(),
         sum: s.linear_volts(),
     }
@@ -175,8 +214,8 @@ impl JointEstimator {
         JointEstimator {
             cfg,
             started: false,
-            tick_start: 0,
-            last_tick: 0,
+            next_tick: 0,
+            n_ticks: 0,
             sum_ref: [[0.0; 3]; 2],
             q_ref: None,
             psi: [[0.0; 3]; 2],
@@ -202,6 +241,21 @@ impl JointEstimator {
             n_used: 0,
             n_rejected: 0,
             seq: 0,
+            n_star: 0,
+            causes: [0; N_CAUSES],
+            tick_mask: 0,
+            status: ST_NO_SOLUTION,
+            chi2: [0.0; N_GROUPS],
+            group_weight: [1.0; N_GROUPS],
+            inflation: 1.0,
+            stuck: [Stuck::default(); 2],
+            ratio: [RatioFit::default(); 3],
+            jerk_var: [0.0; 3],
+            gate_c: SMatrix::zeros(),
+            gate_w: SMatrix::zeros(),
+            gate_s: Sig::zeros(),
+            lin_track: [Track::default(); 6],
+            star_track: [Track::default(); 3],
         }
     }
 
@@ -293,10 +347,10 @@ impl JointEstimator {
         rows * linv
     }
 
-    /// First usable sample: references, the coloured-noise direction and whitening.
-    fn start(&mut self, tick: u64, data: &[IsData; 2]) {
+    /// First usable sample: references, the coloured-noise direction and whitening,
+    /// and the residual rows the linear input test uses.
+    fn start(&mut self, data: &[IsData; 2]) {
         let n = self.n_is();
-        self.tick_start = tick;
         for i in 0..n {
             self.sum_ref[i] = data[i].sum;
         }
@@ -312,44 +366,144 @@ impl JointEstimator {
         if let Some((linv, u, hn)) = Self::whitening(&r0, &h) {
             self.t_u = linv.transpose() * u;
             self.hn = hn;
+            let rows = Self::complement_rows(&linv, &u);
+            for k in 0..5 {
+                self.gate_w.set_row(k, &rows.row(k));
+            }
+            self.gate_w.set_row(5, &self.t_u.transpose());
         }
+        self.gate_c = self.coeffs(&self.p).lin;
         self.started = true;
     }
 
+    fn reject(&mut self, cause: usize) {
+        self.causes[cause] += 1;
+        self.tick_mask |= 1 << cause;
+    }
+
     /// Process one sensor sample; returns the estimate message for this tick (the last
-    /// solution, refreshed every `solve_every` samples).
+    /// solution, refreshed every `solve_every` samples). Any content, header or tick
+    /// order is accepted without panic: what cannot be trusted is rejected and counted.
     pub fn step(&mut self, s: &SensorSample) -> EstimateMsg {
         let tick = s.header.tick;
-        self.last_tick = tick;
-        let data = [is_data(&s.is[0]), is_data(&s.is[1])];
-        let n = self.n_is();
-        let all_valid = (0..n).all(|i| data[i].valid);
-        if !self.started {
-            if all_valid {
-                self.start(tick, &data);
-            } else {
-                self.n_rejected += 1;
-                return self.message(tick);
+        self.tick_mask = 0;
+        if tick < self.next_tick {
+            // A duplicate, or a tick that arrived after a later one (already bridged).
+            self.reject(CAUSE_TICK_ORDER);
+            return self.message(self.next_tick.saturating_sub(1));
+        }
+        let gap = tick - self.next_tick;
+        if gap > self.cfg.max_gap_ticks {
+            if self.started {
+                // A garbage header, or a break too long to bridge: not ours to guess.
+                self.reject(CAUSE_TICK_JUMP);
+                self.status |= ST_DEGRADED;
+                return self.message(self.next_tick.saturating_sub(1));
+            }
+            // Nothing accumulated yet: the stream simply starts here.
+        } else {
+            for k in 0..gap {
+                self.bridge(self.next_tick + k);
             }
         }
-        let dt = 1.0 / self.cfg.fs;
-        // Angular voltages for the integrators; an invalid IS borrows the other's.
-        let mut dv = [[0.0; 3]; 2];
-        for i in 0..n {
-            dv[i] = if data[i].valid {
-                data[i].dv
-            } else if let Some(o) = (0..n).find(|&o| data[o].valid) {
-                std::array::from_fn(|a| {
-                    data[o].dv[a] * self.cfg.beta_prior[o][a] / self.cfg.beta_prior[i][a]
-                })
-            } else {
-                self.dv_last[i]
-            };
+        self.process(tick, s);
+        self.next_tick = tick + 1;
+        self.message(tick)
+    }
+
+    /// A tick with no sample at all (missing on the bus): every model propagates as in
+    /// a dropout of every sensor.
+    fn bridge(&mut self, tick: u64) {
+        self.reject(CAUSE_TICK_MISSING);
+        self.n_rejected += 1;
+        if !self.started {
+            return;
         }
-        self.dv_last = dv;
+        let dv = self.dv_last;
+        let (psi_mid, _) = self.integrate(&dv);
+        self.propagate_model(&psi_mid);
+        self.whitening_time_update();
+        self.star_time_update(&dv, 0);
+        self.tick_done(tick);
+    }
+
+    /// Per-IS checks that need no model: flags, finiteness, range, stuck channels.
+    fn is_checks(&mut self, s: &SensorSample) -> [bool; 2] {
+        let mut ok = [false; 2];
+        for i in 0..self.n_is() {
+            let is = &s.is[i];
+            let stuck = self.stuck[i].repeats(&is.volts);
+            let cause = if is.flags != 0 {
+                Some(CAUSE_IS_FLAGGED)
+            } else if !is.volts.iter().flatten().all(|v| v.is_finite()) {
+                Some(CAUSE_NON_FINITE)
+            } else if !self.in_range(i, is) {
+                Some(CAUSE_OUT_OF_RANGE)
+            } else if stuck {
+                Some(CAUSE_STUCK)
+            } else {
+                None
+            };
+            match cause {
+                Some(c) => self.reject(c),
+                None => ok[i] = true,
+            }
+        }
+        ok
+    }
+
+    /// Could an in-range acceleration have produced these voltages (prior β, k)?
+    fn in_range(&self, i: usize, is: &IsSample) -> bool {
+        let c = &self.cfg;
+        let dv = is.angular_volts();
+        let sum = is.linear_volts();
+        (0..3).all(|a| {
+            let k = self.k_of(&self.p_prior, i, a).abs();
+            let b = c.beta_prior[i][a].abs();
+            dv[a].abs() * b <= RANGE_MARGIN * c.full_scale_angular
+                && sum[a].abs() * k <= RANGE_MARGIN * c.full_scale_linear
+        })
+    }
+
+    /// Cross-IS angular test: both IS see the same ω̇, so ΔV1 − ρ ΔV2 (ρ = β2/β1,
+    /// fitted from accepted samples) is white readout noise and ripple. A corrupted
+    /// voltage of either IS moves it by far more than the noise of that voltage.
+    fn angular_consistent(&mut self, d0: &[f64; 3], d1: &[f64; 3]) -> bool {
+        let c = &self.cfg;
+        let mut ok = true;
+        for a in 0..3 {
+            let (v1, v2) = (d0[a], d1[a]);
+            let var1 =
+                (c.sigma_angular / c.beta_prior[0][a]).powi(2) + (c.sigma_ripple * v1).powi(2);
+            let var2 =
+                (c.sigma_angular / c.beta_prior[1][a]).powi(2) + (c.sigma_ripple * v2).powi(2);
+            let (rho, var_rho, tol) = match self.ratio[a].ratio() {
+                Some((r, vr)) => (r, vr * (var1 + r * r * var2), 0.0),
+                // Before the fit: the prior ratio, with room for the ground error.
+                None => {
+                    let r = c.beta_prior[1][a] / c.beta_prior[0][a];
+                    (r, 0.0, 0.1 * (r * v2).abs())
+                }
+            };
+            let d = v1 - rho * v2;
+            let var = var1 + rho * rho * var2 + var_rho * v2 * v2;
+            ok &= d.is_finite() && d.abs() <= tol + GATE * var.sqrt();
+        }
+        if ok {
+            for a in 0..3 {
+                self.ratio[a].add(d0[a], d1[a]);
+            }
+        }
+        ok
+    }
+
+    /// Advance the angle integrators by one sample of `dv`; returns the interval means
+    /// (Ψ, Φ) used by the linear model.
+    fn integrate(&mut self, dv: &[[f64; 3]; 2]) -> ([[f64; 3]; 2], [[f64; 3]; 2]) {
+        let dt = 1.0 / self.cfg.fs;
         let mut psi_mid = [[0.0; 3]; 2];
         let mut phi_mid = [[0.0; 3]; 2];
-        for i in 0..n {
+        for i in 0..self.n_is() {
             for a in 0..3 {
                 let psi_new = self.psi[i][a] + dt * dv[i][a];
                 psi_mid[i][a] = 0.5 * (self.psi[i][a] + psi_new);
@@ -359,51 +513,162 @@ impl JointEstimator {
                 self.phi[i][a] = phi_new;
             }
         }
+        self.dv_last = *dv;
+        (psi_mid, phi_mid)
+    }
+
+    fn propagate_model(&mut self, psi_mid: &[[f64; 3]; 2]) {
+        let dt = 1.0 / self.cfg.fs;
         let bp = self.cfg.beta_prior[0];
         let w_model = Vector3::from_fn(|a, _| bp[a] * psi_mid[0][a]);
         self.q_model *= UnitQuaternion::from_scaled_axis(w_model * dt);
-        let t = (tick + 1) as f64 * dt;
+    }
 
-        let kappa = self.kappa();
-        if all_valid {
-            self.n_used += 1;
-            self.update_linear(&data, &dv, &psi_mid, &phi_mid, &kappa, t);
-            if n == 2 {
-                // Residual ΔV1 − (β2/β1) ΔV2 [V]: its noise (n1 − n2)/β1 weighted with the
-                // prior β1, so the group constrains the ratio only and cannot pull the
-                // common scale (the density's Jacobian would otherwise be missing).
-                for a in 0..3 {
-                    let wgt = (self.cfg.beta_prior[0][a] / self.cfg.sigma_angular).powi(2) / 2.0;
-                    let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
-                    rank1_upper(&mut self.m_ang[a], &v, wgt);
+    /// A tick processed or bridged: solve on schedule.
+    fn tick_done(&mut self, tick: u64) {
+        self.n_ticks += 1;
+        if self.n_ticks % self.cfg.solve_every == 0 {
+            self.solve(1, true);
+            self.solved_tick = tick;
+        }
+    }
+
+    fn process(&mut self, tick: u64, s: &SensorSample) {
+        let n = self.n_is();
+        let mut ok = self.is_checks(s);
+        let mut ang_ok = ok;
+        if n == 2 && ok[0] && ok[1] {
+            let (d0, d1) = (s.is[0].angular_volts(), s.is[1].angular_volts());
+            if !self.angular_consistent(&d0, &d1) {
+                // One of them is corrupted and the test cannot say which: neither is used.
+                self.reject(CAUSE_ANGULAR_MISMATCH);
+                ok = [false; 2];
+                ang_ok = [false; 2];
+            }
+        }
+        let data = [is_data(&s.is[0]), is_data(&s.is[1])];
+        let all_valid = (0..n).all(|i| ok[i]);
+        if !self.started {
+            if all_valid {
+                self.start(&data);
+            } else {
+                self.n_rejected += 1;
+                return;
+            }
+        }
+        // Angular voltages for the integrators; a rejected IS borrows the other's, and
+        // with neither the previous ω̇ bridges the sample.
+        let mut dv = self.angular_inputs(&data, &ang_ok);
+        let saved = (self.psi, self.phi, self.dv_last);
+        let (mut psi_mid, mut phi_mid) = self.integrate(&dv);
+        let t = (self.n_ticks + 1) as f64 / self.cfg.fs;
+        let mut lin_ok = all_valid;
+        if lin_ok {
+            let kappa = self.kappa_after(&psi_mid);
+            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &kappa, t);
+            if !self.linear_consistent(&sig) {
+                self.reject(CAUSE_LINEAR_OUTLIER);
+                lin_ok = false;
+                if n == 1 {
+                    // One IS: its angular voltages may be the corrupted ones.
+                    ang_ok = [false; 2];
+                    (self.psi, self.phi, self.dv_last) = saved;
+                    dv = self.angular_inputs(&data, &ang_ok);
+                    (psi_mid, phi_mid) = self.integrate(&dv);
                 }
             }
+        }
+        self.propagate_model(&psi_mid);
+        let n_ang = (0..n).filter(|&i| ang_ok[i]).count();
+        if n_ang == n {
+            self.learn_jerk(&dv, &saved.2);
+        }
+        if lin_ok {
+            let kappa = self.kappa();
+            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &kappa, t);
+            self.n_used += 1;
+            self.update_linear(&sig, &dv);
+            self.gate_s = sig;
         } else {
             self.n_rejected += 1;
             self.whitening_time_update();
         }
-        self.star_time_update(&data, &dv);
-        self.update_star(s, &kappa, t);
-
-        if (tick + 1 - self.tick_start) % self.cfg.solve_every == 0 {
-            self.solve(1, true);
-            self.solved_tick = tick;
+        if n == 2 && ang_ok[0] && ang_ok[1] {
+            // Residual ΔV1 − (β2/β1) ΔV2 [V], weighted with its noise at the priors
+            // (readout and drive ripple), so the group constrains the ratio only and
+            // cannot pull the common scale.
+            let c = &self.cfg;
+            for a in 0..3 {
+                let rho = c.beta_prior[1][a] / c.beta_prior[0][a];
+                let var = 2.0 * (c.sigma_angular / c.beta_prior[0][a]).powi(2)
+                    + c.sigma_ripple.powi(2) * (dv[0][a].powi(2) + (rho * dv[1][a]).powi(2));
+                let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
+                rank1_upper(&mut self.m_ang[a], &v, 1.0 / var);
+            }
         }
-        self.message(tick)
+        self.star_time_update(&dv, n_ang);
+        let kappa = self.kappa();
+        self.update_star(s, &kappa, t);
+        self.tick_done(tick);
     }
 
-    fn update_linear(
-        &mut self,
+    fn angular_inputs(&self, data: &[IsData; 2], ok: &[bool; 2]) -> [[f64; 3]; 2] {
+        let n = self.n_is();
+        let mut dv = [[0.0; 3]; 2];
+        for i in 0..n {
+            dv[i] = if ok[i] {
+                data[i].dv
+            } else if let Some(o) = (0..n).find(|&o| ok[o]) {
+                core::array::from_fn(|a| {
+                    data[o].dv[a] * self.cfg.beta_prior[o][a] / self.cfg.beta_prior[i][a]
+                })
+            } else {
+                self.dv_last[i]
+            };
+        }
+        dv
+    }
+
+    /// Learn the spread of the sample-to-sample change of ω̇ (prior β).
+    fn learn_jerk(&mut self, dv: &[[f64; 3]; 2], last: &[[f64; 3]; 2]) {
+        for a in 0..3 {
+            let mut d = 0.0;
+            for l in 0..self.n_is() {
+                d += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - last[l][a]);
+            }
+            if d.is_finite() {
+                self.jerk_var[a] += ALPHA_JERK * (d * d - self.jerk_var[a]);
+            }
+        }
+    }
+
+    /// The linear group's whitened residuals at the current solution, each against
+    /// its track; every one must pass.
+    fn linear_consistent(&mut self, sig: &Sig) -> bool {
+        let z = self.gate_w * (self.gate_c * sig);
+        let ok = (0..6).all(|k| self.lin_track[k].check(z[k], 1.0));
+        for k in 0..6 {
+            if ok {
+                self.lin_track[k].learn(z[k], ALPHA_LIN);
+            } else {
+                self.lin_track[k].miss();
+            }
+        }
+        ok
+    }
+
+    /// Signals of the linear group for one sample.
+    fn signals(
+        &self,
         data: &[IsData; 2],
         dv: &[[f64; 3]; 2],
         psi_mid: &[[f64; 3]; 2],
         phi_mid: &[[f64; 3]; 2],
         kappa: &Vector3<f64>,
         t: f64,
-    ) {
-        let n = self.n_is();
+    ) -> Sig {
         let mut s = Sig::zeros();
-        for i in 0..n {
+        for i in 0..self.n_is() {
             for j in 0..3 {
                 s[S_SUM + 3 * i + j] = data[i].sum[j] - self.sum_ref[i][j];
                 s[S_DV + 3 * i + j] = dv[i][j];
@@ -419,6 +684,21 @@ impl JointEstimator {
         }
         s[S_ONE] = 1.0;
         s[S_T] = t;
+        s
+    }
+
+    /// κ as it will be once the model attitude has taken this sample's step.
+    fn kappa_after(&self, psi_mid: &[[f64; 3]; 2]) -> Vector3<f64> {
+        let dt = 1.0 / self.cfg.fs;
+        let bp = self.cfg.beta_prior[0];
+        let w_model = Vector3::from_fn(|a, _| bp[a] * psi_mid[0][a]);
+        let q = self.q_model * UnitQuaternion::from_scaled_axis(w_model * dt);
+        let lin = Vector3::from_fn(|a, _| bp[a] * self.phi[0][a]);
+        crate::model::attitude::rotation_vector(&q) - lin
+    }
+
+    fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+        let s = *s;
         let bp = self.cfg.beta_prior[0];
         let mut reg = 0;
         for a in 1..3 {
@@ -480,10 +760,9 @@ impl JointEstimator {
     /// IS-propagated attitude ½(β1 Φ1 + β2 Φ2) grows as the double integral of the IS
     /// angular readout noise and drive ripple (per-sample variance from this sample's
     /// voltages, integrated exactly as `step` integrates Φ).
-    fn star_time_update(&mut self, data: &[IsData; 2], dv: &[[f64; 3]; 2]) {
+    fn star_time_update(&mut self, dv: &[[f64; 3]; 2], n_valid: usize) {
         let c = &self.cfg;
         let dt = 1.0 / c.fs;
-        let n_valid = (0..self.n_is()).filter(|&i| data[i].valid).count().max(1);
         let (g0, g1) = (0.5 * dt * dt, dt);
         for a in 0..3 {
             let mut q = 0.0;
@@ -491,8 +770,13 @@ impl JointEstimator {
                 let wd = c.beta_prior[l][a] * dvl[a];
                 q += self.w(l).powi(2) * (c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2));
             }
-            // Borrowed voltages carry the other IS's noise in full.
-            q *= self.n_is() as f64 / n_valid as f64;
+            if n_valid == 0 {
+                // Bridged with the previous ω̇: off by this sample's change of ω̇.
+                q += self.jerk_var[a];
+            } else {
+                // Borrowed voltages carry the other IS's noise in full.
+                q *= self.n_is() as f64 / n_valid as f64;
+            }
             for x in self.st_x[a].iter_mut() {
                 x[0] += dt * x[1];
             }
@@ -514,8 +798,8 @@ impl JointEstimator {
     }
 
     fn update_star(&mut self, s: &SensorSample, kappa: &Vector3<f64>, t: f64) {
-        if !s.star.usable() {
-            return;
+        if s.star.valid == 0 {
+            return; // no sample this tick
         }
         let q = Quaternion::new(
             s.star.q_bn[0],
@@ -523,12 +807,39 @@ impl JointEstimator {
             s.star.q_bn[2],
             s.star.q_bn[3],
         );
-        if q.norm() < 0.5 {
+        // A star-tracker quaternion is normalised far better than 1e-6.
+        if !s.star.usable() || !((q.norm() - 1.0).abs() <= 1e-6) {
+            self.reject(CAUSE_STAR_INVALID);
             return;
         }
         let q = UnitQuaternion::from_quaternion(q);
         let q_ref = *self.q_ref.get_or_insert(q);
         let theta = crate::model::attitude::rotation_vector(&(q_ref.inverse() * q));
+        // The attitude the IS predicts (prior β) differs from the star tracker's by its
+        // white noise around a slowly moving offset: a glitch (a mis-identified star,
+        // an upset) stands out of it.
+        let var_star = self.cfg.sigma_star_rad.powi(2);
+        let mut e = [0.0; 3];
+        for (a, ea) in e.iter_mut().enumerate() {
+            let mut pred = kappa[a];
+            for l in 0..self.n_is() {
+                pred += self.w(l) * self.cfg.beta_prior[l][a] * self.phi[l][a];
+            }
+            *ea = theta[a] - pred;
+        }
+        let ok = (0..3).all(|a| self.star_track[a].check(e[a], var_star));
+        for a in 0..3 {
+            if ok {
+                self.star_track[a].learn(e[a], ALPHA_STAR);
+            } else {
+                self.star_track[a].miss();
+            }
+        }
+        if !ok {
+            self.reject(CAUSE_STAR_OUTLIER);
+            return;
+        }
+        self.n_star += 1;
         let r = self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v =
@@ -652,9 +963,15 @@ impl JointEstimator {
         (cnt, msq, wsq)
     }
 
-    /// Gauss–Newton normal equations (H, g) at `p`; with `priors`, the weak ground
-    /// priors are included (they only matter before every axis has been excited).
-    fn normal_equations(&self, p: &Par, priors: bool) -> (SMatrix<f64, NP, NP>, Par) {
+    /// Gauss–Newton normal equations (H, g) at `p`, and each residual group's χ²; with
+    /// `priors`, the weak ground priors are included (they only matter before every
+    /// axis has been excited). Each group enters with its weight (1, or 1/(χ²/dof)
+    /// when its noise proved larger than modelled).
+    fn normal_equations(
+        &self,
+        p: &Par,
+        priors: bool,
+    ) -> (SMatrix<f64, NP, NP>, Par, [f64; N_GROUPS]) {
         let c0 = self.coeffs(p);
         let mut dc = [Coeffs {
             lin: SMatrix::zeros(),
@@ -691,7 +1008,9 @@ impl JointEstimator {
                 }
             }
         }
-        let mut add = |row: &SVector<f64, 6>, m: &Gram| {
+        let gw = self.group_weight;
+        let mut cost = [0.0; N_GROUPS];
+        let mut add = |row: &SVector<f64, 6>, m: &Gram, grp: usize| {
             let c: Sig = c0.lin.transpose() * row;
             if c.iter().all(|v| *v == 0.0) {
                 return;
@@ -700,8 +1019,9 @@ impl JointEstimator {
                 (0..6).map(|r| row[r] * dc[k].lin[(r, s)]).sum()
             });
             let md = m * d;
-            hm += d.transpose() * md;
-            g += md.transpose() * c;
+            hm += d.transpose() * md * gw[grp];
+            g += md.transpose() * c * gw[grp];
+            cost[grp] += c.dot(&(m * c));
         };
         let h = self.srp_direction(p);
         for reg in 0..N_REG {
@@ -716,23 +1036,68 @@ impl JointEstimator {
             let rows = Self::complement_rows(&linv, &u);
             let m = symmetric(&self.m_raw[reg]);
             for t in 0..5 {
-                add(&rows.row(t).transpose(), &m);
+                add(&rows.row(t).transpose(), &m, GROUP_LINEAR);
             }
         }
-        add(&self.t_u, &symmetric(&self.m_filt));
+        add(&self.t_u, &symmetric(&self.m_filt), GROUP_COMMON_MODE);
         for a in 0..3 {
             let m = symmetric(&self.m_star[a]);
             let d = SMatrix::<f64, 5, NP>::from_fn(|s, k| dc[k].star[a][s]);
             let md = m * d;
-            hm += d.transpose() * md;
-            g += md.transpose() * c0.star[a];
+            hm += d.transpose() * md * gw[GROUP_STAR];
+            g += md.transpose() * c0.star[a] * gw[GROUP_STAR];
+            cost[GROUP_STAR] += c0.star[a].dot(&(m * c0.star[a]));
             let m = symmetric(&self.m_ang[a]);
             let d = SMatrix::<f64, 2, NP>::from_fn(|s, k| dc[k].ang[a][s]);
             let md = m * d;
-            hm += d.transpose() * md;
-            g += md.transpose() * c0.ang[a];
+            hm += d.transpose() * md * gw[GROUP_ANGULAR];
+            g += md.transpose() * c0.ang[a] * gw[GROUP_ANGULAR];
+            cost[GROUP_ANGULAR] += c0.ang[a].dot(&(m * c0.ang[a]));
         }
-        (hm, g)
+        (hm, g, cost)
+    }
+
+    /// Degrees of freedom of each group's χ² (residuals accumulated).
+    fn group_dof(&self) -> [f64; N_GROUPS] {
+        let n = self.n_is();
+        let cnt: f64 = self.m_raw.iter().map(|m| m[(S_ONE, S_ONE)]).sum();
+        [
+            (3 * n - 1) as f64 * cnt,
+            cnt,
+            3.0 * self.n_star as f64,
+            if n == 2 { 3.0 * cnt } else { 0.0 },
+        ]
+    }
+
+    /// Judge each group's χ²/dof: a group whose residuals are larger than its noise
+    /// model allows is inconsistent; it is then weighted with its observed noise (so
+    /// σ grows by √(χ²/dof)) instead of printing a tight σ the data do not support.
+    fn judge_consistency(&mut self, cost: &[f64; N_GROUPS]) {
+        let dof = self.group_dof();
+        let mut inconsistent = false;
+        let mut inflation: f64 = 1.0;
+        for k in 0..N_GROUPS {
+            self.chi2[k] = if dof[k] > 0.0 { cost[k] / dof[k] } else { 0.0 };
+            let limit = 1.0 + CHI2_TOL.max(10.0 * (2.0 / dof[k].max(1.0)).sqrt());
+            if dof[k] >= CHI2_MIN_DOF && !(self.chi2[k] <= limit) {
+                inconsistent = true;
+                let x = if self.chi2[k].is_finite() {
+                    self.chi2[k]
+                } else {
+                    1e300
+                };
+                self.group_weight[k] = 1.0 / x;
+                inflation = inflation.max(x.sqrt());
+            } else {
+                self.group_weight[k] = 1.0;
+            }
+        }
+        self.inflation = inflation;
+        if inconsistent {
+            self.status |= ST_INCONSISTENT;
+        } else {
+            self.status &= !ST_INCONSISTENT;
+        }
     }
 
     fn param_used(&self, k: usize) -> bool {
@@ -755,33 +1120,95 @@ impl JointEstimator {
         Some((delta, var))
     }
 
-    /// Gauss–Newton iterations from the current solution.
-    pub fn solve(&mut self, iterations: usize, priors: bool) {
+    /// Gauss–Newton iterations from the current solution; true when converged. A
+    /// failed step (singular normal equations, a non-finite step) keeps the previous
+    /// solution and says so in the status word.
+    pub fn solve(&mut self, iterations: usize, priors: bool) -> bool {
         for _ in 0..iterations {
-            let (hm, g) = self.normal_equations(&self.p, priors);
-            let Some((delta, var)) = Self::newton_step(&hm, &g) else {
-                return;
+            let (hm, g, _) = self.normal_equations(&self.p, priors);
+            let step = Self::newton_step(&hm, &g).filter(|(d, v)| {
+                d.iter().all(|x| x.is_finite()) && v.iter().all(|x| x.is_finite())
+            });
+            let Some((delta, var)) = step else {
+                self.status |= ST_SOLVE_FAILED;
+                return false;
             };
             self.p += delta;
             self.sigma = var.map(|v| v.max(0.0).sqrt());
+            self.status &= !(ST_SOLVE_FAILED | ST_NO_SOLUTION);
+            let cost = self.group_costs(&self.p);
+            self.judge_consistency(&cost);
+            self.refresh_gate();
             let converged = (0..NP).all(|k| delta[k].abs() < 1e-4 * self.sigma[k].max(1e-300));
             if converged {
-                break;
+                return true;
             }
         }
+        false
+    }
+
+    /// Each group's χ² at `p` (the cost of `normal_equations` without derivatives).
+    fn group_costs(&self, p: &Par) -> [f64; N_GROUPS] {
+        let c0 = self.coeffs(p);
+        let mut cost = [0.0; N_GROUPS];
+        let lin = |row: &SVector<f64, 6>, m: &Gram| {
+            let c: Sig = c0.lin.transpose() * row;
+            c.dot(&(m * c))
+        };
+        let h = self.srp_direction(p);
+        for reg in 0..N_REG {
+            let (cnt, msq, wsq) = self.regime_stats(p, reg);
+            if cnt < 1.0 {
+                continue;
+            }
+            let r = self.white_cov(p, &msq, &wsq);
+            let Some((linv, u, _)) = Self::whitening(&r, &h) else {
+                continue;
+            };
+            let rows = Self::complement_rows(&linv, &u);
+            let m = symmetric(&self.m_raw[reg]);
+            for t in 0..5 {
+                cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), &m);
+            }
+        }
+        cost[GROUP_COMMON_MODE] = lin(&self.t_u, &symmetric(&self.m_filt));
+        for a in 0..3 {
+            cost[GROUP_STAR] += c0.star[a].dot(&(symmetric(&self.m_star[a]) * c0.star[a]));
+            cost[GROUP_ANGULAR] += c0.ang[a].dot(&(symmetric(&self.m_ang[a]) * c0.ang[a]));
+        }
+        cost
+    }
+
+    /// The linear input test follows the new solution: its residual rows change, and
+    /// its tracks' levels move with them (at the last accepted sample).
+    fn refresh_gate(&mut self) {
+        let new = self.coeffs(&self.p).lin;
+        let shift = self.gate_w * ((new - self.gate_c) * self.gate_s);
+        for k in 0..6 {
+            self.lin_track[k].shift(shift[k]);
+        }
+        self.gate_c = new;
     }
 
     /// Final solution: iterate to convergence, with the weak priors (as in the run).
     pub fn finish(&mut self) -> EstimateMsg {
-        self.solve(20, true);
-        self.solved_tick = self.last_tick;
-        self.message(self.last_tick)
+        self.tick_mask = 0;
+        let last = self.next_tick.saturating_sub(1);
+        if self.started {
+            if self.solve(20, true) {
+                self.status &= !ST_NOT_CONVERGED;
+            } else {
+                self.status |= ST_NOT_CONVERGED;
+            }
+        }
+        self.solved_tick = last;
+        self.message(last)
     }
 
     /// Fisher-information 1σ at `p` without priors (the Cramér–Rao bound when `p` is
     /// the truth and the statistics were accumulated from noise-free signals).
     pub fn fisher_sigma(&self, p: &Par) -> Option<Par> {
-        let (hm, g) = self.normal_equations(p, false);
+        let (hm, g, _) = self.normal_equations(p, false);
         Self::newton_step(&hm, &g).map(|(_, var)| var.map(|v| v.max(0.0).sqrt()))
     }
 
@@ -789,7 +1216,7 @@ impl JointEstimator {
     /// without priors: the reference point of the Cramér–Rao bound.
     pub fn nuisance_fit(&self, mut p: Par) -> Par {
         for _ in 0..6 {
-            let (mut hm, mut g) = self.normal_equations(&p, false);
+            let (mut hm, mut g, _) = self.normal_equations(&p, false);
             for k in P_BETA..P_TH0 {
                 for j in 0..NP {
                     hm[(k, j)] = 0.0;
@@ -837,6 +1264,15 @@ impl JointEstimator {
         m.solved_tick = self.solved_tick;
         m.n_used = self.n_used;
         m.n_rejected = self.n_rejected;
+        let ticks = self.n_used + self.n_rejected;
+        let degraded = self.n_rejected * 50 > ticks
+            || self.causes[CAUSE_TICK_JUMP] > 0
+            || self.causes[CAUSE_STAR_OUTLIER] * 50 > self.n_star.max(1);
+        m.status = self.status | if degraded { ST_DEGRADED } else { 0 };
+        m.rejected_by_cause = self.causes;
+        m.tick_rejections = self.tick_mask;
+        m.chi2_per_dof = self.chi2;
+        m.sigma_inflation = self.inflation;
         m
     }
 

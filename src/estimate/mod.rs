@@ -1,6 +1,7 @@
 //! Estimators: the joint angle-domain estimator that reaches the CRLB, the paper's
 //! route for comparison, and the static-state Kalman filter both build on.
 pub mod config;
+pub mod integrity;
 pub mod joint;
 pub mod kalman;
 pub mod paper;

@@ -235,6 +235,7 @@ impl Link {
             publish_ns: now,
             origin_ns: 0,
             due_ns: 0,
+            epoch: 0,
         };
         let h = self.hop.summary_us();
         p.hop_latency_us = [h.p50, h.p99, h.max];

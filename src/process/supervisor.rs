@@ -227,7 +227,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
                 .find(|m| m.id == PROC_ESTIMATOR)
                 .and_then(|m| m.last)
                 .map(|p| p.loop_allocations);
-            let met = report.requirements.met;
+            let met = report.requirements.met && report.requirements.verified;
             Outcome::Completed {
                 report: Box::new(report),
                 met,
