@@ -3,6 +3,7 @@
 
 use crate::commander::Commander;
 use crate::estimate::{Estimator, EstimatorConfig, Method};
+use crate::faults::{Delivery, FaultScore, Injector};
 use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::EstimateMsg;
@@ -29,9 +30,11 @@ impl Stages {
     }
 }
 
-/// Result of a campaign: the final estimate.
+/// Result of a campaign: the final estimate, and with `[faults]` how the estimator
+/// fared against the injected faults.
 pub struct CampaignResult {
     pub estimate: EstimateMsg,
+    pub faults: Option<FaultScore>,
 }
 
 /// Run the campaign; `progress` is called with the fraction done now and then.
@@ -60,17 +63,45 @@ fn run_with(
     mut rec: Option<&mut Telemetry>,
 ) -> CampaignResult {
     let mut st = Stages::new(s, seed, method);
+    let mut inj = Injector::new(s, seed);
+    let mut score = inj.enabled().then(|| FaultScore::new(s));
     let n = s.n_samples();
+    let mut prev = None;
     for tick in 0..n {
         let cmd = st.commander.step(tick);
         let truth = st.plant.step(tick, &cmd.torque_cmd_b);
-        let sample = st.fee.step(&truth);
-        let est = st.estimator.step(&sample);
+        let mut sample = st.fee.step(&truth);
+        if let Some(sc) = score.as_mut() {
+            inj.corrupt(&mut sample, &mut |r| sc.push(r));
+            inj.bus_records(tick, &mut |r| sc.push(r));
+        }
+        // What the bus delivers this tick (just the sample without bus faults).
+        let mut copies = 0;
+        for d in inj.deliveries(tick) {
+            let (m, of) = match d {
+                Delivery::This => (sample, tick),
+                Delivery::Previous => (prev.unwrap_or(sample), tick.saturating_sub(1)),
+                Delivery::Garbage => (inj.garbage(&sample), tick),
+            };
+            let est = st.estimator.step(&m);
+            if let Some(sc) = score.as_mut() {
+                sc.observe(
+                    of,
+                    d,
+                    d == Delivery::This && copies > 0,
+                    est.tick_rejections,
+                );
+            }
+            copies += u32::from(d == Delivery::This);
+            if let Some(t) = rec.as_deref_mut() {
+                t.record_estimate(&est);
+            }
+        }
         if let Some(t) = rec.as_deref_mut() {
             t.record_truth(&truth);
             t.record_sensor(&sample);
-            t.record_estimate(&est);
         }
+        prev = Some(sample);
         if tick % 10_000 == 0 {
             progress(tick as f64 / n as f64);
         }
@@ -78,7 +109,14 @@ fn run_with(
     let estimate = st.estimator.finish();
     if let Some(t) = rec {
         t.record_estimate(&estimate);
+        if let Some(sc) = &score {
+            t.faults = sc.records.clone();
+            t.faults_detected = sc.detected.clone();
+        }
     }
     progress(1.0);
-    CampaignResult { estimate }
+    CampaignResult {
+        estimate,
+        faults: score,
+    }
 }

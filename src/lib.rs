@@ -9,6 +9,7 @@ pub mod checkpoint;
 pub mod commander;
 pub mod crlb;
 pub mod estimate;
+pub mod faults;
 pub mod fee;
 pub mod launch;
 pub mod model;

@@ -29,6 +29,13 @@ pub struct MonteCarlo {
     pub first_seed: u64,
     pub method: String,
     pub runs_meeting_requirements: u64,
+    /// Runs whose estimator vouched for its result (status verified).
+    pub runs_verified: u64,
+    /// Largest |error/σ| of any parameter in any run.
+    pub worst_normalized: f64,
+    /// Injected / detected / missed faults summed over the runs, by kind (`[faults]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub faults: Option<serde_json::Value>,
     pub params: Vec<ParamStats>,
     /// Mean of (error/σ)² per parameter group: β, k, r.
     pub chi2_by_group: [f64; 3],
@@ -56,14 +63,10 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
                     let mut sc = s.clone();
                     sc.seed = seed;
                     let r = campaign::run(&sc, seed, method, |_| {});
-                    *o = Some(Report::new(
-                        &sc,
-                        seed,
-                        "in-process",
-                        method.name(),
-                        &r.estimate,
-                        &bound,
-                    ));
+                    let mut rep =
+                        Report::new(&sc, seed, "in-process", method.name(), &r.estimate, &bound);
+                    rep.faults = r.faults.map(|f| f.summary());
+                    *o = Some(rep);
                     bar.inc(1);
                 }
             });
@@ -106,7 +109,19 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
         }
     }
     let met = reports.iter().filter(|r| r.requirements.met).count() as u64;
+    let verified = reports.iter().filter(|r| r.requirements.verified).count() as u64;
+    let mut worst_z = 0.0f64;
+    for r in &reports {
+        for row in r.rows() {
+            if row.z.is_nan() || row.z.abs() > worst_z {
+                worst_z = row.z.abs();
+            }
+        }
+    }
     Ok(MonteCarlo {
+        runs_verified: verified,
+        worst_normalized: worst_z,
+        faults: sum_faults(&reports),
         scenario: s.name.clone(),
         runs,
         first_seed,
@@ -116,6 +131,44 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
         chi2_by_group: std::array::from_fn(|g| group[g].0 / group[g].1.max(1) as f64),
         reports,
     })
+}
+
+/// Per-kind fault counts summed over the runs (None without faults).
+fn sum_faults(reports: &[Report]) -> Option<serde_json::Value> {
+    let mut sum: std::collections::BTreeMap<String, [u64; 5]> = Default::default();
+    let keys = [
+        "injected",
+        "detected",
+        "missed",
+        "undetected_within_5_sigma",
+        "not_delivered",
+    ];
+    for r in reports {
+        let Some(kinds) = r.faults.as_ref().and_then(|f| f["by_kind"].as_object()) else {
+            continue;
+        };
+        for (k, v) in kinds {
+            let e = sum.entry(k.clone()).or_default();
+            for (j, key) in keys.iter().enumerate() {
+                e[j] += v[key].as_u64().unwrap_or(0);
+            }
+        }
+    }
+    if sum.is_empty() {
+        return None;
+    }
+    let by_kind: serde_json::Map<String, serde_json::Value> = sum
+        .into_iter()
+        .map(|(k, v)| {
+            let obj: serde_json::Map<String, serde_json::Value> = keys
+                .iter()
+                .zip(v)
+                .map(|(k, n)| (k.to_string(), serde_json::json!(n)))
+                .collect();
+            (k, serde_json::Value::Object(obj))
+        })
+        .collect();
+    Some(serde_json::json!({ "by_kind": by_kind }))
 }
 
 impl MonteCarlo {
@@ -165,9 +218,16 @@ impl MonteCarlo {
         );
         let _ = writeln!(
             o,
-            "Runs meeting every requirement: {} of {}",
-            self.runs_meeting_requirements, self.runs
+            "Runs meeting every requirement: {} of {}; verified by the estimator: {} of {}; worst |err/σ| {:.2}",
+            self.runs_meeting_requirements, self.runs, self.runs_verified, self.runs, self.worst_normalized
         );
+        if let Some(f) = &self.faults {
+            let _ = writeln!(
+                o,
+                "Faults injected / detected over all runs: {}",
+                crate::report::fault_line(f)
+            );
+        }
         o
     }
 }

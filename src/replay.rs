@@ -11,6 +11,9 @@ use crate::telemetry::Telemetry;
 pub struct Replayed {
     pub estimate: EstimateMsg,
     pub rows: Vec<EstimateMsg>,
+    /// Detection of the recording's own fault log (`/faults`; bus faults are not in a
+    /// recording's samples, so they are left out).
+    pub faults: Option<crate::faults::FaultScore>,
 }
 
 pub fn run(rec: &Recording, method: Method, mut progress: impl FnMut(f64)) -> Replayed {
@@ -18,8 +21,28 @@ pub fn run(rec: &Recording, method: Method, mut progress: impl FnMut(f64)) -> Re
     let mut est = Estimator::new(method, EstimatorConfig::from_scenario(s, &s.priors()));
     let mut rows = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, 0);
     let n = rec.samples.len();
+    let mut score = (!rec.faults.is_empty()).then(|| {
+        let mut sc = crate::faults::FaultScore::new(s);
+        for r in rec
+            .faults
+            .iter()
+            .filter(|r| r.field != crate::faults::FIELD_HEADER)
+        {
+            sc.push(*r);
+        }
+        sc
+    });
     for (i, sample) in rec.samples.iter().enumerate() {
-        rows.record_estimate(&est.step(sample));
+        let e = est.step(sample);
+        if let Some(sc) = score.as_mut() {
+            sc.observe(
+                sample.header.tick,
+                crate::faults::Delivery::This,
+                false,
+                e.tick_rejections,
+            );
+        }
+        rows.record_estimate(&e);
         if i % 10_000 == 0 {
             progress(i as f64 / n as f64);
         }
@@ -30,5 +53,6 @@ pub fn run(rec: &Recording, method: Method, mut progress: impl FnMut(f64)) -> Re
     Replayed {
         estimate,
         rows: rows.estimates,
+        faults: score,
     }
 }

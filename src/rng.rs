@@ -14,6 +14,8 @@ pub enum Stream {
     ThrusterForce = 4,
     Srp = 5,
     StarTracker = 6,
+    /// Injected faults (`[faults]`): their own stream, so clean noise is unchanged.
+    Faults = 7,
     /// IS front-end electronics; IS i uses `InertialSensor as u64 + i`.
     InertialSensor = 16,
 }

@@ -10,6 +10,9 @@ use std::path::Path;
 /// Arc-second in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
 
+/// Longest campaign [s] the estimator's honesty has been verified for (docs/integrity.md).
+pub const MAX_DURATION_S: f64 = 1.0e6;
+
 /// Least ratio of the DC SRP [m/s²] to its fluctuation ASD at 3 mHz [m s⁻² Hz^-½].
 pub const SRP_DC_OVER_ASD: f64 = 5.0;
 
@@ -46,6 +49,8 @@ pub struct Scenario {
     pub front_end: FrontEnd,
     pub ground_calibration: GroundCalibration,
     pub inertial_sensor: Vec<InertialSensor>,
+    /// Injected faults (none by default).
+    pub faults: crate::faults::FaultsConfig,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -55,6 +60,11 @@ pub struct Spacecraft {
     pub inertia_kg_m2: [[f64; 3]; 3],
     /// Spacecraft mass [kg]; converts thruster force noise to acceleration.
     pub mass_kg: f64,
+    /// Bandwidth of the attitude hold [Hz] (0: none). The drag-free and attitude
+    /// control keeps the spacecraft pointed; without it the thrusters' noise and
+    /// amplitude jitter let the attitude random-walk (4×10⁻³ rad at 3×10⁴ s, 0.3 rad at
+    /// 10⁶ s). Far below the maneuver's frequency, it does not fight the rocking.
+    pub attitude_hold_hz: f64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -169,6 +179,7 @@ impl Default for Scenario {
             front_end: FrontEnd::default(),
             ground_calibration: GroundCalibration::default(),
             inertial_sensor: vec![is1, is2],
+            faults: crate::faults::FaultsConfig::default(),
         }
     }
 }
@@ -178,6 +189,7 @@ impl Default for Spacecraft {
         Spacecraft {
             inertia_kg_m2: [[1000.0, 5.0, -3.0], [5.0, 1100.0, 4.0], [-3.0, 4.0, 900.0]],
             mass_kg: 2000.0,
+            attitude_hold_hz: 3.0e-5,
         }
     }
 }
@@ -394,6 +406,15 @@ impl Scenario {
                 "gives fewer than 100 samples at sample_rate_hz",
             );
         }
+        if self.duration_s > MAX_DURATION_S {
+            return err(
+                "duration_s",
+                &format!(
+                    "{} s is beyond the longest campaign the estimator is verified for ({MAX_DURATION_S:.0} s)",
+                    self.duration_s
+                ),
+            );
+        }
         if self.n_samples() > 100_000_000 {
             return err("duration_s", "gives more than 10^8 samples; shorten it");
         }
@@ -416,6 +437,16 @@ impl Scenario {
             return err("spacecraft.inertia_kg_m2", "must be positive definite");
         }
         pos("spacecraft.mass_kg", self.spacecraft.mass_kg)?;
+        nonneg(
+            "spacecraft.attitude_hold_hz",
+            self.spacecraft.attitude_hold_hz,
+        )?;
+        if self.spacecraft.attitude_hold_hz * 10.0 > self.maneuver.frequency_hz {
+            return err(
+                "spacecraft.attitude_hold_hz",
+                "must stay below a tenth of maneuver.frequency_hz (the hold would fight the rocking)",
+            );
+        }
 
         let mv = &self.maneuver;
         pos("maneuver.frequency_hz", mv.frequency_hz)?;
@@ -450,6 +481,9 @@ impl Scenario {
             return err("maneuver.frequency_hz", "must be below sample_rate_hz / 8");
         }
 
+        if let Err((k, m)) = self.faults.validate() {
+            return err(&k, &m);
+        }
         let th = &self.thruster;
         pos("thruster.response_time_s", th.response_time_s)?;
         if th.response_time_s > 5e-3 {

@@ -140,7 +140,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let crlb = crlb_of(&s)?;
             let bar = Bar::new(1000, "campaign");
             let tick = |f: f64| bar.set((f * 1000.0) as u64);
-            let (estimate, tel) = if record || plots {
+            let (estimate, tel, faults) = if record || plots {
                 let (res, tel) = taiji::campaign::run_recorded(&s, seed, method, tick);
                 std::fs::create_dir_all(&out)
                     .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
@@ -148,12 +148,14 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                     let meta = Meta::of(&s, seed, method.name(), "in-process");
                     tel.write(&out.join("telemetry.h5"), &meta)?;
                 }
-                (res.estimate, Some(tel))
+                (res.estimate, Some(tel), res.faults)
             } else {
-                (taiji::campaign::run(&s, seed, method, tick).estimate, None)
+                let res = taiji::campaign::run(&s, seed, method, tick);
+                (res.estimate, None, res.faults)
             };
             bar.finish();
             let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
+            report.faults = faults.map(|f| f.summary());
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
             if let (true, Some(tel)) = (plots, &tel) {
                 taiji::plots::write_all(tel, &s, &out)?;
@@ -185,6 +187,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 &res.estimate,
                 &crlb,
             );
+            report.faults = res.faults.map(|f| f.summary());
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
             finish(&out, &report, false)
         }

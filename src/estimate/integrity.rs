@@ -37,18 +37,25 @@ pub struct Track {
 }
 
 impl Track {
-    /// Does `x` pass? `floor` is the least variance (the known white noise). While
-    /// the track is still learning it rejects only gross outliers.
-    pub fn check(&self, x: f64, floor: f64) -> bool {
+    /// Does `x` pass, within `gate` σ? σ² is the learned spread, at least `floor`
+    /// (the known white noise). While the track is still learning it rejects only
+    /// gross outliers.
+    pub fn check_within(&self, x: f64, floor: f64, gate: f64) -> bool {
         if !x.is_finite() {
             return false;
         }
         let d = x - self.level;
+        let var = self.var.max(floor);
         match self.n {
             0..=7 => true,
-            n if n < WARM => d * d <= 1e4 * GATE * GATE * (self.var + floor),
-            _ => d * d <= GATE * GATE * (self.var + floor),
+            n if n < WARM => d * d <= 1e4 * gate * gate * var,
+            _ => d * d <= gate * gate * var,
         }
+    }
+
+    /// `check_within` at the standard `GATE`.
+    pub fn check(&self, x: f64, floor: f64) -> bool {
+        self.check_within(x, floor, GATE)
     }
 
     /// Learn from an accepted `x` (`alpha`: forgetting rate once warm).
@@ -108,13 +115,14 @@ pub struct Stuck {
 }
 
 impl Stuck {
-    /// Feed this sample's voltages; true when any channel repeats the previous sample.
-    pub fn repeats(&mut self, volts: &[[f64; 2]; 3]) -> bool {
-        let mut rep = false;
+    /// Feed this sample's voltages; per electrode pair, whether a channel repeats the
+    /// previous sample.
+    pub fn repeats(&mut self, volts: &[[f64; 2]; 3]) -> [bool; 3] {
+        let mut rep = [false; 3];
         for (p, pair) in volts.iter().enumerate() {
             for (c, v) in pair.iter().enumerate() {
                 let bits = v.to_bits();
-                rep |= self.seen && bits == self.last[p][c];
+                rep[p] |= self.seen && bits == self.last[p][c];
                 self.last[p][c] = bits;
             }
         }
@@ -196,20 +204,20 @@ mod tests {
     fn a_repeated_value_is_stuck_and_a_changing_one_is_not() {
         let mut s = Stuck::default();
         let mut v = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]];
-        assert!(!s.repeats(&v));
+        assert_eq!(s.repeats(&v), [false; 3]);
         v[0][0] += 1e-9;
         v[0][1] += 1e-9;
         v[1][0] += 1e-9;
         v[1][1] += 1e-9;
         v[2][0] += 1e-9;
-        assert!(s.repeats(&v), "V_z2 repeated");
+        assert_eq!(s.repeats(&v), [false, false, true], "V_z2 repeated");
         v[2][1] += 1e-9;
         for p in 0..3 {
             for c in 0..2 {
                 v[p][c] *= 1.0 + 1e-12;
             }
         }
-        assert!(!s.repeats(&v));
+        assert_eq!(s.repeats(&v), [false; 3]);
     }
 
     #[test]

@@ -39,8 +39,10 @@ const S_PHI: usize = 12; // + a : Φ1_a interval mean [V s²]
 const S_PP: usize = 15; // + prod(a, b) : Ψ1_a Ψ1_b [V² s²]
 const S_ONE: usize = 21;
 const S_T: usize = 22;
-const S_QQ: usize = 23; // + prod(a, b) : Φ1_a Φ1_b [V² s⁴], second-order SRP rotation
-const S_KAP: usize = 29; // + a : κ_a [rad], non-commutative part of the rotation vector
+/// W_jm at `S_W + 3 j + m` = (R̂ᵀ − I + [Φ̂]×)_jm [rad]: the SRP's turn beyond first
+/// order in the propagated angle, exact in the attitude (R̂ propagated with the running
+/// β̂ and pulled onto the star tracker after data gaps).
+const S_W: usize = 23;
 
 pub const P_BETA: usize = 0; // + 3 i + a
 pub const P_R: usize = 6; // + 3 i + a
@@ -89,7 +91,10 @@ pub struct JointEstimator {
     psi: [[f64; 3]; 2],
     phi: [[f64; 3]; 2],
     dv_last: [[f64; 3]; 2],
+    /// Attitude propagated with the running β̂1 and its first-order part ∫ β̂1 ⊙ Ψ1 dt
+    /// [rad]: exact in the attitude however far it wanders, linear in β1 − β̂1.
     q_model: UnitQuaternion<f64>,
+    phi_hat: [f64; 3],
     m_star: [SMatrix<f64, 5, 5>; 3],
     /// Innovations filter of the star-tracker residual, per axis: the IS angular noise
     /// double-integrated into Φ is an integrated random walk (angle, rate) [rad, rad/s];
@@ -131,6 +136,18 @@ pub struct JointEstimator {
     /// Variance of the sample-to-sample change of ω̇ per axis [rad²/s⁴]: the error of
     /// bridging a sample with the previous ω̇ (the star filter's process noise then).
     jerk_var: [f64; 3],
+    /// Consecutive ticks bridged without any angular data, and the last ω̇ voltages
+    /// measured before them: when data return, a jump between the two (a torque edge
+    /// inside the gap) leaves an unknown rate error that the star filter must allow.
+    bridge_run: [u32; 3],
+    dv_anchor: [[f64; 3]; 2],
+    /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
+    /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
+    /// [rad], drift rate [rad/s], β − β̂ [rad s⁻² V⁻¹]) and its covariance. The drift
+    /// stays exactly 0 while nothing is bridged; the β state keeps the still-unknown
+    /// scale error out of it.
+    drift_x: [[f64; 4]; 3],
+    drift_p: [[[f64; 4]; 4]; 3],
     /// Linear test: whitened residual rows (5 complement + common mode) of the
     /// current solution's coefficients, their tracks and the last accepted signals.
     gate_c: SMatrix<f64, 6, NS>,
@@ -169,6 +186,11 @@ fn is_data(s: &crate::msg::IsSample) -> IsData {
 
 fn skew(r: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -r.z, r.y, r.z, 0.0, -r.x, -r.y, r.x, 0.0)
+}
+
+/// `x > limit`, or not a number: a test that must fail on NaN.
+fn nan_or_above(x: f64, limit: f64) -> bool {
+    x.is_nan() || x > limit
 }
 
 /// Symmetric rank-one update of the upper triangle: m += w v vᵀ.
@@ -222,6 +244,7 @@ impl JointEstimator {
             phi: [[0.0; 3]; 2],
             dv_last: [[0.0; 3]; 2],
             q_model: UnitQuaternion::identity(),
+            phi_hat: [0.0; 3],
             m_star: [SMatrix::zeros(); 3],
             st_x: [[[0.0; 2]; 5]; 3],
             st_p: [[[0.0; 2]; 2]; 3],
@@ -251,12 +274,26 @@ impl JointEstimator {
             stuck: [Stuck::default(); 2],
             ratio: [RatioFit::default(); 3],
             jerk_var: [0.0; 3],
+            bridge_run: [0; 3],
+            dv_anchor: [[0.0; 3]; 2],
+            drift_x: [[0.0; 4]; 3],
+            drift_p: core::array::from_fn(|a| {
+                let mut p = [[0.0; 4]; 4];
+                p[0][0] = 1e-4;
+                p[3][3] = (0.05 * cfg.beta_prior[0][a]).powi(2);
+                p
+            }),
             gate_c: SMatrix::zeros(),
             gate_w: SMatrix::zeros(),
             gate_s: Sig::zeros(),
             lin_track: [Track::default(); 6],
             star_track: [Track::default(); 3],
         }
+    }
+
+    /// Every tick below this one has been processed or bridged.
+    pub fn next_tick(&self) -> u64 {
+        self.next_tick
     }
 
     pub fn config(&self) -> &EstimatorConfig {
@@ -420,58 +457,79 @@ impl JointEstimator {
             return;
         }
         let dv = self.dv_last;
+        for a in 0..3 {
+            self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
+            self.drift_bridged(a);
+        }
         let (psi_mid, _) = self.integrate(&dv);
         self.propagate_model(&psi_mid);
         self.whitening_time_update();
-        self.star_time_update(&dv, 0);
+        self.star_time_update(&dv, &[0; 3]);
         self.tick_done(tick);
     }
 
     /// Per-IS checks that need no model: flags, finiteness, range, stuck channels.
-    fn is_checks(&mut self, s: &SensorSample) -> [bool; 2] {
+    /// Returns whether each IS is wholly usable (its linear data too) and, per angular
+    /// axis, whether its electrode pair is (a bad channel spoils one axis, not three).
+    fn is_checks(&mut self, s: &SensorSample) -> ([bool; 2], [[bool; 3]; 2]) {
         let mut ok = [false; 2];
+        let mut axis = [[false; 3]; 2];
         for i in 0..self.n_is() {
             let is = &s.is[i];
             let stuck = self.stuck[i].repeats(&is.volts);
-            let cause = if is.flags != 0 {
-                Some(CAUSE_IS_FLAGGED)
-            } else if !is.volts.iter().flatten().all(|v| v.is_finite()) {
-                Some(CAUSE_NON_FINITE)
-            } else if !self.in_range(i, is) {
-                Some(CAUSE_OUT_OF_RANGE)
-            } else if stuck {
-                Some(CAUSE_STUCK)
-            } else {
-                None
-            };
-            match cause {
-                Some(c) => self.reject(c),
-                None => ok[i] = true,
+            if is.flags != 0 {
+                self.reject(CAUSE_IS_FLAGGED);
+                continue;
+            }
+            let mut pair_ok = [true; 3];
+            for (p, good) in pair_ok.iter_mut().enumerate() {
+                let cause = if !is.volts[p].iter().all(|v| v.is_finite()) {
+                    Some(CAUSE_NON_FINITE)
+                } else if !self.pair_in_range(i, p, &is.volts[p]) {
+                    Some(CAUSE_OUT_OF_RANGE)
+                } else if stuck[p] {
+                    Some(CAUSE_STUCK)
+                } else {
+                    None
+                };
+                if let Some(c) = cause {
+                    self.reject(c);
+                    *good = false;
+                }
+            }
+            ok[i] = pair_ok.iter().all(|g| *g);
+            for (a, ax) in axis[i].iter_mut().enumerate() {
+                *ax = pair_ok[PAIR_OF_ANGULAR[a]];
             }
         }
-        ok
+        (ok, axis)
     }
 
-    /// Could an in-range acceleration have produced these voltages (prior β, k)?
-    fn in_range(&self, i: usize, is: &IsSample) -> bool {
+    /// Could an in-range acceleration have produced electrode pair `p`'s voltages
+    /// (prior β, k)?
+    fn pair_in_range(&self, i: usize, p: usize, v: &[f64; 2]) -> bool {
         let c = &self.cfg;
-        let dv = is.angular_volts();
-        let sum = is.linear_volts();
-        (0..3).all(|a| {
-            let k = self.k_of(&self.p_prior, i, a).abs();
-            let b = c.beta_prior[i][a].abs();
-            dv[a].abs() * b <= RANGE_MARGIN * c.full_scale_angular
-                && sum[a].abs() * k <= RANGE_MARGIN * c.full_scale_linear
-        })
+        let a = ANGULAR_OF_PAIR[p];
+        let k = self.k_of(&self.p_prior, i, p).abs();
+        let b = c.beta_prior[i][a].abs();
+        (v[0] - v[1]).abs() * b <= RANGE_MARGIN * c.full_scale_angular
+            && (v[0] + v[1]).abs() * k <= RANGE_MARGIN * c.full_scale_linear
     }
 
-    /// Cross-IS angular test: both IS see the same ω̇, so ΔV1 − ρ ΔV2 (ρ = β2/β1,
-    /// fitted from accepted samples) is white readout noise and ripple. A corrupted
-    /// voltage of either IS moves it by far more than the noise of that voltage.
-    fn angular_consistent(&mut self, d0: &[f64; 3], d1: &[f64; 3]) -> bool {
+    /// Cross-IS angular test, per axis where both IS have data: both see the same ω̇,
+    /// so ΔV1 − ρ ΔV2 (ρ = β2/β1, fitted from accepted samples) is white readout noise
+    /// and ripple. A corrupted voltage of either IS moves it by far more than the noise
+    /// of that voltage. Returns, per axis, whether the pair passed (false where it was
+    /// not tested).
+    fn angular_consistent(
+        &mut self,
+        d0: &[f64; 3],
+        d1: &[f64; 3],
+        tested: &[bool; 3],
+    ) -> [bool; 3] {
         let c = &self.cfg;
-        let mut ok = true;
-        for a in 0..3 {
+        let mut pass = [false; 3];
+        for a in (0..3).filter(|&a| tested[a]) {
             let (v1, v2) = (d0[a], d1[a]);
             let var1 =
                 (c.sigma_angular / c.beta_prior[0][a]).powi(2) + (c.sigma_ripple * v1).powi(2);
@@ -487,14 +545,21 @@ impl JointEstimator {
             };
             let d = v1 - rho * v2;
             let var = var1 + rho * rho * var2 + var_rho * v2 * v2;
-            ok &= d.is_finite() && d.abs() <= tol + GATE * var.sqrt();
+            pass[a] = d.is_finite() && d.abs() <= tol + GATE * var.sqrt();
         }
-        if ok {
-            for a in 0..3 {
-                self.ratio[a].add(d0[a], d1[a]);
-            }
-        }
-        ok
+        pass
+    }
+
+    /// Which IS's angular voltage to use on axis `a` when the two disagree: the one
+    /// nearer the previous ω̇ (ω̇ changes from one sample to the next by far less than
+    /// an upset that fails the cross test, but at a torque edge).
+    fn trusted_is(&self, a: usize, d0: &[f64; 3], d1: &[f64; 3]) -> [bool; 2] {
+        let bp = &self.cfg.beta_prior;
+        let prev: f64 = (0..2)
+            .map(|l| self.w(l) * bp[l][a] * self.dv_last[l][a])
+            .sum();
+        let first = (bp[0][a] * d0[a] - prev).abs() <= (bp[1][a] * d1[a] - prev).abs();
+        [first, !first]
     }
 
     /// Advance the angle integrators by one sample of `dv`; returns the interval means
@@ -517,11 +582,37 @@ impl JointEstimator {
         (psi_mid, phi_mid)
     }
 
+    /// Advance the running-β̂ attitude by one sample (and the drift filter's time).
     fn propagate_model(&mut self, psi_mid: &[[f64; 3]; 2]) {
         let dt = 1.0 / self.cfg.fs;
-        let bp = self.cfg.beta_prior[0];
-        let w_model = Vector3::from_fn(|a, _| bp[a] * psi_mid[0][a]);
+        let w_model = Vector3::from_fn(|a, _| self.p[P_BETA + a] * psi_mid[0][a]);
+        for a in 0..3 {
+            self.phi_hat[a] += dt * w_model[a];
+        }
         self.q_model *= UnitQuaternion::from_scaled_axis(w_model * dt);
+        for a in 0..3 {
+            let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
+            x[1] += dt * x[2];
+            // P ← F P Fᵀ with F = I + dt e1 e2ᵀ (drift += dt × drift rate).
+            for r in 0..4 {
+                p[r][1] += dt * p[r][2];
+            }
+            for c in 0..4 {
+                p[1][c] += dt * p[2][c];
+            }
+        }
+    }
+
+    /// W of the linear model at the middle of this sample's interval (before the
+    /// attitude takes its step): R̂ᵀ − I + [Φ̂]×, R̂ including the bridged drift.
+    fn srp_turn(&self, psi_mid: &[[f64; 3]; 2]) -> Matrix3<f64> {
+        let h = 0.5 / self.cfg.fs;
+        let w_model = Vector3::from_fn(|a, _| self.p[P_BETA + a] * psi_mid[0][a]);
+        let q_mid = self.q_model * UnitQuaternion::from_scaled_axis(w_model * h);
+        let drift = Vector3::from_fn(|a, _| self.drift_x[a][1]);
+        let q = q_mid * UnitQuaternion::from_scaled_axis(drift);
+        let phi_hat = Vector3::from_fn(|a, _| self.phi_hat[a] + h * w_model[a]);
+        q.to_rotation_matrix().into_inner().transpose() - Matrix3::identity() + skew(&phi_hat)
     }
 
     /// A tick processed or bridged: solve on schedule.
@@ -535,15 +626,29 @@ impl JointEstimator {
 
     fn process(&mut self, tick: u64, s: &SensorSample) {
         let n = self.n_is();
-        let mut ok = self.is_checks(s);
-        let mut ang_ok = ok;
-        if n == 2 && ok[0] && ok[1] {
+        let (mut ok, mut axis_ok) = self.is_checks(s);
+        // Per axis: did both IS pass the cross test (the pair then enters the
+        // angular-consistency group and the ratio fit)?
+        let mut pair = [false; 3];
+        if n == 2 {
             let (d0, d1) = (s.is[0].angular_volts(), s.is[1].angular_volts());
-            if !self.angular_consistent(&d0, &d1) {
-                // One of them is corrupted and the test cannot say which: neither is used.
+            let tested: [bool; 3] = core::array::from_fn(|a| axis_ok[0][a] && axis_ok[1][a]);
+            pair = self.angular_consistent(&d0, &d1, &tested);
+            if (0..3).any(|a| tested[a] && !pair[a]) {
+                // One of them is corrupted, its linear data too: the sample's linear
+                // data are not used. The attitude must still be propagated, and bridging
+                // with the previous ω̇ would cost far more than either IS: on the failed
+                // axis, keep the one nearer the previous ω̇.
                 self.reject(CAUSE_ANGULAR_MISMATCH);
                 ok = [false; 2];
-                ang_ok = [false; 2];
+                for a in (0..3).filter(|&a| tested[a] && !pair[a]) {
+                    let t = self.trusted_is(a, &d0, &d1);
+                    axis_ok[0][a] = t[0];
+                    axis_ok[1][a] = t[1];
+                }
+            }
+            for a in (0..3).filter(|&a| pair[a]) {
+                self.ratio[a].add(d0[a], d1[a]);
             }
         }
         let data = [is_data(&s.is[0]), is_data(&s.is[1])];
@@ -556,36 +661,39 @@ impl JointEstimator {
                 return;
             }
         }
-        // Angular voltages for the integrators; a rejected IS borrows the other's, and
-        // with neither the previous ω̇ bridges the sample.
-        let mut dv = self.angular_inputs(&data, &ang_ok);
+        // Angular voltages for the integrators; a rejected IS axis borrows the other's,
+        // and with neither the previous ω̇ bridges it.
+        let mut dv = self.angular_inputs(&data, &axis_ok);
         let saved = (self.psi, self.phi, self.dv_last);
         let (mut psi_mid, mut phi_mid) = self.integrate(&dv);
         let t = (self.n_ticks + 1) as f64 / self.cfg.fs;
         let mut lin_ok = all_valid;
+        let mut turn = self.srp_turn(&psi_mid);
         if lin_ok {
-            let kappa = self.kappa_after(&psi_mid);
-            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &kappa, t);
+            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &turn, t);
             if !self.linear_consistent(&sig) {
                 self.reject(CAUSE_LINEAR_OUTLIER);
                 lin_ok = false;
                 if n == 1 {
                     // One IS: its angular voltages may be the corrupted ones.
-                    ang_ok = [false; 2];
+                    axis_ok = [[false; 3]; 2];
                     (self.psi, self.phi, self.dv_last) = saved;
-                    dv = self.angular_inputs(&data, &ang_ok);
+                    dv = self.angular_inputs(&data, &axis_ok);
                     (psi_mid, phi_mid) = self.integrate(&dv);
+                    turn = self.srp_turn(&psi_mid);
                 }
             }
         }
         self.propagate_model(&psi_mid);
-        let n_ang = (0..n).filter(|&i| ang_ok[i]).count();
-        if n_ang == n {
-            self.learn_jerk(&dv, &saved.2);
+        let n_ang: [usize; 3] = core::array::from_fn(|a| (0..n).filter(|&i| axis_ok[i][a]).count());
+        // Only clean samples teach the spread of ω̇'s change.
+        for a in 0..3 {
+            if n_ang[a] == n && (n == 1 || pair[a]) {
+                self.learn_jerk(a, &dv, &saved.2);
+            }
         }
         if lin_ok {
-            let kappa = self.kappa();
-            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &kappa, t);
+            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &turn, t);
             self.n_used += 1;
             self.update_linear(&sig, &dv);
             self.gate_s = sig;
@@ -593,52 +701,127 @@ impl JointEstimator {
             self.n_rejected += 1;
             self.whitening_time_update();
         }
-        if n == 2 && ang_ok[0] && ang_ok[1] {
+        for a in (0..3).filter(|&a| pair[a]) {
             // Residual ΔV1 − (β2/β1) ΔV2 [V], weighted with its noise at the priors
             // (readout and drive ripple), so the group constrains the ratio only and
             // cannot pull the common scale.
             let c = &self.cfg;
-            for a in 0..3 {
-                let rho = c.beta_prior[1][a] / c.beta_prior[0][a];
-                let var = 2.0 * (c.sigma_angular / c.beta_prior[0][a]).powi(2)
-                    + c.sigma_ripple.powi(2) * (dv[0][a].powi(2) + (rho * dv[1][a]).powi(2));
-                let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
-                rank1_upper(&mut self.m_ang[a], &v, 1.0 / var);
+            let rho = c.beta_prior[1][a] / c.beta_prior[0][a];
+            let var = 2.0 * (c.sigma_angular / c.beta_prior[0][a]).powi(2)
+                + c.sigma_ripple.powi(2) * (dv[0][a].powi(2) + (rho * dv[1][a]).powi(2));
+            let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
+            rank1_upper(&mut self.m_ang[a], &v, 1.0 / var);
+        }
+        for a in 0..3 {
+            if n_ang[a] == 0 {
+                self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
+                self.drift_bridged(a);
+            } else {
+                self.close_bridge(a, &dv);
             }
         }
-        self.star_time_update(&dv, n_ang);
+        self.star_time_update(&dv, &n_ang);
         let kappa = self.kappa();
         self.update_star(s, &kappa, t);
         self.tick_done(tick);
     }
 
-    fn angular_inputs(&self, data: &[IsData; 2], ok: &[bool; 2]) -> [[f64; 3]; 2] {
+    fn angular_inputs(&self, data: &[IsData; 2], ok: &[[bool; 3]; 2]) -> [[f64; 3]; 2] {
         let n = self.n_is();
         let mut dv = [[0.0; 3]; 2];
         for i in 0..n {
-            dv[i] = if ok[i] {
-                data[i].dv
-            } else if let Some(o) = (0..n).find(|&o| ok[o]) {
-                core::array::from_fn(|a| {
-                    data[o].dv[a] * self.cfg.beta_prior[o][a] / self.cfg.beta_prior[i][a]
-                })
-            } else {
-                self.dv_last[i]
-            };
+            for a in 0..3 {
+                dv[i][a] = if ok[i][a] {
+                    data[i].dv[a]
+                } else if let Some(o) = (0..n).find(|&o| ok[o][a]) {
+                    // ΔV_i = (β_o/β_i) ΔV_o, with the ratio fitted from the voltages
+                    // (the priors' ratio is only good to the ground calibration's 1 %,
+                    // and every borrowed sample would carry that error into the angle).
+                    let prior = self.cfg.beta_prior[o][a] / self.cfg.beta_prior[i][a];
+                    let r = match self.ratio[a].ratio() {
+                        Some((rho, _)) if i == 0 => rho,
+                        Some((rho, _)) => 1.0 / rho,
+                        None => prior,
+                    };
+                    data[o].dv[a] * r
+                } else {
+                    self.dv_last[i][a]
+                };
+            }
         }
         dv
     }
 
-    /// Learn the spread of the sample-to-sample change of ω̇ (prior β).
-    fn learn_jerk(&mut self, dv: &[[f64; 3]; 2], last: &[[f64; 3]; 2]) {
-        for a in 0..3 {
-            let mut d = 0.0;
+    /// Angular data on axis `a` are back after `bridge_run` ticks bridged with the previous ω̇: if
+    /// ω̇ jumped meanwhile (a torque edge), the integrated rate is off by up to the
+    /// gap's length times the jump, at an unknown tick of the gap. Widen the star
+    /// filter's rate (and the angle it drags along) by that uniform uncertainty.
+    fn close_bridge(&mut self, a: usize, dv: &[[f64; 3]; 2]) {
+        let run = self.bridge_run[a];
+        self.bridge_run[a] = 0;
+        if run > 0 {
+            let span = run as f64 / self.cfg.fs;
+            let mut jump = 0.0;
             for l in 0..self.n_is() {
-                d += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - last[l][a]);
+                jump += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - self.dv_anchor[l][a]);
             }
-            if d.is_finite() {
-                self.jerk_var[a] += ALPHA_JERK * (d * d - self.jerk_var[a]);
+            let v = (span * jump).powi(2) / 3.0;
+            if v.is_finite() {
+                let h = 0.5 * span;
+                let p = &mut self.st_p[a];
+                p[0][0] += v * h * h;
+                p[0][1] += v * h;
+                p[1][0] += v * h;
+                p[1][1] += v;
+                let p = &mut self.drift_p[a];
+                p[1][1] += v * h * h;
+                p[1][2] += v * h;
+                p[2][1] += v * h;
+                p[2][2] += v;
             }
+        }
+        for l in 0..2 {
+            self.dv_anchor[l][a] = dv[l][a];
+        }
+    }
+
+    /// A tick without angular data on axis `a`: the propagated rate is off by dt times
+    /// the unknown change of ω̇, which the drift filter must allow.
+    fn drift_bridged(&mut self, a: usize) {
+        let dt = 1.0 / self.cfg.fs;
+        self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
+    }
+
+    /// Star-tracker residual e = θ − κ − β̂1 Φ1 [rad] = θ0 + drift + (β1 − β̂1) Φ1 +
+    /// noise: update the drift filter (its gain on the drift is 0 until a bridged tick
+    /// gives the drift variance).
+    fn drift_update(&mut self, a: usize, e: f64) {
+        let r = self.cfg.sigma_star_rad.powi(2);
+        let h = [1.0, 1.0, 0.0, self.phi[0][a]];
+        let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
+        let ph: [f64; 4] = core::array::from_fn(|i| (0..4).map(|j| p[i][j] * h[j]).sum());
+        let sv = (0..4).map(|i| h[i] * ph[i]).sum::<f64>() + r;
+        let innov = e - (0..4).map(|i| h[i] * x[i]).sum::<f64>();
+        if !(sv > 0.0 && sv.is_finite() && innov.is_finite()) {
+            return;
+        }
+        let k: [f64; 4] = core::array::from_fn(|i| ph[i] / sv);
+        for i in 0..4 {
+            x[i] += k[i] * innov;
+            for j in 0..4 {
+                p[i][j] -= k[i] * ph[j];
+            }
+        }
+    }
+
+    /// Learn the spread of the sample-to-sample change of ω̇ (prior β).
+    fn learn_jerk(&mut self, a: usize, dv: &[[f64; 3]; 2], last: &[[f64; 3]; 2]) {
+        let mut d = 0.0;
+        for l in 0..self.n_is() {
+            d += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - last[l][a]);
+        }
+        if d.is_finite() {
+            self.jerk_var[a] += ALPHA_JERK * (d * d - self.jerk_var[a]);
         }
     }
 
@@ -664,7 +847,7 @@ impl JointEstimator {
         dv: &[[f64; 3]; 2],
         psi_mid: &[[f64; 3]; 2],
         phi_mid: &[[f64; 3]; 2],
-        kappa: &Vector3<f64>,
+        w_turn: &Matrix3<f64>,
         t: f64,
     ) -> Sig {
         let mut s = Sig::zeros();
@@ -675,26 +858,19 @@ impl JointEstimator {
             }
         }
         for a in 0..3 {
-            s[S_PHI + a] = phi_mid[0][a];
-            s[S_KAP + a] = kappa[a];
             for b in a..3 {
                 s[S_PP + prod(a, b)] = psi_mid[0][a] * psi_mid[0][b];
-                s[S_QQ + prod(a, b)] = phi_mid[0][a] * phi_mid[0][b];
+            }
+        }
+        for a in 0..3 {
+            s[S_PHI + a] = phi_mid[0][a];
+            for m in 0..3 {
+                s[S_W + 3 * a + m] = w_turn[(a, m)];
             }
         }
         s[S_ONE] = 1.0;
         s[S_T] = t;
         s
-    }
-
-    /// κ as it will be once the model attitude has taken this sample's step.
-    fn kappa_after(&self, psi_mid: &[[f64; 3]; 2]) -> Vector3<f64> {
-        let dt = 1.0 / self.cfg.fs;
-        let bp = self.cfg.beta_prior[0];
-        let w_model = Vector3::from_fn(|a, _| bp[a] * psi_mid[0][a]);
-        let q = self.q_model * UnitQuaternion::from_scaled_axis(w_model * dt);
-        let lin = Vector3::from_fn(|a, _| bp[a] * self.phi[0][a]);
-        crate::model::attitude::rotation_vector(&q) - lin
     }
 
     fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
@@ -760,7 +936,7 @@ impl JointEstimator {
     /// IS-propagated attitude ½(β1 Φ1 + β2 Φ2) grows as the double integral of the IS
     /// angular readout noise and drive ripple (per-sample variance from this sample's
     /// voltages, integrated exactly as `step` integrates Φ).
-    fn star_time_update(&mut self, dv: &[[f64; 3]; 2], n_valid: usize) {
+    fn star_time_update(&mut self, dv: &[[f64; 3]; 2], n_valid: &[usize; 3]) {
         let c = &self.cfg;
         let dt = 1.0 / c.fs;
         let (g0, g1) = (0.5 * dt * dt, dt);
@@ -770,12 +946,12 @@ impl JointEstimator {
                 let wd = c.beta_prior[l][a] * dvl[a];
                 q += self.w(l).powi(2) * (c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2));
             }
-            if n_valid == 0 {
+            if n_valid[a] == 0 {
                 // Bridged with the previous ω̇: off by this sample's change of ω̇.
                 q += self.jerk_var[a];
             } else {
                 // Borrowed voltages carry the other IS's noise in full.
-                q *= self.n_is() as f64 / n_valid as f64;
+                q *= self.n_is() as f64 / n_valid[a] as f64;
             }
             for x in self.st_x[a].iter_mut() {
                 x[0] += dt * x[1];
@@ -788,13 +964,11 @@ impl JointEstimator {
         }
     }
 
-    /// Second-order kinematics [rad]: the IS-propagated attitude's rotation vector minus
-    /// the plain double integral β Φ (prior β; κ is itself second order, so the prior's
-    /// error enters only at third order).
+    /// Second-order kinematics [rad]: the propagated attitude's rotation vector minus
+    /// its first-order part Φ̂ (both with the running β̂, so κ errs only by (β − β̂)
+    /// times second order).
     fn kappa(&self) -> Vector3<f64> {
-        let bp = self.cfg.beta_prior[0];
-        let lin = Vector3::from_fn(|a, _| bp[a] * self.phi[0][a]);
-        crate::model::attitude::rotation_vector(&self.q_model) - lin
+        crate::model::attitude::rotation_vector(&self.q_model) - Vector3::from(self.phi_hat)
     }
 
     fn update_star(&mut self, s: &SensorSample, kappa: &Vector3<f64>, t: f64) {
@@ -808,7 +982,7 @@ impl JointEstimator {
             s.star.q_bn[3],
         );
         // A star-tracker quaternion is normalised far better than 1e-6.
-        if !s.star.usable() || !((q.norm() - 1.0).abs() <= 1e-6) {
+        if !s.star.usable() || nan_or_above((q.norm() - 1.0).abs(), 1e-6) {
             self.reject(CAUSE_STAR_INVALID);
             return;
         }
@@ -827,7 +1001,9 @@ impl JointEstimator {
             }
             *ea = theta[a] - pred;
         }
-        let ok = (0..3).all(|a| self.star_track[a].check(e[a], var_star));
+        // Gate at 5σ rather than 5.5σ: a lost star-tracker sample costs little, and an
+        // upset of a quaternion component by 5 noise σ turns the attitude by 5σ.
+        let ok = (0..3).all(|a| self.star_track[a].check_within(e[a], var_star, 5.0));
         for a in 0..3 {
             if ok {
                 self.star_track[a].learn(e[a], ALPHA_STAR);
@@ -840,6 +1016,10 @@ impl JointEstimator {
             return;
         }
         self.n_star += 1;
+        for a in 0..3 {
+            let e = theta[a] - kappa[a] - self.p[P_BETA + a] * self.phi[0][a];
+            self.drift_update(a, e);
+        }
         let r = self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v =
@@ -913,14 +1093,12 @@ impl JointEstimator {
                     lin[(row, S_PP + prod(j, a))] -= inv_k * beta1(j) * beta1(a) * r(a);
                     lin[(row, S_PP + prod(a, a))] += inv_k * r(j) * beta1(a) * beta1(a);
                 }
-                // SRP direction turning with the attitude: a_srp ≈ b − θ × b + ½ θ × (θ × b).
+                // SRP direction turning with the attitude: a_srp = R̂ᵀ b − (β1 Φ1 − Φ̂) × b
+                // to first order in β1 − β̂1, i.e. b − (β1 Φ1) × b + W b.
                 lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * bc[j2];
                 lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
-                lin[(row, S_KAP + j1)] += inv_k * bc[j2];
-                lin[(row, S_KAP + j2)] -= inv_k * bc[j1];
-                for a in [j1, j2] {
-                    lin[(row, S_QQ + prod(j, a))] -= 0.5 * inv_k * beta1(j) * beta1(a) * bc[a];
-                    lin[(row, S_QQ + prod(a, a))] += 0.5 * inv_k * bc[j] * beta1(a) * beta1(a);
+                for m in 0..3 {
+                    lin[(row, S_W + 3 * j + m)] = -inv_k * bc[m];
                 }
                 lin[(row, S_ONE)] = -p[P_B + row];
                 lin[(row, S_T)] = -p[P_AL + row];
@@ -1079,7 +1257,7 @@ impl JointEstimator {
         for k in 0..N_GROUPS {
             self.chi2[k] = if dof[k] > 0.0 { cost[k] / dof[k] } else { 0.0 };
             let limit = 1.0 + CHI2_TOL.max(10.0 * (2.0 / dof[k].max(1.0)).sqrt());
-            if dof[k] >= CHI2_MIN_DOF && !(self.chi2[k] <= limit) {
+            if dof[k] >= CHI2_MIN_DOF && nan_or_above(self.chi2[k], limit) {
                 inconsistent = true;
                 let x = if self.chi2[k].is_finite() {
                     self.chi2[k]
@@ -1134,6 +1312,10 @@ impl JointEstimator {
                 return false;
             };
             self.p += delta;
+            // The drift filter's β state is relative to the current β̂.
+            for a in 0..3 {
+                self.drift_x[a][3] -= delta[P_BETA + a];
+            }
             self.sigma = var.map(|v| v.max(0.0).sqrt());
             self.status &= !(ST_SOLVE_FAILED | ST_NO_SOLUTION);
             let cost = self.group_costs(&self.p);

@@ -1,6 +1,7 @@
 //! Estimators: the joint angle-domain estimator that reaches the CRLB, the paper's
 //! route for comparison, and the static-state Kalman filter both build on.
 pub mod config;
+pub mod fuzz;
 pub mod integrity;
 pub mod joint;
 pub mod kalman;
@@ -50,6 +51,14 @@ impl Estimator {
         match self {
             Estimator::Joint(e) => e.step(s),
             Estimator::Paper(e) => e.step(s),
+        }
+    }
+
+    /// Every tick below this one has been taken (processed, bridged or skipped).
+    pub fn next_tick(&self) -> u64 {
+        match self {
+            Estimator::Joint(e) => e.next_tick(),
+            Estimator::Paper(e) => e.next_tick(),
         }
     }
 

@@ -131,11 +131,24 @@ impl PaperEstimator {
         crate::scenario::k_from_beta(&self.cfg.geometry_m[i], &self.beta(i))
     }
 
+    /// The tick after the newest one taken (0 before any).
+    pub fn next_tick(&self) -> u64 {
+        if self.n_used + self.n_rejected == 0 {
+            0
+        } else {
+            self.last_tick.saturating_add(1)
+        }
+    }
+
     pub fn step(&mut self, s: &SensorSample) -> EstimateMsg {
         let tick = s.header.tick;
+        if tick < self.next_tick() {
+            // Duplicates and late ticks are not the paper's route's business: skip them.
+            return self.message(self.last_tick);
+        }
         self.last_tick = tick;
         let dt = 1.0 / self.cfg.fs;
-        let t = (tick + 1) as f64 * dt;
+        let t = (tick as f64 + 1.0) * dt;
         let n = self.cfg.n_is;
         let ok = (0..n).all(|i| s.is[i].usable());
         let star_ok = s.star.usable();

@@ -52,6 +52,11 @@ pub struct Plant {
     noise: PlantNoise,
     fs: f64,
     seq: u64,
+    /// Attitude hold (PD on the attitude relative to the start, body frame):
+    /// proportional [N m/rad] and derivative [N m s/rad] gains per axis.
+    hold_kp: Vector3<f64>,
+    hold_kd: Vector3<f64>,
+    q0: nalgebra::UnitQuaternion<f64>,
 }
 
 impl Plant {
@@ -95,6 +100,15 @@ impl Plant {
             noise,
             fs,
             seq: 0,
+            hold_kp: {
+                let w = 2.0 * std::f64::consts::PI * s.spacecraft.attitude_hold_hz;
+                Vector3::from_fn(|a, _| inertia[(a, a)] * w * w)
+            },
+            hold_kd: {
+                let w = 2.0 * std::f64::consts::PI * s.spacecraft.attitude_hold_hz;
+                Vector3::from_fn(|a, _| 2.0 * 0.7 * inertia[(a, a)] * w)
+            },
+            q0: nalgebra::UnitQuaternion::identity(),
         }
     }
 
@@ -106,11 +120,19 @@ impl Plant {
         self.thrusters
             .command(t0, torque_cmd_b, &mut self.rng_edges);
         let omega_start = self.body.omega_b;
+        // The attitude hold's torque for this interval (zero-order hold, like a
+        // controller running at the sample rate).
+        let hold = if self.hold_kp.iter().any(|k| *k > 0.0) {
+            let theta = super::attitude::rotation_vector(&(self.q0.inverse() * self.body.q_bn));
+            -(self.hold_kp.component_mul(&theta) + self.hold_kd.component_mul(&self.body.omega_b))
+        } else {
+            Vector3::zeros()
+        };
         let mut a_couple = [Vector3::zeros(); 2];
         let mut sun_b = Vector3::zeros();
         let mut torque_sum = Vector3::zeros();
         for k in 0..SUBSTEPS {
-            let mut tau = Vector3::from(self.thrusters.mean_over(t0 + k as f64 * h, h));
+            let mut tau = Vector3::from(self.thrusters.mean_over(t0 + k as f64 * h, h)) + hold;
             if self.torque_sigma > 0.0 {
                 for a in 0..3 {
                     tau[a] += self.torque_sigma * gauss(&mut self.rng_torque);

@@ -72,7 +72,6 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     // The loop runs without touching the heap once connected: allocations are
     // counted from the first sample on (iceoryx2 allocates while it connects ports).
     let mut allocs_before = None;
-    let mut in_sync = next == 0;
     let mut done = false;
     let exit = loop {
         if let Some(e) = link.poll()? {
@@ -93,13 +92,11 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             }
             continue;
         };
-        let tick = sample.header.tick;
-        // After a restart the front-end resends from our checkpoint: skip duplicates and
-        // anything it sent before it noticed the restart.
-        if tick < next || (tick > next && !in_sync) {
+        // Sent before the front-end noticed this instance (a restart): it resends
+        // everything from our checkpoint, addressed to us.
+        if sample.header.epoch != link.progress.incarnation {
             continue;
         }
-        in_sync = true;
         if allocs_before.is_none() {
             allocs_before = alloc_count::allocations();
         }
@@ -107,9 +104,6 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         let received = monotonic_ns();
         link.hop
             .record(received.saturating_sub(sample.header.publish_ns));
-        if tick > next {
-            link.progress.samples_lost += tick - next;
-        }
         let mut e = est.step(&sample);
         e.header.origin_ns = sample.header.origin_ns;
         let now = monotonic_ns();
@@ -122,9 +116,12 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         if period > 0 && due > 0 && now > due + period {
             link.progress.missed_deadlines += 1;
         }
-        next = tick + 1;
+        // Duplicates, late and garbage ticks are the estimator's to judge (and count).
+        let advanced = est.next_tick() > next;
+        next = est.next_tick();
         link.progress.next_tick = next;
-        if next % CHECKPOINT_EVERY == 0 {
+        link.progress.samples_lost = e.rejected_by_cause[crate::msg::CAUSE_TICK_MISSING];
+        if advanced && next % CHECKPOINT_EVERY == 0 {
             ckpt.save(&est, next)?;
         }
         if next == n && !done {

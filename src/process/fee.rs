@@ -4,6 +4,7 @@
 
 use super::{Exit, Link, StageArgs};
 use crate::bus;
+use crate::faults::Delivery;
 use crate::fee::FrontEnd;
 use crate::msg::{SensorSample, TruthState, PROC_ESTIMATOR, PROC_FEE, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
@@ -26,6 +27,9 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let input = bus::subscriber::<TruthState>(&link.node, bus::SVC_TRUTH)?;
     let out = bus::publisher::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
     let mut fee = FrontEnd::new(&s, seed, true);
+    // `[faults]`: sample faults go into the ring (a resend repeats them), bus faults
+    // are applied per tick as the ring is sent (a pure function of the tick).
+    let mut inj = crate::faults::Injector::new(&s, seed);
     let mut ring = vec![SensorSample::default(); RING as usize];
     link.beat()?;
     let n = s.n_samples();
@@ -56,9 +60,19 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         }
         let mut busy = false;
         while sent < produced && est.credit(sent) {
-            let mut m = ring[(sent % RING) as usize];
-            m.header.publish_ns = monotonic_ns();
-            bus::publish(&out, m)?;
+            let this = ring[(sent % RING) as usize];
+            for d in inj.deliveries(sent) {
+                let mut m = match d {
+                    Delivery::This => this,
+                    Delivery::Previous => ring[(sent.wrapping_sub(1) % RING) as usize],
+                    Delivery::Garbage => inj.garbage(&this),
+                };
+                m.header.publish_ns = monotonic_ns();
+                // Addressed to this estimator instance: what it receives from before the
+                // front-end noticed a restart carries the old one's and is dropped.
+                m.header.epoch = est.incarnation;
+                bus::publish(&out, m)?;
+            }
             link.sent(args.realtime);
             sent += 1;
             busy = true;
@@ -76,6 +90,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                 }
                 if tick >= produced {
                     let mut m = fee.step(&truth);
+                    inj.corrupt(&mut m, &mut |_| {});
                     m.header.origin_ns = truth.header.origin_ns;
                     m.header.due_ns = truth.header.due_ns;
                     ring[(tick % RING) as usize] = m;

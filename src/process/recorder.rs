@@ -1,13 +1,19 @@
-//! `taiji-recorder`: subscribes to the truth, sensor and estimate streams and writes
+//! `taiji-recorder`: subscribes to the truth and estimate streams and writes
 //! `telemetry.h5` at the end of the campaign. It only reads: the estimates are those of
 //! the set without it, bit for bit. Its credit paces the commander (never the
 //! estimator directly), so no sample is dropped however the OS schedules it.
+//!
+//! The sensor channels it records are the front-end's, rebuilt from the truth with the
+//! same seeded front-end and fault injector (deterministic, bit-identical): so the
+//! recording holds each tick's sample once whatever the bus did to it (`[faults]`
+//! duplicates, reorders, drops), and the fault log with each fault's before and after.
+//! It pairs each estimate message with the bus delivery behind it to score detection.
 
 use super::{Exit, Link, StageArgs};
 use crate::bus;
-use crate::msg::{
-    EstimateMsg, SensorSample, TruthState, EST_FINAL, PROC_RECORDER, STATE_DONE, STATE_RUNNING,
-};
+use crate::faults::{Delivery, FaultScore, Injector};
+use crate::fee::FrontEnd;
+use crate::msg::{EstimateMsg, TruthState, EST_FINAL, PROC_RECORDER, STATE_DONE, STATE_RUNNING};
 use crate::telemetry::{Meta, Telemetry};
 use std::time::Duration;
 
@@ -51,12 +57,17 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     )?;
     let q = bus::RECORDER_QUEUE;
     let truth = bus::subscriber_with_queue::<TruthState>(&link.node, bus::SVC_TRUTH, q)?;
-    let sensor = bus::subscriber_with_queue::<SensorSample>(&link.node, bus::SVC_SENSOR, q)?;
     let estimate = bus::subscriber_with_queue::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE, q)?;
     let n = s.n_samples();
     let mut tel = Some(Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n));
-    let (mut c_truth, mut c_sensor, mut c_est) =
-        (Cursor::default(), Cursor::default(), Cursor::default());
+    let mut fee = FrontEnd::new(&s, seed, true);
+    let mut inj = Injector::new(&s, seed);
+    let mut score = FaultScore::new(&s);
+    let mut c_truth = Cursor::default();
+    // Estimate messages in the estimator's sequence (a restarted estimator repeats
+    // some), each paired with the bus delivery it answered.
+    let mut next_seq = 0u64;
+    let (mut turn, mut in_turn) = (0u64, 0usize);
     let mut final_seen = false;
     let mut writer: Option<std::thread::JoinHandle<Result<(), String>>> = None;
     link.beat()?;
@@ -76,36 +87,59 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                 got += 1;
                 if c_truth.take(m.header.tick) {
                     t.record_truth(&m);
-                }
-            }
-            while let Some(m) = bus::receive(&sensor)? {
-                got += 1;
-                if c_sensor.take(m.header.tick) {
-                    t.record_sensor(&m);
+                    let mut smp = fee.step(&m);
+                    inj.corrupt(&mut smp, &mut |r| score.push(r));
+                    inj.bus_records(m.header.tick, &mut |r| score.push(r));
+                    t.record_sensor(&smp);
                 }
             }
             while let Some(m) = bus::receive(&estimate)? {
                 got += 1;
+                if m.header.seq < next_seq {
+                    continue;
+                }
+                next_seq = m.header.seq + 1;
                 if m.flags & EST_FINAL != 0 {
                     if !final_seen {
                         t.record_estimate(&m);
                         final_seen = true;
                     }
-                } else if c_est.take(m.header.tick) {
-                    t.record_estimate(&m);
+                    continue;
                 }
+                // The delivery this message answered (turns whose bus sent nothing
+                // produced no message).
+                let mut plan = inj.deliveries(turn);
+                while in_turn >= plan.len() {
+                    turn += 1;
+                    in_turn = 0;
+                    plan = inj.deliveries(turn);
+                }
+                let d = plan[in_turn];
+                let second = d == Delivery::This && plan[..in_turn].contains(&Delivery::This);
+                let of = if d == Delivery::Previous {
+                    turn.saturating_sub(1)
+                } else {
+                    turn
+                };
+                score.observe(of, d, second, m.tick_rejections);
+                in_turn += 1;
+                t.record_estimate(&m);
             }
         }
         if got > 0 {
             link.progress.state = STATE_RUNNING;
-            link.progress.next_tick = c_truth.next.min(c_sensor.next).min(c_est.next);
+            link.progress.next_tick = c_truth.next.min(turn);
             link.progress.resume_tick = link.progress.next_tick;
-            link.progress.samples_lost = c_truth.lost + c_sensor.lost + c_est.lost;
+            link.progress.samples_lost = c_truth.lost;
             link.beat()?;
         }
-        let complete = c_truth.next >= n && c_sensor.next >= n && final_seen;
+        let complete = c_truth.next >= n && final_seen;
         if complete {
-            if let Some(t) = tel.take() {
+            if let Some(mut t) = tel.take() {
+                if inj.enabled() {
+                    t.faults = score.records.clone();
+                    t.faults_detected = score.detected.clone();
+                }
                 if link.progress.samples_lost > 0 {
                     return Err(format!(
                         "{} samples never reached the recorder; {} not written",

@@ -55,6 +55,18 @@ pub const EST_R_SIGMA: &str = "estimate/com_offset_sigma";
 pub const EST_N_USED: &str = "estimate/n_used";
 pub const EST_N_REJECTED: &str = "estimate/n_rejected";
 pub const EST_FINAL: &str = "estimate/final";
+pub const EST_STATUS: &str = "estimate/status";
+pub const EST_REJECTED_BY_CAUSE: &str = "estimate/rejected_by_cause";
+pub const EST_CHI2: &str = "estimate/chi2_per_dof";
+pub const FAULT_TICK: &str = "faults/tick";
+pub const FAULT_KIND: &str = "faults/kind";
+pub const FAULT_FIELD: &str = "faults/field";
+pub const FAULT_BIT: &str = "faults/bit";
+pub const FAULT_SAMPLES: &str = "faults/samples";
+pub const FAULT_BEFORE: &str = "faults/before";
+pub const FAULT_AFTER: &str = "faults/after";
+pub const FAULT_SIGMAS: &str = "faults/sigmas";
+pub const FAULT_DETECTED: &str = "faults/detected";
 
 /// Every dataset, in file order. `is2/*` is present only with two inertial sensors.
 pub const CHANNELS: &[Channel] = &[
@@ -158,6 +170,63 @@ pub const CHANNELS: &[Channel] = &[
         "M",
         "1",
         "1 on the final estimate of the campaign (the last row)",
+    ),
+    ch(
+        EST_STATUS,
+        "M",
+        "1",
+        "estimator status bits: 1 no solution, 2 solve failed, 4 not converged, 8 inconsistent, 16 degraded",
+    ),
+    ch(
+        EST_REJECTED_BY_CAUSE,
+        "M×11",
+        "1",
+        "rejections so far by cause (report.json samples_rejected_by_cause order)",
+    ),
+    ch(
+        EST_CHI2,
+        "M×4",
+        "1",
+        "χ²/dof of the whitened residuals: linear, common mode, star tracker, angular",
+    ),
+    ch(
+        FAULT_TICK,
+        "F",
+        "1",
+        "injected faults ([faults] only): sample tick of each",
+    ),
+    ch(
+        FAULT_KIND,
+        "F",
+        "1",
+        "0 upset, 1 outlier, 2 stuck channel, 3 star jump, 4 IS dropout, 5 star dropout, 6 duplicate, 7 reorder, 8 missing, 9 garbage header",
+    ),
+    ch(
+        FAULT_FIELD,
+        "F",
+        "1",
+        "field: 6 i + 2 j + c for IS i+1 voltage V_{j,c+1}; 12 + i IS flags; 14 + k star quaternion; 18 star valid; 19 header",
+    ),
+    ch(FAULT_BIT, "F", "1", "bit flipped (upsets)"),
+    ch(
+        FAULT_SAMPLES,
+        "F",
+        "1",
+        "samples affected (stuck channels, star jumps; else 1)",
+    ),
+    ch(FAULT_BEFORE, "F", "1", "value before (V, or quaternion component, or flag byte)"),
+    ch(FAULT_AFTER, "F", "1", "value after"),
+    ch(
+        FAULT_SIGMAS,
+        "F",
+        "1",
+        "change in units of the field's noise (inf for flags, non-finite values, bus faults)",
+    ),
+    ch(
+        FAULT_DETECTED,
+        "F",
+        "1",
+        "samples of the fault the estimator rejected",
     ),
 ];
 

@@ -50,6 +50,9 @@ pub struct Telemetry {
     pub is_flags: [Vec<u8>; 2],
     /// Estimate rows (see [`Telemetry::record_estimate`]).
     pub estimates: Vec<EstimateMsg>,
+    /// Injected faults (`[faults]`) and how many of each one's samples were rejected.
+    pub faults: Vec<crate::faults::FaultRecord>,
+    pub faults_detected: Vec<u64>,
     last_row_tick: Option<u64>,
 }
 

@@ -22,6 +22,8 @@ pub struct Recording {
     pub method: Option<String>,
     /// The sensor stream, in tick order.
     pub samples: Vec<SensorSample>,
+    /// Faults injected into the recording (`/faults/*`, from a `[faults]` run).
+    pub faults: Vec<crate::faults::FaultRecord>,
 }
 
 fn text_attr(v: &AttrValue) -> Option<String> {
@@ -251,12 +253,49 @@ fn read(r: &Reader) -> Result<Recording, String> {
             s
         })
         .collect();
+    let faults = read_faults(r)?;
     Ok(Recording {
         scenario,
         seed,
         method,
         samples,
+        faults,
     })
+}
+
+/// The `/faults/*` log, if the file has one.
+fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, String> {
+    if !r.has(l::FAULT_TICK) {
+        return Ok(Vec::new());
+    }
+    let nf = r
+        .file
+        .dataset(l::FAULT_TICK)
+        .and_then(|d| d.shape())
+        .map_err(|e| r.err(format!("/{}: {e}", l::FAULT_TICK)))?
+        .first()
+        .copied()
+        .unwrap_or(0);
+    let tick = r.ints(l::FAULT_TICK, nf)?;
+    let kind = r.ints(l::FAULT_KIND, nf)?;
+    let field = r.ints(l::FAULT_FIELD, nf)?;
+    let bit = r.ints(l::FAULT_BIT, nf)?;
+    let samples = r.ints(l::FAULT_SAMPLES, nf)?;
+    let before = r.f64s(l::FAULT_BEFORE, &[nf])?;
+    let after = r.f64s(l::FAULT_AFTER, &[nf])?;
+    let sigmas = r.f64s(l::FAULT_SIGMAS, &[nf])?;
+    Ok((0..nf as usize)
+        .map(|i| crate::faults::FaultRecord {
+            tick: tick[i],
+            kind: kind[i].min(255) as u8,
+            field: field[i].min(255) as u8,
+            bit: bit[i].min(63) as u8,
+            samples: samples[i].min(u32::MAX as u64) as u32,
+            before: before[i],
+            after: after[i],
+            sigmas: sigmas[i],
+        })
+        .collect())
 }
 
 /// Every stream of a complete recording (truth included): for figures, not replay.

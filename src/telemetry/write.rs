@@ -151,6 +151,42 @@ pub(super) fn write(t: &Telemetry, path: &std::path::Path, meta: &Meta) -> Resul
                 .collect(),
         ),
     );
+    tree.add(
+        l::EST_STATUS,
+        &[m],
+        Data::U64(e.iter().map(|r| r.status).collect()),
+    );
+    tree.add(
+        l::EST_REJECTED_BY_CAUSE,
+        &[m, crate::msg::N_CAUSES],
+        Data::U64(e.iter().flat_map(|r| r.rejected_by_cause).collect()),
+    );
+    tree.add(
+        l::EST_CHI2,
+        &[m, crate::msg::N_GROUPS],
+        Data::F64(e.iter().flat_map(|r| r.chi2_per_dof).collect()),
+    );
+    let f = &t.faults;
+    if !f.is_empty() {
+        let nf = f.len();
+        let u = |g: &dyn Fn(&crate::faults::FaultRecord) -> u64| -> Data {
+            Data::U64(f.iter().map(g).collect())
+        };
+        let x = |g: &dyn Fn(&crate::faults::FaultRecord) -> f64| -> Data {
+            Data::F64(f.iter().map(g).collect())
+        };
+        tree.add(l::FAULT_TICK, &[nf], u(&|r| r.tick));
+        tree.add(l::FAULT_KIND, &[nf], u(&|r| r.kind as u64));
+        tree.add(l::FAULT_FIELD, &[nf], u(&|r| r.field as u64));
+        tree.add(l::FAULT_BIT, &[nf], u(&|r| r.bit as u64));
+        tree.add(l::FAULT_SAMPLES, &[nf], u(&|r| r.samples as u64));
+        tree.add(l::FAULT_BEFORE, &[nf], x(&|r| r.before));
+        tree.add(l::FAULT_AFTER, &[nf], x(&|r| r.after));
+        tree.add(l::FAULT_SIGMAS, &[nf], x(&|r| r.sigmas));
+        let mut det = t.faults_detected.clone();
+        det.resize(nf, 0);
+        tree.add(l::FAULT_DETECTED, &[nf], Data::U64(Cow::Owned(det)));
+    }
 
     let mut b = FileBuilder::new();
     b.set_attr("format", text(l::FORMAT));

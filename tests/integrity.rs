@@ -1,0 +1,240 @@
+//! Estimates that never lie: injected faults (`[faults]`) and recordings corrupted after
+//! the fact are rejected and counted, the estimate meets the requirements with honest σ;
+//! a model that does not fit the data says so; and no sample content, header or tick
+//! order makes the estimator panic or print a non-finite number.
+
+use taiji::campaign;
+use taiji::estimate::{Estimator, EstimatorConfig, Method};
+use taiji::msg::*;
+use taiji::report::Report;
+use taiji::scenario::Scenario;
+
+fn with_faults(faults: &str) -> Scenario {
+    Scenario::from_toml_str(&format!("[faults]\n{faults}\n")).unwrap()
+}
+
+/// Run in-process and report (with the fault summary).
+fn run(s: &Scenario, seed: u64) -> Report {
+    let res = campaign::run(s, seed, Method::Joint, |_| {});
+    let crlb = taiji::crlb::crlb(s).unwrap();
+    let mut r = Report::new(s, seed, "in-process", "joint", &res.estimate, &crlb);
+    r.faults = res.faults.map(|f| f.summary());
+    r
+}
+
+fn worst_z(r: &Report) -> f64 {
+    r.rows().iter().map(|row| row.z.abs()).fold(0.0, f64::max)
+}
+
+fn kind(r: &Report, k: &str) -> (u64, u64, u64) {
+    let f = &r.faults.as_ref().expect("a fault summary")["by_kind"][k];
+    (
+        f["injected"].as_u64().unwrap_or(0),
+        f["detected"].as_u64().unwrap_or(0),
+        f["missed"].as_u64().unwrap_or(0),
+    )
+}
+
+fn assert_honest(r: &Report, what: &str) {
+    assert!(
+        r.requirements.met,
+        "{what}: requirements missed\n{}",
+        r.table()
+    );
+    assert!(r.requirements.verified, "{what}: unverified\n{}", r.table());
+    assert!(
+        worst_z(r) <= 4.5,
+        "{what}: |err/σ| {:.2}\n{}",
+        worst_z(r),
+        r.table()
+    );
+}
+
+#[test]
+fn single_event_upsets_are_detected_and_the_estimate_stays_honest() {
+    let s = with_faults("upset_rate = 1e-4");
+    for seed in [2, 4] {
+        let r = run(&s, seed);
+        let (injected, _, missed) = kind(&r, "upset");
+        assert!(injected >= 4, "seed {seed}: {injected} upsets");
+        assert_eq!(
+            missed, 0,
+            "seed {seed}: an upset over 5 noise σ went undetected"
+        );
+        assert_honest(&r, &format!("upsets, seed {seed}"));
+    }
+}
+
+#[test]
+fn star_jumps_an_outlier_a_stuck_channel_and_dropouts_at_once_are_survived() {
+    let s = with_faults(
+        "upset_rate = 1e-4\nstar_jumps = 10\nstar_jump_rad = 1e-3\noutliers = 1\n\
+         stuck_channels = 1\nstuck_duration_s = 300\nis_dropout_rate = 0.05",
+    );
+    let r = run(&s, 3);
+    for k in ["star_jump", "outlier", "stuck_channel", "is_dropout"] {
+        let (injected, detected, missed) = kind(&r, k);
+        assert!(
+            injected > 0 && detected == injected && missed == 0,
+            "{k}: {injected}/{detected}"
+        );
+    }
+    assert!(r.samples_rejected_by_cause["stuck_channel"] >= 2990);
+    assert!(r.samples_rejected_by_cause["star_outlier"] >= 10);
+    assert_honest(&r, "all faults");
+}
+
+#[test]
+fn bus_duplicates_reorders_losses_and_garbage_headers_are_counted_not_believed() {
+    let s = with_faults(
+        "duplicate_rate = 1e-3\nreorder_rate = 1e-3\nmissing_rate = 2e-4\ngarbage_headers = 5",
+    );
+    let r = run(&s, 6);
+    for k in ["duplicate", "reorder", "missing", "garbage_header"] {
+        let (injected, detected, _) = kind(&r, k);
+        assert!(
+            injected > 0 && detected == injected,
+            "{k}: {detected}/{injected}"
+        );
+    }
+    let c = &r.samples_rejected_by_cause;
+    assert!(c["tick_order"] > 0 && c["tick_missing"] > 0);
+    assert!(c["tick_jump"] + c["tick_order"] >= 5);
+    assert!(r.requirements.met, "{}", r.table());
+}
+
+/// Stages of the default scenario, the estimator given `cfg` instead of the truth's
+/// noise levels.
+fn run_with_config(seed: u64, cfg: EstimatorConfig) -> EstimateMsg {
+    let s = Scenario::default();
+    let mut st = taiji::campaign::Stages::new(&s, seed, Method::Joint);
+    st.estimator = Estimator::new(Method::Joint, cfg);
+    for tick in 0..s.n_samples() {
+        let cmd = st.commander.step(tick);
+        let truth = st.plant.step(tick, &cmd.torque_cmd_b);
+        st.estimator.step(&st.fee.step(&truth));
+    }
+    st.estimator.finish()
+}
+
+#[test]
+fn a_noise_model_that_does_not_fit_is_flagged_and_its_sigma_inflated() {
+    let s = Scenario::default();
+    let good = EstimatorConfig::from_scenario(&s, &s.priors());
+    let honest = run_with_config(1, good);
+    assert_eq!(honest.status & ST_UNVERIFIED, 0);
+    assert!(honest.chi2_per_dof.iter().all(|c| (0.8..1.2).contains(c)));
+    // The estimator believes the linear readout three times quieter than it is.
+    let mut bad = good;
+    bad.sigma_linear /= 3.0;
+    let e = run_with_config(1, bad);
+    assert_ne!(e.status & ST_INCONSISTENT, 0, "{:?}", e.chi2_per_dof);
+    assert!(e.chi2_per_dof[GROUP_LINEAR] > 3.0);
+    assert!(e.sigma_inflation > 1.5);
+    // Its σ of r is not the overconfident one: it grew with the observed noise.
+    assert!(
+        e.r_sigma[0][0] > 0.8 * honest.r_sigma[0][0],
+        "{:?}",
+        e.r_sigma
+    );
+}
+
+#[test]
+fn before_the_first_solve_the_status_says_there_is_no_solution() {
+    let s = Scenario::default();
+    let mut st = taiji::campaign::Stages::new(&s, 1, Method::Joint);
+    let cmd = st.commander.step(0);
+    let truth = st.plant.step(0, &cmd.torque_cmd_b);
+    let e = st.estimator.step(&st.fee.step(&truth));
+    assert_ne!(e.status & ST_NO_SOLUTION, 0);
+}
+
+/// Arbitrary sample content and tick orders: no panic, every estimate finite. Clean
+/// samples from a real campaign are mixed with random bytes, flipped bits, specials
+/// (NaN, ±∞, subnormals, ±f64::MAX) and duplicated, late, jumping and wild ticks.
+/// `cargo run --release --example fuzz_estimator -- 1000000` runs a longer campaign.
+#[test]
+fn arbitrary_samples_and_tick_orders_never_panic_nor_give_non_finite_estimates() {
+    let cases = taiji::estimate::fuzz::run(200_000, 7);
+    assert_eq!(cases.non_finite, 0);
+    assert!(cases.steps >= 200_000);
+}
+
+#[test]
+fn a_campaign_longer_than_the_verified_limit_is_refused_naming_duration_s() {
+    let e = Scenario::from_toml_str("duration_s = 2e6").unwrap_err().0;
+    assert!(e.contains("duration_s") && e.contains("1000000"), "{e}");
+}
+
+#[test]
+fn a_recording_corrupted_with_h5py_replays_within_the_requirements_with_honest_sigma() {
+    let dir = std::env::temp_dir().join(format!("taiji-int-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let calib = env!("CARGO_BIN_EXE_taiji-calib");
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(calib)
+            .args(args)
+            .output()
+            .unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+        )
+    };
+    let rec = dir.join("rec");
+    let (code, out) = run(&[
+        "run",
+        "--seed",
+        "9",
+        "--record",
+        "--out",
+        rec.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{out}");
+    let bad = dir.join("bad.h5");
+    let tool = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/corrupt_telemetry.py");
+    let o = std::process::Command::new("python3")
+        .arg(tool)
+        .arg(rec.join("telemetry.h5"))
+        .arg(&bad)
+        .args(["--seed", "5", "--flips", "12", "--star-flips", "6"])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "corrupt_telemetry.py failed (needs numpy and h5py): {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let rp = dir.join("replay");
+    let (code, out) = run(&[
+        "replay",
+        "--telemetry",
+        bad.to_str().unwrap(),
+        "--out",
+        rp.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{out}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(rp.join("report.json")).unwrap()).unwrap();
+    assert_eq!(r["requirements"]["met"], true);
+    let c = &r["samples_rejected_by_cause"];
+    assert!(c["stuck_channel"].as_u64().unwrap() >= 2990, "{c}");
+    assert!(c["out_of_range"].as_u64().unwrap() >= 1, "{c}");
+    for is in r["inertial_sensors"].as_array().unwrap() {
+        for q in ["beta", "com_offset"] {
+            for a in 0..3 {
+                let (t, e, s) = (
+                    is[q]["truth"][a].as_f64().unwrap(),
+                    is[q]["estimate"][a].as_f64().unwrap(),
+                    is[q]["sigma"][a].as_f64().unwrap(),
+                );
+                assert!(
+                    ((e - t) / s).abs() <= 4.0,
+                    "{q}[{a}]: err/σ {}",
+                    (e - t) / s
+                );
+            }
+        }
+    }
+}
