@@ -54,8 +54,13 @@ def main(run_dir):
             "estimate/k": ((m, ni, 3), "m s^-2 V^-1"), "estimate/k_sigma": ((m, ni, 3), "m s^-2 V^-1"),
             "estimate/com_offset": ((m, ni, 3), "m"), "estimate/com_offset_sigma": ((m, ni, 3), "m"),
             "estimate/n_used": ((m,), "1"), "estimate/n_rejected": ((m,), "1"),
-            "estimate/final": ((m,), "1"),
+            "estimate/final": ((m,), "1"), "estimate/status": ((m,), "1"),
+            "estimate/rejected_by_cause": ((m, 11), "1"), "estimate/chi2_per_dof": ((m, 4), "1"),
         }
+        if "faults" in f:
+            nf = f["faults/tick"].shape[0]
+            for k in ("tick", "kind", "field", "bit", "samples", "before", "after", "sigmas", "detected"):
+                layout[f"faults/{k}"] = ((nf,), "1")
         for i in range(ni):
             layout[f"is{i + 1}/voltage"] = ((n, 3, 2), "V")
             layout[f"is{i + 1}/flags"] = ((n,), "1")

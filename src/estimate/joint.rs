@@ -476,11 +476,12 @@ impl JointEstimator {
         let mut axis = [[false; 3]; 2];
         for i in 0..self.n_is() {
             let is = &s.is[i];
-            let stuck = self.stuck[i].repeats(&is.volts);
             if is.flags != 0 {
+                // (A dropout's filler does not reset the stuck-channel detector.)
                 self.reject(CAUSE_IS_FLAGGED);
                 continue;
             }
+            let stuck = self.stuck[i].repeats(&is.volts);
             let mut pair_ok = [true; 3];
             for (p, good) in pair_ok.iter_mut().enumerate() {
                 let cause = if !is.volts[p].iter().all(|v| v.is_finite()) {
@@ -1165,6 +1166,18 @@ impl JointEstimator {
             let cm = self.coeffs(&pp);
             let f = 0.5 / hk;
             d.lin = (cp.lin - cm.lin) * f;
+            if (P_BETA..P_BETA + 3).contains(&k) {
+                // The SRP turns with the attitude β1 Φ1 + drift: its coefficient uses
+                // β1 (so at the solution the attitude is that of the final β), but it
+                // is no evidence about β — the attitude is the star tracker's and the
+                // IS's, and after bridged ticks a 10⁻⁸ rad attitude error would
+                // otherwise pose as a 10⁻⁴ scale error.
+                for row in 0..6 {
+                    for a in 0..3 {
+                        d.lin[(row, S_PHI + a)] = 0.0;
+                    }
+                }
+            }
             for a in 0..3 {
                 d.star[a] = (cp.star[a] - cm.star[a]) * f;
                 d.ang[a] = (cp.ang[a] - cm.ang[a]) * f;

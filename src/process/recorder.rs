@@ -68,6 +68,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     // some), each paired with the bus delivery it answered.
     let mut next_seq = 0u64;
     let (mut turn, mut in_turn) = (0u64, 0usize);
+    let mut pending = std::collections::VecDeque::<EstimateMsg>::with_capacity(4096);
     let mut final_seen = false;
     let mut writer: Option<std::thread::JoinHandle<Result<(), String>>> = None;
     link.beat()?;
@@ -95,11 +96,17 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             }
             while let Some(m) = bus::receive(&estimate)? {
                 got += 1;
+                pending.push_back(m);
+            }
+            // An estimate is scored once its tick's truth (hence its faults) is in.
+            while let Some(m) = pending.front().copied() {
                 if m.header.seq < next_seq {
+                    pending.pop_front();
                     continue;
                 }
-                next_seq = m.header.seq + 1;
                 if m.flags & EST_FINAL != 0 {
+                    pending.pop_front();
+                    next_seq = m.header.seq + 1;
                     if !final_seen {
                         t.record_estimate(&m);
                         final_seen = true;
@@ -114,6 +121,11 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                     in_turn = 0;
                     plan = inj.deliveries(turn);
                 }
+                if turn >= c_truth.next {
+                    break;
+                }
+                pending.pop_front();
+                next_seq = m.header.seq + 1;
                 let d = plan[in_turn];
                 let second = d == Delivery::This && plan[..in_turn].contains(&Delivery::This);
                 let of = if d == Delivery::Previous {
