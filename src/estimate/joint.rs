@@ -140,6 +140,8 @@ pub struct JointEstimator {
     /// measured before them: when data return, a jump between the two (a torque edge
     /// inside the gap) leaves an unknown rate error that the star filter must allow.
     bridge_run: [u32; 3],
+    /// Ticks on which some axis had no angular data at all.
+    n_bridged: u64,
     dv_anchor: [[f64; 3]; 2],
     /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
     /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
@@ -275,6 +277,7 @@ impl JointEstimator {
             ratio: [RatioFit::default(); 3],
             jerk_var: [0.0; 3],
             bridge_run: [0; 3],
+            n_bridged: 0,
             dv_anchor: [[0.0; 3]; 2],
             drift_x: [[0.0; 4]; 3],
             drift_p: core::array::from_fn(|a| {
@@ -457,6 +460,7 @@ impl JointEstimator {
             return;
         }
         let dv = self.dv_last;
+        self.n_bridged += 1;
         for a in 0..3 {
             self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
             self.drift_bridged(a);
@@ -712,6 +716,9 @@ impl JointEstimator {
                 + c.sigma_ripple.powi(2) * (dv[0][a].powi(2) + (rho * dv[1][a]).powi(2));
             let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
             rank1_upper(&mut self.m_ang[a], &v, 1.0 / var);
+        }
+        if n_ang.contains(&0) {
+            self.n_bridged += 1;
         }
         for a in 0..3 {
             if n_ang[a] == 0 {
@@ -1166,12 +1173,12 @@ impl JointEstimator {
             let cm = self.coeffs(&pp);
             let f = 0.5 / hk;
             d.lin = (cp.lin - cm.lin) * f;
-            if (P_BETA..P_BETA + 3).contains(&k) {
-                // The SRP turns with the attitude β1 Φ1 + drift: its coefficient uses
-                // β1 (so at the solution the attitude is that of the final β), but it
-                // is no evidence about β — the attitude is the star tracker's and the
-                // IS's, and after bridged ticks a 10⁻⁸ rad attitude error would
-                // otherwise pose as a 10⁻⁴ scale error.
+            if self.drifted() && (P_BETA..P_BETA + 3).contains(&k) {
+                // The SRP turns with the attitude β1 Φ1 + drift. Once ticks had to be
+                // bridged, that attitude is the star tracker's as much as the IS's and
+                // its β-dependence is no evidence about β: a 10⁻⁸ rad error of the
+                // drift estimate would pose as a 10⁻⁴ scale error. The coefficient
+                // still uses β1, so at the solution the attitude is the final β's.
                 for row in 0..6 {
                     for a in 0..3 {
                         d.lin[(row, S_PHI + a)] = 0.0;
@@ -1289,6 +1296,12 @@ impl JointEstimator {
         } else {
             self.status &= !ST_INCONSISTENT;
         }
+    }
+
+    /// More than 0.1 % of the ticks were bridged: the propagated attitude has drifted
+    /// and leans on the star tracker (see `normal_equations`).
+    fn drifted(&self) -> bool {
+        self.n_bridged * 1000 > self.n_ticks.max(1)
     }
 
     fn param_used(&self, k: usize) -> bool {
