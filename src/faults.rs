@@ -672,6 +672,21 @@ impl FaultScore {
         }
     }
 
+    /// A score from a recorded log and its detection counts (`/faults/*`).
+    pub fn from_log(s: &Scenario, records: Vec<FaultRecord>, detected: Vec<u64>) -> Self {
+        let mut sc = FaultScore::new(s);
+        for (r, d) in records.into_iter().zip(detected) {
+            sc.push(r);
+            if let Some(last) = sc.detected.last_mut() {
+                *last = d;
+            }
+            if let Some(last) = sc.delivered.last_mut() {
+                *last = true;
+            }
+        }
+        sc
+    }
+
     pub fn push(&mut self, r: FaultRecord) {
         let i = self.records.len();
         self.records.push(r);

@@ -227,6 +227,18 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
                 .find(|m| m.id == PROC_ESTIMATOR)
                 .and_then(|m| m.last)
                 .map(|p| p.loop_allocations);
+            // With `[faults]` and a recording, the recorder's fault log scores detection.
+            if args.record && s.faults.any() {
+                let path = args.out.join(crate::process::recorder::TELEMETRY_FILE);
+                match crate::telemetry::read::fault_log(&path) {
+                    Ok((records, detected)) => {
+                        report.faults = Some(
+                            crate::faults::FaultScore::from_log(&s, records, detected).summary(),
+                        );
+                    }
+                    Err(e) => log::warn!("taiji-supervisor: no fault score: {e}"),
+                }
+            }
             let met = report.requirements.met && report.requirements.verified;
             Outcome::Completed {
                 report: Box::new(report),

@@ -263,6 +263,20 @@ fn read(r: &Reader) -> Result<Recording, String> {
     })
 }
 
+/// The fault log of a recording and how many samples of each fault were rejected.
+pub fn fault_log(path: &Path) -> Result<(Vec<crate::faults::FaultRecord>, Vec<u64>), String> {
+    let r = load(path)?;
+    guarded(&r, |r| {
+        let recs = read_faults(r)?;
+        let det = if recs.is_empty() {
+            Vec::new()
+        } else {
+            r.ints(l::FAULT_DETECTED, recs.len() as u64)?
+        };
+        Ok((recs, det))
+    })
+}
+
 /// The `/faults/*` log, if the file has one.
 fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, String> {
     if !r.has(l::FAULT_TICK) {
