@@ -338,6 +338,29 @@ impl JointEstimator {
                     self.w(l).powi(2) * (c.sigma_angular.powi(2) + c.sigma_ripple.powi(2) * msq[a]);
             }
         }
+        // After bridged ticks the attitude that turns the SRP is uncertain (the drift
+        // filter's variance): −δθ × b, common to both IS, slowly varying. It enters as
+        // noise along the SRP's turn directions, its variance times its correlation
+        // length in samples (√(P_θθ/P_θ̇θ̇) f_s), so the common mode across the turn
+        // carries less weight instead of posing δθ × b as a CoM offset.
+        let turn = if self.drifted() {
+            let b = Vector3::from(self.srp_dc(p));
+            let mut t = [[0.0; 3]; 3];
+            for a in 0..3 {
+                let pd = &self.drift_p[a];
+                let corr = (pd[1][1] / pd[2][2].max(1e-300)).sqrt() * c.fs;
+                let var = pd[1][1].max(0.0) * corr.clamp(1.0, 1e6);
+                let ca = b.cross(&Vector3::ith(a, 1.0));
+                for j in 0..3 {
+                    for j2 in 0..3 {
+                        t[j][j2] += var * ca[j] * ca[j2];
+                    }
+                }
+            }
+            t
+        } else {
+            [[0.0; 3]; 3]
+        };
         for s in 0..3 * n {
             for s2 in 0..3 * n {
                 let (i, j, i2, j2) = (s / 3, s % 3, s2 / 3, s2 % 3);
@@ -350,6 +373,9 @@ impl JointEstimator {
                     / (k * k2);
                 if j == j2 {
                     val += c.sigma_force.powi(2) / (k * k2);
+                }
+                if turn[j][j2].is_finite() {
+                    val += turn[j][j2] / (k * k2);
                 }
                 if s == s2 {
                     val += (c.sigma_linear / k).powi(2) + c.sigma_ripple.powi(2) * mean_sq_sum[s];
