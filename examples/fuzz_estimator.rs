@@ -17,5 +17,12 @@ fn main() {
         s.non_finite,
         t0.elapsed().as_secs_f64()
     );
+    let by_cause: Vec<String> = taiji::msg::CAUSE_NAMES
+        .iter()
+        .zip(s.causes)
+        .filter(|(_, c)| *c > 0)
+        .map(|(n, c)| format!("{n} {c}"))
+        .collect();
+    println!("rejections by cause: {}", by_cause.join(", "));
     std::process::exit(i32::from(s.non_finite > 0));
 }

@@ -239,3 +239,41 @@ fn a_recording_corrupted_with_h5py_replays_within_the_requirements_with_honest_s
         }
     }
 }
+
+#[test]
+fn one_wild_tick_does_not_move_the_timeline_but_a_stream_that_starts_late_is_taken() {
+    let s = Scenario::default();
+    let mut st = taiji::campaign::Stages::new(&s, 1, Method::Joint);
+    let mut samples = Vec::new();
+    for tick in 0..50 {
+        let cmd = st.commander.step(tick);
+        let truth = st.plant.step(tick, &cmd.torque_cmd_b);
+        samples.push(st.fee.step(&truth));
+    }
+    // A garbage header first: rejected, and the real stream from tick 0 goes on.
+    let mut est = Estimator::new(
+        Method::Joint,
+        EstimatorConfig::from_scenario(&s, &s.priors()),
+    );
+    let mut wild = samples[0];
+    wild.header.tick = u64::MAX - 3;
+    let e = est.step(&wild);
+    assert_ne!(e.tick_rejections & (1 << CAUSE_TICK_JUMP), 0);
+    for m in &samples {
+        est.step(m);
+    }
+    assert_eq!(est.next_tick(), 50);
+    // A recording whose ticks start at 10⁶: two consecutive ticks start it there.
+    let mut est = Estimator::new(
+        Method::Joint,
+        EstimatorConfig::from_scenario(&s, &s.priors()),
+    );
+    for (k, m) in samples.iter().enumerate() {
+        let mut m = *m;
+        m.header.tick = 1_000_000 + k as u64;
+        est.step(&m);
+    }
+    assert_eq!(est.next_tick(), 1_000_050);
+    let e = est.finish();
+    assert_eq!(e.n_used + e.n_rejected, 49);
+}

@@ -17,6 +17,8 @@ pub struct FuzzStats {
     pub non_finite: u64,
     /// Samples the estimator rejected for some cause.
     pub rejected: u64,
+    /// The estimator's final count by cause.
+    pub causes: [u64; crate::msg::N_CAUSES],
 }
 
 /// SplitMix64: cheap, seeded bits.
@@ -125,14 +127,23 @@ pub fn run(cases: u64, seed: u64) -> FuzzStats {
         stats.steps += 1;
         stats.non_finite += u64::from(!finite(&e));
         stats.rejected += u64::from(e.tick_rejections != 0);
-        // Usually the next tick; sometimes a gap.
-        tick += if bits.below(50) == 0 {
+        // Usually the next tick; sometimes a gap (lost on the bus: the plant and the
+        // front-end go on, so the stream stays physically consistent).
+        let step = if bits.below(50) == 0 {
             1 + bits.below(700)
         } else {
             1
         };
+        for k in 1..step {
+            let t = (tick + k) % n;
+            let cmd = st.commander.step(t);
+            let truth = st.plant.step(t, &cmd.torque_cmd_b);
+            st.fee.step(&truth);
+        }
+        tick += step;
     }
     let e = st.estimator.finish();
     stats.non_finite += u64::from(!finite(&e));
+    stats.causes = e.rejected_by_cause;
     stats
 }

@@ -86,6 +86,9 @@ pub struct JointEstimator {
     next_tick: u64,
     /// Ticks processed or bridged since the first usable sample (the solve schedule).
     n_ticks: u64,
+    /// A tick too far ahead to bridge, seen last (a second one after it confirms a
+    /// stream that starts late).
+    jump_candidate: Option<u64>,
     sum_ref: [[f64; 3]; 2],
     q_ref: Option<UnitQuaternion<f64>>,
     psi: [[f64; 3]; 2],
@@ -240,6 +243,7 @@ impl JointEstimator {
             started: false,
             next_tick: 0,
             n_ticks: 0,
+            jump_candidate: None,
             sum_ref: [[0.0; 3]; 2],
             q_ref: None,
             psi: [[0.0; 3]; 2],
@@ -459,19 +463,31 @@ impl JointEstimator {
             return self.message(self.next_tick.saturating_sub(1));
         }
         let gap = tick - self.next_tick;
-        if gap > self.cfg.max_gap_ticks {
-            if self.started {
-                // A garbage header, or a break too long to bridge: not ours to guess.
+        if gap > self.cfg.max_gap_ticks || tick == u64::MAX {
+            // Before anything is accumulated a stream may start late (a recording's
+            // first tick), but only two consecutive ticks say so: one wild tick (a
+            // garbage header) must not move the timeline.
+            let confirmed = !self.started && self.jump_candidate == Some(tick.wrapping_sub(1));
+            if !confirmed || tick == u64::MAX {
+                self.jump_candidate = Some(tick);
                 self.reject(CAUSE_TICK_JUMP);
-                self.status |= ST_DEGRADED;
+                if self.started {
+                    self.status |= ST_DEGRADED;
+                }
                 return self.message(self.next_tick.saturating_sub(1));
             }
-            // Nothing accumulated yet: the stream simply starts here.
         } else {
             for k in 0..gap {
                 self.bridge(self.next_tick + k);
             }
+            if gap > 10 {
+                // Over a second without data the propagated attitude may have stepped
+                // away from the star tracker's: the star test learns its offset anew
+                // rather than rejecting every sample until it gives up.
+                self.star_track = [Track::default(); 3];
+            }
         }
+        self.jump_candidate = None;
         self.process(tick, s);
         self.next_tick = tick + 1;
         self.message(tick)
