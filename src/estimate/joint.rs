@@ -17,8 +17,16 @@
 //! * star tracker, per axis: θ_st − κ − θ0 − θ̇0 t − ½(β1 Φ1 + β2 Φ2)   (angle domain)
 //! * angular consistency, per axis: β1 ΔV1 − β2 ΔV2   (both IS see the same ω̇)
 //! * linear, per IS and axis (eq. 15, in volts): ΣV − [A(ω, ω̇) r + (Rᵀ − I) a_srp] / k − b' − α' t
-//!   with ω̇ = ½(β1 ΔV1 + β2 ΔV2), ω = β1 Ψ1, k = G β (eq. 2), and the attitude
-//!   turning the SRP θ = β1 Φ1 + κ (κ: the rotation vector's non-commutative part).
+//!   with ω̇ = ½(β1 ΔV1 + β2 ΔV2), ω = β1 Ψ1, k = G β (eq. 2), and the SRP turned by
+//!   the exact rotation R̂ of the attitude propagated with the running β̂ (and pulled
+//!   onto the star tracker after bridged ticks), linearised in β1 − β̂1:
+//!   (Rᵀ − I) a_srp = −(β1 Φ1) × b + W b, W = R̂ᵀ − I + [Φ̂]×.
+//!
+//! Inputs are gated before they reach the statistics (`integrity`, docs/integrity.md):
+//! tick order, flags, range, stuck channels, the two IS against each other, the
+//! linear residuals of the current solution and the star tracker against the
+//! propagated attitude; each rejection is counted by cause. Every solve judges each
+//! group's χ²/dof and sets the status word.
 
 use super::config::EstimatorConfig;
 use super::integrity::{RatioFit, Stuck, Track, GATE};
@@ -1265,16 +1273,9 @@ impl JointEstimator {
         };
         let h = self.srp_direction(p);
         for reg in 0..N_REG {
-            let (cnt, msq, wsq) = self.regime_stats(p, reg);
-            if cnt < 1.0 {
-                continue;
-            }
-            let r = self.white_cov(p, &msq, &wsq);
-            let Some((linv, u, _)) = Self::whitening(&r, &h) else {
+            let Some((rows, m)) = self.regime_rows(p, reg, &h) else {
                 continue;
             };
-            let rows = Self::complement_rows(&linv, &u);
-            let m = symmetric(&self.m_raw[reg]);
             for t in 0..5 {
                 add(&rows.row(t).transpose(), &m, GROUP_LINEAR);
             }
@@ -1295,6 +1296,26 @@ impl JointEstimator {
             cost[GROUP_ANGULAR] += c0.ang[a].dot(&(m * c0.ang[a]));
         }
         (hm, g, cost)
+    }
+
+    /// The SRP-free whitened rows (5 × 6) of regime `reg`'s linear residuals at `p`,
+    /// with its Gram matrix; `None` for an empty regime or a singular noise model.
+    fn regime_rows(
+        &self,
+        p: &Par,
+        reg: usize,
+        h: &SVector<f64, 6>,
+    ) -> Option<(SMatrix<f64, 5, 6>, Gram)> {
+        let (cnt, msq, wsq) = self.regime_stats(p, reg);
+        if cnt < 1.0 {
+            return None;
+        }
+        let r = self.white_cov(p, &msq, &wsq);
+        let (linv, u, _) = Self::whitening(&r, h)?;
+        Some((
+            Self::complement_rows(&linv, &u),
+            symmetric(&self.m_raw[reg]),
+        ))
     }
 
     /// Degrees of freedom of each group's χ² (residuals accumulated).
@@ -1407,16 +1428,9 @@ impl JointEstimator {
         };
         let h = self.srp_direction(p);
         for reg in 0..N_REG {
-            let (cnt, msq, wsq) = self.regime_stats(p, reg);
-            if cnt < 1.0 {
-                continue;
-            }
-            let r = self.white_cov(p, &msq, &wsq);
-            let Some((linv, u, _)) = Self::whitening(&r, &h) else {
+            let Some((rows, m)) = self.regime_rows(p, reg, &h) else {
                 continue;
             };
-            let rows = Self::complement_rows(&linv, &u);
-            let m = symmetric(&self.m_raw[reg]);
             for t in 0..5 {
                 cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), &m);
             }
