@@ -44,6 +44,15 @@ pub struct MonteCarlo {
 
 pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<MonteCarlo, String> {
     let bound = crlb(s).ok_or("the Fisher information of this scenario is singular")?;
+    if runs == 0 {
+        return Err("--runs must be at least 1".into());
+    }
+    if first_seed.checked_add(runs - 1).is_none() {
+        return Err(format!(
+            "--seed {first_seed} with --runs {runs}: the seeds would run past {}",
+            u64::MAX
+        ));
+    }
     let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
     let workers = std::thread::available_parallelism()
         .map(|n| n.get())

@@ -398,6 +398,12 @@ impl Scenario {
         if self.name.is_empty() {
             return err("name", "must not be empty");
         }
+        if self.name.chars().any(char::is_control) {
+            return err(
+                "name",
+                "must be one line of text (no newline or other control character)",
+            );
+        }
         pos("duration_s", self.duration_s)?;
         pos("sample_rate_hz", self.sample_rate_hz)?;
         if self.n_samples() < 100 {

@@ -61,3 +61,35 @@ fn run_writes_the_report_of_spec_section_5() {
         }
     }
 }
+
+#[test]
+fn montecarlo_with_no_runs_or_seeds_past_the_end_is_a_user_error() {
+    let out = calib()
+        .args(["montecarlo", "--runs", "0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--runs") && !err.contains("panicked"), "{err}");
+    let out = calib()
+        .args([
+            "montecarlo",
+            "--runs",
+            "2",
+            "--seed",
+            "18446744073709551615",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--seed") && !err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn a_scenario_name_with_a_newline_is_refused() {
+    let e = taiji::scenario::Scenario::from_toml_str("name = \"a\\n# injected\"\n")
+        .unwrap_err()
+        .0;
+    assert!(e.contains("name"), "{e}");
+}

@@ -72,7 +72,8 @@ enum Cmd {
     },
     /// Run N seeds and report RMS error, normalized error, CRLB ratio and pass count.
     Montecarlo {
-        #[arg(long, default_value_t = 30)]
+        /// Number of seeds (campaigns) to run, at least 1
+        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u64).range(1..))]
         runs: u64,
         #[arg(long)]
         scenario: Option<PathBuf>,
