@@ -428,6 +428,11 @@ fn bad_launch_description_and_arguments_are_user_errors() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("duration_s"));
+    let o = supervisor(&sc, &dir.join("out"), "a/b c", &[])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--bus-prefix"));
 }
 
 #[test]

@@ -376,6 +376,8 @@ fn supervise(
     let user = SupervisorError::User;
     let set_err = SupervisorError::Set;
     let t_start = Instant::now();
+    // A prefix iceoryx2 cannot use as a file name is the user's to fix.
+    bus::config(&args.bus_prefix).map_err(|e| user(format!("--bus-prefix: {e}")))?;
     let survey = bus::cleanup_stale(&args.bus_prefix).map_err(set_err)?;
     if survey.removed_dead > 0 {
         log::warn!(
