@@ -428,11 +428,13 @@ fn bad_launch_description_and_arguments_are_user_errors() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("duration_s"));
+    let sc = write_scenario(&dir, SHORT);
     let o = supervisor(&sc, &dir.join("out"), "a/b c", &[])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--bus-prefix"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--bus-prefix"), "{err}");
 }
 
 #[test]
