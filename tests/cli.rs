@@ -93,3 +93,17 @@ fn a_scenario_name_with_a_newline_is_refused() {
         .0;
     assert!(e.contains("name"), "{e}");
 }
+
+#[test]
+fn run_help_describes_every_option() {
+    let out = calib().args(["run", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    for (opt, words) in [
+        ("--scenario", "Scenario file"),
+        ("--seed", "Seed of every noise stream"),
+        ("--out", "Output folder"),
+        ("--plots", "implies --record"),
+    ] {
+        assert!(help.contains(opt) && help.contains(words), "{opt}: {help}");
+    }
+}

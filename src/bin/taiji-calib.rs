@@ -43,10 +43,13 @@ impl From<MethodArg> for Method {
 enum Cmd {
     /// Run the whole campaign in this process and write DIR/report.json.
     Run {
+        /// Scenario file (TOML; see scenarios/); the paper's case when absent.
         #[arg(long)]
         scenario: Option<PathBuf>,
+        /// Seed of every noise stream (overrides the scenario's `seed`).
         #[arg(long)]
         seed: Option<u64>,
+        /// Output folder: report.json, report.md, report.html (and telemetry, plots).
         #[arg(long, default_value = "out")]
         out: PathBuf,
         #[arg(long, value_enum, default_value = "joint")]
@@ -54,7 +57,8 @@ enum Cmd {
         /// Record every stream to DIR/telemetry.h5.
         #[arg(long)]
         record: bool,
-        /// Draw the figures to DIR/plots/ (PNG and SVG) and write DIR/report.md, .html.
+        /// Also draw the figures to DIR/plots/ (PNG and SVG; implies --record); the
+        /// reports embed them.
         #[arg(long)]
         plots: bool,
     },
