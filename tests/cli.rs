@@ -107,3 +107,24 @@ fn run_help_describes_every_option() {
         assert!(help.contains(opt) && help.contains(words), "{opt}: {help}");
     }
 }
+
+#[test]
+fn an_out_folder_through_a_file_is_refused_before_the_campaign_runs() {
+    let dir = std::env::temp_dir().join(format!("taiji-cli-outfile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("plain-file");
+    std::fs::write(&file, "x").unwrap();
+    for out in [file.clone(), file.join("below")] {
+        let t0 = std::time::Instant::now();
+        let o = calib().args(["run", "--out"]).arg(&out).output().unwrap();
+        assert_eq!(o.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("--out") && !err.contains("panicked"), "{err}");
+        // Refused up front: no campaign (about a second) was run.
+        assert!(
+            t0.elapsed() < std::time::Duration::from_millis(500),
+            "{:?}",
+            t0.elapsed()
+        );
+    }
+}

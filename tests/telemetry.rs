@@ -222,6 +222,11 @@ fn bad_telemetry_files_get_a_clear_error() {
         ("missing", "missing dataset /star_tracker/attitude"),
         ("tick", "/tick is not strictly increasing at row 15000"),
         ("scenario", "root attribute `scenario`: `duration_s`"),
+        ("time", "/time is not strictly increasing at row 10000"),
+        (
+            "version",
+            "format_version 99 is not one this build reads (1)",
+        ),
     ] {
         let f = dir.join(format!("{kind}.h5"));
         ok(

@@ -28,7 +28,7 @@ def main():
     ap.add_argument("--no-scenario", action="store_true")
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--duration", type=float, default=10000.0)
-    ap.add_argument("--break", dest="broken", choices=["shape", "missing", "tick", "scenario"],
+    ap.add_argument("--break", dest="broken", choices=["shape", "missing", "tick", "scenario", "time", "version"],
                     help="write a deliberately bad file (for the replay's error tests)")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
@@ -163,7 +163,13 @@ def main():
         def put(path, data, units):
             d = f.create_dataset(path, data=data)
             d.attrs["units"] = units
+        if a.broken == "time":
+            t = t.copy()
+            t[n // 3] = t[n // 3 - 2]
         put("time", t, "s")
+        if a.broken == "version":
+            f.attrs["format"] = "taiji-telemetry"
+            f.attrs["format_version"] = 99
         if a.broken == "tick":
             tick = np.arange(n)
             tick[n // 2] = tick[n // 2 - 1]

@@ -108,6 +108,13 @@ fn main() -> ExitCode {
     }
 }
 
+/// Create the output folder now, so that a path through an existing file is refused
+/// before the campaign runs rather than after.
+fn out_dir(out: &std::path::Path) -> Result<(), String> {
+    std::fs::create_dir_all(out)
+        .map_err(|e| format!("--out {}: cannot create this folder ({e})", out.display()))
+}
+
 fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, String> {
     taiji::crlb::crlb(s).ok_or_else(|| {
         "the Fisher information of this scenario is singular: the maneuver does not excite every parameter".into()
@@ -139,6 +146,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             plots,
         } => {
             let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
+            out_dir(&out)?;
             let seed = seed.unwrap_or(s.seed);
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
@@ -173,6 +181,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             method,
         } => {
             let t0 = std::time::Instant::now();
+            out_dir(&out)?;
             let rec = taiji::telemetry::read::open(&telemetry)?;
             let method: Method = match (method, rec.method.as_deref()) {
                 (Some(m), _) => m.into(),
@@ -205,6 +214,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
         } => {
             let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
             let first = seed.unwrap_or(s.seed);
+            if let Some(out) = &out {
+                out_dir(out)?;
+            }
             let mc = montecarlo::run(&s, first, runs, method.into())?;
             print!("{}", mc.table());
             if let Some(out) = out {

@@ -376,6 +376,14 @@ fn supervise(
     let user = SupervisorError::User;
     let set_err = SupervisorError::Set;
     let t_start = Instant::now();
+    // An output folder that cannot be made (a path through a file) is the user's to fix,
+    // before the campaign runs.
+    std::fs::create_dir_all(&args.out).map_err(|e| {
+        user(format!(
+            "--out {}: cannot create this folder ({e})",
+            args.out.display()
+        ))
+    })?;
     // A prefix iceoryx2 cannot use as a file name is the user's to fix.
     bus::config(&args.bus_prefix).map_err(|e| user(format!("--bus-prefix: {e}")))?;
     let survey = bus::cleanup_stale(&args.bus_prefix).map_err(set_err)?;

@@ -150,6 +150,23 @@ fn read(r: &Reader) -> Result<Recording, String> {
     if let Some(bad) = time.iter().position(|t| !t.is_finite()) {
         return Err(r.err(format!("/time[{bad}] is not finite")));
     }
+    if let Some(i) = (1..time.len()).find(|&i| time[i] <= time[i - 1]) {
+        return Err(r.err(format!(
+            "/time is not strictly increasing at row {i} ({} s after {} s)",
+            time[i],
+            time[i - 1]
+        )));
+    }
+    if let Some(v) = attrs.get("format_version") {
+        let v =
+            num_attr(v).ok_or_else(|| r.err("root attribute `format_version` is not a number"))?;
+        if v != l::FORMAT_VERSION as f64 {
+            return Err(r.err(format!(
+                "format_version {v} is not one this build reads ({}): a newer or foreign layout",
+                l::FORMAT_VERSION
+            )));
+        }
+    }
     let two = r.has(l::IS_VOLTAGE[1]);
     if !r.has(l::IS_VOLTAGE[0]) {
         return Err(r.err(format!("missing dataset /{}", l::IS_VOLTAGE[0])));
