@@ -76,23 +76,16 @@ fn run_with(
             inj.bus_records(tick, &mut |r| sc.push(r));
         }
         // What the bus delivers this tick (just the sample without bus faults).
-        let mut copies = 0;
-        for d in inj.deliveries(tick) {
-            let (m, of) = match d {
-                Delivery::This => (sample, tick),
-                Delivery::Previous => (prev.unwrap_or(sample), tick.saturating_sub(1)),
-                Delivery::Garbage => (inj.garbage(&sample), tick),
+        for (d, of, second) in inj.annotated_deliveries(tick) {
+            let m = match d {
+                Delivery::This => sample,
+                Delivery::Previous => prev.unwrap_or(sample),
+                Delivery::Garbage => inj.garbage(&sample),
             };
             let est = st.estimator.step(&m);
             if let Some(sc) = score.as_mut() {
-                sc.observe(
-                    of,
-                    d,
-                    d == Delivery::This && copies > 0,
-                    est.tick_rejections,
-                );
+                sc.observe(of, d, second, est.tick_rejections);
             }
-            copies += u32::from(d == Delivery::This);
             if let Some(t) = rec.as_deref_mut() {
                 t.record_estimate(&est);
             }

@@ -525,6 +525,24 @@ impl Injector {
         self.cfg.bus_any() && tick + 3 < self.n
     }
 
+    /// The turn's deliveries with, for each, the tick whose sample it carries (a
+    /// garbage header: the turn's) and whether it is that sample's second copy; what
+    /// `FaultScore::observe` takes.
+    pub fn annotated_deliveries(&self, tick: u64) -> heapless::Vec<(Delivery, u64, bool), 4> {
+        let mut out = heapless::Vec::new();
+        let mut copies = 0;
+        for d in self.deliveries(tick) {
+            let of = if d == Delivery::Previous {
+                tick.saturating_sub(1)
+            } else {
+                tick
+            };
+            let _ = out.push((d, of, d == Delivery::This && copies > 0));
+            copies += u32::from(d == Delivery::This);
+        }
+        out
+    }
+
     /// Held back to the next turn (odd ticks only, so a held tick never follows one).
     fn delayed(&self, tick: u64) -> bool {
         self.bus_active(tick)

@@ -720,22 +720,24 @@ impl JointEstimator {
         // and with neither the previous ω̇ bridges it.
         let mut dv = self.angular_inputs(&data, &axis_ok);
         let saved = (self.psi, self.phi, self.dv_last);
-        let (mut psi_mid, mut phi_mid) = self.integrate(&dv);
+        let (mut psi_mid, phi_mid) = self.integrate(&dv);
         let t = (self.n_ticks + 1) as f64 / self.cfg.fs;
-        let mut lin_ok = all_valid;
-        let mut turn = self.srp_turn(&psi_mid);
-        if lin_ok {
+        // The linear data, once they pass their test (the signals need this sample's
+        // attitude step, not yet taken).
+        let mut lin_sig = None;
+        if all_valid {
+            let turn = self.srp_turn(&psi_mid);
             let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &turn, t);
-            if !self.linear_consistent(&sig) {
+            if self.linear_consistent(&sig) {
+                lin_sig = Some(sig);
+            } else {
                 self.reject(CAUSE_LINEAR_OUTLIER);
-                lin_ok = false;
                 if n == 1 {
                     // One IS: its angular voltages may be the corrupted ones.
                     axis_ok = [[false; 3]; 2];
                     (self.psi, self.phi, self.dv_last) = saved;
                     dv = self.angular_inputs(&data, &axis_ok);
-                    (psi_mid, phi_mid) = self.integrate(&dv);
-                    turn = self.srp_turn(&psi_mid);
+                    (psi_mid, _) = self.integrate(&dv);
                 }
             }
         }
@@ -747,8 +749,7 @@ impl JointEstimator {
                 self.learn_jerk(a, &dv, &saved.2);
             }
         }
-        if lin_ok {
-            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &turn, t);
+        if let Some(sig) = lin_sig {
             self.n_used += 1;
             self.update_linear(&sig, &dv);
             self.gate_s = sig;

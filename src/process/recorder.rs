@@ -11,7 +11,7 @@
 
 use super::{Exit, Link, StageArgs};
 use crate::bus;
-use crate::faults::{Delivery, FaultScore, Injector};
+use crate::faults::{FaultScore, Injector};
 use crate::fee::FrontEnd;
 use crate::msg::{EstimateMsg, TruthState, EST_FINAL, PROC_RECORDER, STATE_DONE, STATE_RUNNING};
 use crate::telemetry::{Meta, Telemetry};
@@ -115,24 +115,18 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                 }
                 // The delivery this message answered (turns whose bus sent nothing
                 // produced no message).
-                let mut plan = inj.deliveries(turn);
+                let mut plan = inj.annotated_deliveries(turn);
                 while in_turn >= plan.len() {
                     turn += 1;
                     in_turn = 0;
-                    plan = inj.deliveries(turn);
+                    plan = inj.annotated_deliveries(turn);
                 }
                 if turn >= c_truth.next {
                     break;
                 }
                 pending.pop_front();
                 next_seq = m.header.seq + 1;
-                let d = plan[in_turn];
-                let second = d == Delivery::This && plan[..in_turn].contains(&Delivery::This);
-                let of = if d == Delivery::Previous {
-                    turn.saturating_sub(1)
-                } else {
-                    turn
-                };
+                let (d, of, second) = plan[in_turn];
                 score.observe(of, d, second, m.tick_rejections);
                 in_turn += 1;
                 t.record_estimate(&m);
