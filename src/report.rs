@@ -375,11 +375,17 @@ pub fn fault_line(f: &serde_json::Value) -> String {
     let list: Vec<String> = kinds
         .iter()
         .map(|(k, v)| {
+            let within = v["undetected_within_5_sigma"].as_u64().unwrap_or(0);
             format!(
-                "{k} {}/{} (missed {})",
+                "{k} {}/{} (missed {}{})",
                 v["detected"].as_u64().unwrap_or(0),
                 v["injected"].as_u64().unwrap_or(0),
-                v["missed"].as_u64().unwrap_or(0)
+                v["missed"].as_u64().unwrap_or(0),
+                if within > 0 {
+                    format!("; {within} harmless, within 5σ of noise")
+                } else {
+                    String::new()
+                }
             )
         })
         .collect();
