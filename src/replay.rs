@@ -2,7 +2,7 @@
 //! truth). On our own recordings it reproduces the live estimates bit for bit, since
 //! it feeds the same samples, in the same order, to the same estimator.
 
-use crate::estimate::{Estimator, EstimatorConfig, Method};
+use crate::estimate::{Estimator, Method};
 use crate::msg::EstimateMsg;
 use crate::telemetry::read::Recording;
 use crate::telemetry::Telemetry;
@@ -18,7 +18,7 @@ pub struct Replayed {
 
 pub fn run(rec: &Recording, method: Method, mut progress: impl FnMut(f64)) -> Replayed {
     let s = &rec.scenario;
-    let mut est = Estimator::new(method, EstimatorConfig::from_scenario(s, &s.priors()));
+    let mut est = Estimator::new(method, s.estimator_config(&s.priors()));
     let mut rows = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, 0);
     let n = rec.samples.len();
     let mut score = (!rec.faults.is_empty()).then(|| {

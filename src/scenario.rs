@@ -6,6 +6,8 @@
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
+use crate::estimate::EstimatorConfig;
+use crate::model::noise::white_sigma;
 
 /// Arc-second in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
@@ -280,10 +282,7 @@ impl InertialSensor {
     }
 }
 
-/// Eq. 2: kx = Gz βz, ky = Gx βx, kz = Gy βy.
-pub fn k_from_beta(g: &[f64; 3], beta: &[f64; 3]) -> [f64; 3] {
-    [g[2] * beta[2], g[0] * beta[0], g[1] * beta[1]]
-}
+pub use crate::estimate::config::k_from_beta;
 
 /// Ground-calibration priors of one IS, as the estimator receives them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -654,5 +653,38 @@ impl Scenario {
             }
         }
         worst
+    }
+}
+
+impl Scenario {
+    /// The estimator's table: priors, known geometry and noise specifications only —
+    /// never the truths.
+    pub fn estimator_config(&self, priors: &[Priors]) -> EstimatorConfig {
+        let s = self;
+        let fs = s.sample_rate_hz;
+        let fe = &s.front_end;
+        let mut c = EstimatorConfig {
+            fs,
+            n_is: s.inertial_sensor.len() as u64,
+            geometry_m: [[1.0; 3]; 2],
+            beta_prior: [[1.0; 3]; 2],
+            com_prior_m: [[0.0; 3]; 2],
+            sigma_star_rad: s.star_tracker.noise_3sigma_arcsec / 3.0 * ARCSEC,
+            sigma_angular: white_sigma(fe.angular_noise_rthz, fs),
+            sigma_linear: white_sigma(fe.linear_noise_rthz, fs),
+            sigma_ripple: white_sigma(fe.ripple_rthz, fs),
+            srp_asd_at_3mhz: s.srp.asd_at_3mhz,
+            sigma_force: white_sigma(s.thruster.force_noise_n_rthz / s.spacecraft.mass_kg, fs),
+            solve_every: (60.0 * fs).round().max(1.0) as u64,
+            full_scale_linear: fe.full_scale_m_s2,
+            full_scale_angular: fe.full_scale_rad_s2,
+            max_gap_ticks: (600.0 * fs).round().max(1.0) as u64,
+        };
+        for (i, (is, p)) in s.inertial_sensor.iter().zip(priors).enumerate() {
+            c.geometry_m[i] = is.geometry_m;
+            c.beta_prior[i] = p.beta;
+            c.com_prior_m[i] = p.com_offset_m;
+        }
+        c
     }
 }

@@ -2,7 +2,7 @@
 //! sensor data alone.
 
 use taiji::campaign;
-use taiji::estimate::{EstimatorConfig, Method};
+use taiji::estimate::Method;
 use taiji::msg::EstimateMsg;
 use taiji::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use taiji::scenario::Scenario;
@@ -70,8 +70,8 @@ fn the_estimator_configuration_holds_no_truth() {
         "{base}com_offset_m = [0.21, -0.13, 0.001]\nbeta = [5.6e-8, 5.45e-8, 7.4e-8]\n"
     ))
     .unwrap();
-    let c1 = EstimatorConfig::from_scenario(&s1, &s1.priors());
-    let c2 = EstimatorConfig::from_scenario(&s2, &s2.priors());
+    let c1 = s1.estimator_config(&s1.priors());
+    let c2 = s2.estimator_config(&s2.priors());
     assert_eq!(c1, c2);
 }
 

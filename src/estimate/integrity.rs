@@ -13,6 +13,8 @@
 //! * [`RatioFit`]: the per-axis ratio of the two IS's angular voltages (β2/β1, the
 //!   same rotation seen twice), fitted from accepted samples only.
 
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 /// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data lose
 /// about one sample per campaign, while an upset moving a voltage by a few noise σ
 /// already fails the cross-IS test (whose noise is far below a voltage's own).
@@ -28,7 +30,8 @@ const RELEARN: u32 = 200;
 
 /// Level and spread of a residual: exponentially weighted mean and variance of the
 /// accepted values, with a floor on the variance (the known noise).
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
 pub struct Track {
     level: f64,
     var: f64,
@@ -108,7 +111,8 @@ impl Track {
 }
 
 /// Per-IS detector of channels repeating their previous value bit for bit.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
 pub struct Stuck {
     last: [[u64; 2]; 3],
     seen: bool,
@@ -132,7 +136,8 @@ impl Stuck {
 }
 
 /// Least-squares ratio x ≈ ρ y through the origin, from accepted samples.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
 pub struct RatioFit {
     sxy: f64,
     syy: f64,
@@ -156,7 +161,7 @@ impl RatioFit {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
     use rand::SeedableRng;

@@ -28,6 +28,8 @@
 //! propagated attitude; each rejection is counted by cause. Every solve judges each
 //! group's χ²/dof and sets the status word.
 
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 use super::config::EstimatorConfig;
 use super::integrity::{RatioFit, Stuck, Track, GATE};
 use crate::model::noise::{PowerLawBank, MAX_POLES};
@@ -86,7 +88,8 @@ struct Coeffs {
 }
 
 /// The estimator's whole state: fixed-size and `Copy`; a checkpoint is its serialised bytes.
-#[derive(Clone, Copy, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
 pub struct JointEstimator {
     cfg: EstimatorConfig,
     started: bool,
@@ -316,7 +319,7 @@ impl JointEstimator {
     }
 
     fn n_is(&self) -> usize {
-        self.cfg.n_is
+        self.cfg.n_is.min(2) as usize
     }
 
     /// Weight of IS l in the two-IS average angular acceleration.
@@ -1163,7 +1166,7 @@ impl JointEstimator {
                 lin[(row, S_T)] = -p[P_AL + row];
             }
         }
-        let star = std::array::from_fn(|a| {
+        let star = core::array::from_fn(|a| {
             SVector::<f64, 5>::new(
                 1.0,
                 -p[P_TH0 + a],
@@ -1172,7 +1175,7 @@ impl JointEstimator {
                 -self.w(1) * p[P_BETA + 3 + a],
             )
         });
-        let ang = std::array::from_fn(|a| {
+        let ang = core::array::from_fn(|a| {
             SVector::<f64, 2>::new(1.0, -p[P_BETA + 3 + a] / p[P_BETA + a])
         });
         Coeffs { lin, star, ang }
@@ -1543,7 +1546,7 @@ impl JointEstimator {
 
     /// β, k, r and their σ from a parameter vector and its 1σ.
     pub fn fill(cfg: &EstimatorConfig, p: &Par, sigma: &Par, m: &mut EstimateMsg) {
-        for i in 0..cfg.n_is {
+        for i in 0..cfg.n_is.min(2) as usize {
             for a in 0..3 {
                 m.beta[i][a] = p[P_BETA + 3 * i + a];
                 m.beta_sigma[i][a] = sigma[P_BETA + 3 * i + a];

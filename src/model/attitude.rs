@@ -109,7 +109,7 @@ pub fn rotation_vector(q: &UnitQuaternion<f64>) -> Vector3<f64> {
     if n < 1e-300 {
         return Vector3::zeros();
     }
-    v * (2.0 * n.atan2(w) / n)
+    v * (2.0 * crate::math::atan2(n, w) / n)
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@ use super::{Exit, Link, StageArgs};
 use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
-use crate::estimate::{Estimator, EstimatorConfig};
+use crate::estimate::Estimator;
 use crate::msg::{EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 use std::time::Duration;
@@ -49,7 +49,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             (est, next)
         }
         None => (
-            Estimator::new(method, EstimatorConfig::from_scenario(&s, &s.priors())),
+            Estimator::new(method, s.estimator_config(&s.priors())),
             0,
         ),
     };
