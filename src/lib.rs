@@ -28,6 +28,8 @@ pub mod commander;
 #[cfg(feature = "std")]
 pub mod crlb;
 #[cfg(feature = "std")]
+pub mod export;
+#[cfg(feature = "std")]
 pub mod faults;
 #[cfg(feature = "std")]
 pub mod fee;

@@ -10,6 +10,12 @@ use crate::math::Real;
 #[cfg(feature = "std")]
 use iceoryx2::prelude::ZeroCopySend;
 
+/// Version of the layouts of these messages and of the estimator's state: bump it
+/// whenever a field changes. It is part of every bus payload's type name and of every
+/// checkpoint, so builds with different layouts refuse each other with a clear error
+/// instead of misreading bytes.
+pub const LAYOUT_VERSION: u32 = 1;
+
 /// Common header of every message.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]

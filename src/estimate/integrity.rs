@@ -30,8 +30,9 @@ const RELEARN: u32 = 200;
 
 /// Level and spread of a residual: exponentially weighted mean and variance of the
 /// accepted values, with a floor on the variance (the known noise).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct Track {
     level: f64,
     var: f64,
@@ -111,11 +112,12 @@ impl Track {
 }
 
 /// Per-IS detector of channels repeating their previous value bit for bit.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct Stuck {
     last: [[u64; 2]; 3],
-    seen: bool,
+    seen: u64,
 }
 
 impl Stuck {
@@ -126,27 +128,28 @@ impl Stuck {
         for (p, pair) in volts.iter().enumerate() {
             for (c, v) in pair.iter().enumerate() {
                 let bits = v.to_bits();
-                rep[p] |= self.seen && bits == self.last[p][c];
+                rep[p] |= self.seen != 0 && bits == self.last[p][c];
                 self.last[p][c] = bits;
             }
         }
-        self.seen = true;
+        self.seen = 1;
         rep
     }
 }
 
 /// Least-squares ratio x ≈ ρ y through the origin, from accepted samples.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct RatioFit {
     sxy: f64,
     syy: f64,
-    n: u32,
+    n: u64,
 }
 
 impl RatioFit {
     /// Samples needed before the fit replaces the prior ratio.
-    pub const MIN: u32 = 20;
+    pub const MIN: u64 = 20;
 
     pub fn add(&mut self, x: f64, y: f64) {
         self.sxy += x * y;

@@ -7,6 +7,7 @@ pub mod integrity;
 pub mod joint;
 pub mod kalman;
 pub mod paper;
+pub mod snapshot;
 
 pub use config::EstimatorConfig;
 pub use joint::JointEstimator;
