@@ -157,7 +157,11 @@ pub unsafe extern "C" fn taiji_estimator_update(
             unsafe { rejected.write_unaligned(causes) };
         }
         if !flags.is_null() {
-            let f = if st.est.solve_due() { TAIJI_SOLVE_DUE } else { 0 };
+            let f = if st.est.solve_due() {
+                TAIJI_SOLVE_DUE
+            } else {
+                0
+            };
             // SAFETY: non-null, caller-provided.
             unsafe { flags.write_unaligned(f) };
         }

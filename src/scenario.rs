@@ -3,11 +3,11 @@
 //! Every key has a default; unknown keys, wrong types, non-finite or physically
 //! impossible values are rejected with a message that names the key.
 
+use crate::estimate::EstimatorConfig;
+use crate::model::noise::white_sigma;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
-use crate::estimate::EstimatorConfig;
-use crate::model::noise::white_sigma;
 
 /// Arc-second in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);

@@ -38,7 +38,6 @@ pub struct EstimatorConfig {
     pub max_gap_ticks: u64,
 }
 
-
 /// Why a table is refused (`EstimatorConfig::check`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ConfigError {

@@ -28,10 +28,10 @@
 //! propagated attitude; each rejection is counted by cause. Every solve judges each
 //! group's χ²/dof and sets the status word.
 
-#[allow(unused_imports)]
-use crate::math::{self, Real};
 use super::config::EstimatorConfig;
 use super::integrity::{RatioFit, Stuck, Track, GATE};
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 use crate::model::noise::{PowerLawBank, MAX_POLES};
 use crate::msg::*;
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};

@@ -4,10 +4,10 @@
 //! IS with the SRP folded into R (2×10⁻¹² m/s², §3.2.2). SPEC §3 records that this
 //! route misses the requirement; it is not the default.
 
-#[allow(unused_imports)]
-use crate::math::{self, Real};
 use super::config::EstimatorConfig;
 use super::kalman::StaticKf;
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 use crate::model::attitude::coupling_matrix;
 use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};

@@ -48,10 +48,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             log::warn!("taiji-estimator: resuming from checkpoint at tick {next}");
             (est, next)
         }
-        None => (
-            Estimator::new(method, s.estimator_config(&s.priors())),
-            0,
-        ),
+        None => (Estimator::new(method, s.estimator_config(&s.priors())), 0),
     };
     let mut ckpt = Checkpointer::with_write_delay(&ckpt_path, &est, fault_checkpoint_delay()?)?;
     let mut link = Link::new(
