@@ -1,4 +1,4 @@
-//! In-orbit calibration of the Taiji inertial sensors (Liu et al. 2025, SPEC.md):
+//! In-orbit calibration of the Taiji inertial sensors (Liu et al. 2025; docs/README.md):
 //! the plant, front-end electronics, commander and estimators as plain stage types
 //! with fixed-size inputs and outputs, so they run in one process or as separate
 //! processes over iceoryx2 shared memory.
