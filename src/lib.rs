@@ -1,7 +1,7 @@
-//! In-orbit calibration of the Taiji inertial sensors (Liu et al. 2025): the plant,
-//! front-end electronics, commander and estimators as plain stage types with
-//! fixed-size inputs and outputs, so they run in one process or as separate processes
-//! over iceoryx2 shared memory.
+//! In-orbit calibration of the Taiji inertial sensors (Liu et al. 2025; docs/README.md):
+//! the plant, front-end electronics, commander and estimators as plain stage types
+//! with fixed-size inputs and outputs, so they run in one process or as separate
+//! processes over iceoryx2 shared memory.
 //!
 //! Built without default features, the library is the flight core alone: `no_std`
 //! without `alloc` — the fixed-size messages (`msg`), the estimators (`estimate`), the

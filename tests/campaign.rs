@@ -83,7 +83,8 @@ fn the_paper_route_runs_and_is_worse_than_the_joint_estimator() {
     let (pb, pr) = errors(&s, &paper);
     let (jb, jr) = errors(&s, &joint);
     assert!(pb.is_finite() && pr.is_finite());
-    // SPEC §3's reference: β ≈ 4e-3 (worst 1e-2), r ≈ 0.7 mm: it misses the requirement.
+    // An independent reference found β ≈ 4e-3 (worst 1e-2), r ≈ 0.7 mm: it misses the
+    // requirement (docs/method.md).
     assert!(
         (REQ_SCALE_FACTOR_REL..2e-2).contains(&pb) && (REQ_COM_M..5e-3).contains(&pr),
         "paper route: β {pb:e}, r {pr:e}"
@@ -137,7 +138,7 @@ fn thirty_seeds_give_honest_sigma_and_reach_the_crlb() {
 
 #[test]
 fn sigma_stays_honest_with_thruster_force_noise_and_other_truths() {
-    // Force noise degrades absolute r to ~200 µm (SPEC §3); σ must say so.
+    // Force noise degrades absolute r to ~200 µm (docs/physics.md); σ must say so.
     let s = Scenario::from_toml_str(
         "name = \"force-noise\"\n[thruster]\nforce_noise_n_rthz = 1.0e-7\n",
     )

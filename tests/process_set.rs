@@ -175,6 +175,9 @@ fn accelerated_run_is_bit_identical_to_in_process_and_allocation_free() {
     assert_eq!(r["estimator_loop_allocations"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
+    // The estimator's crash-restart checkpoint is not left in the user's folder.
+    assert!(!out.join("estimator.ckpt").exists());
+    assert!(!out.join("estimator.ckpt.tmp").exists());
 }
 
 #[test]
@@ -369,6 +372,9 @@ fn plant_death_stops_the_set_with_a_clear_error() {
     assert!(stderr.contains("taiji-plant died (signal 9)"), "{stderr}");
     assert!(stderr.contains("not restartable"), "{stderr}");
     assert!(!out.join("report.json").exists());
+    // A failed run keeps the checkpoint for diagnosis and says so.
+    assert!(out.join("estimator.ckpt").exists());
+    assert!(stderr.contains("checkpoint is kept"), "{stderr}");
     wait_for("every process to exit", Duration::from_secs(10), || {
         ["taiji-commander", "taiji-fee", "taiji-estimator"]
             .iter()

@@ -1,5 +1,5 @@
 //! Joint streaming estimator of β1, β2, r1, r2 (and nuisances) that reaches the
-//! Cramér–Rao bound (SPEC §3).
+//! Cramér–Rao bound (docs/method.md explains the method and why).
 //!
 //! Every measurement residual is a linear combination of *data signals* (voltages,
 //! their single and double integrals, star-tracker angles, 1, t) with coefficients that

@@ -1,8 +1,8 @@
 //! The paper's route (§2.1–2.2), kept so users can reproduce it and compare on the same
 //! data: star-tracker attitude differentiated twice, 0.05 Hz low-pass on both sides,
 //! static-state KF for β per IS, k from eq. 2, then a static-state KF for (r, α, b) per
-//! IS with the SRP folded into R (2×10⁻¹² m/s², §3.2.2). SPEC §3 records that this
-//! route misses the requirement; it is not the default.
+//! IS with the SRP folded into R (2×10⁻¹² m/s², §3.2.2). This route misses the
+//! requirement (docs/method.md, "The paper's route"); it is not the default.
 
 use super::config::EstimatorConfig;
 use super::kalman::StaticKf;

@@ -1,4 +1,4 @@
-//! Rigid-body attitude dynamics (SPEC §2): I ω̇ + ω × (I ω) = τ, q̇ = ½ q ⊗ (0, ω).
+//! Rigid-body attitude dynamics (docs/physics.md): I ω̇ + ω × (I ω) = τ, q̇ = ½ q ⊗ (0, ω).
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 

@@ -37,7 +37,7 @@ pub struct SupervisorArgs {
     /// Seed (default: the scenario's).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Output directory: report.json and the estimator's checkpoint.
+    /// Output directory: report.json (and, while the set runs, the estimator's checkpoint).
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
     /// Pace the set at the sample rate divided by --time-scale.
@@ -493,6 +493,18 @@ fn supervise(
     drop((progress, estimates));
     let _ = bus::cleanup_stale(&args.bus_prefix);
     let wall = t_start.elapsed().as_secs_f64();
+    // The checkpoint only serves restarts within this run (the next run starts afresh):
+    // a run that ended is cleared of it; a failed set keeps it for diagnosis and says so.
+    let result = match result {
+        Err(SupervisorError::Set(e)) if ckpt.exists() => Err(SupervisorError::Set(format!(
+            "{e} (the estimator's last crash-restart checkpoint is kept: {})",
+            ckpt.display()
+        ))),
+        r => {
+            remove_checkpoint(&ckpt);
+            r
+        }
+    };
     let members = set
         .members
         .into_iter()
@@ -507,6 +519,19 @@ fn supervise(
         Ok(Some(est)) => Ok(Supervised::Done(Box::new(est), members, wall)),
         Ok(None) => Ok(Supervised::Interrupted),
         Err(e) => Err(e),
+    }
+}
+
+/// Remove the estimator's checkpoint and the temporary file a killed writer may leave.
+fn remove_checkpoint(ckpt: &std::path::Path) {
+    let mut tmp = ckpt.as_os_str().to_owned();
+    tmp.push(".tmp");
+    for p in [ckpt.to_path_buf(), PathBuf::from(tmp)] {
+        if let Err(e) = std::fs::remove_file(&p) {
+            if e.kind() != std::io::ErrorKind::NotFound {
+                log::warn!("cannot remove {}: {e}", p.display());
+            }
+        }
     }
 }
 
