@@ -9,7 +9,7 @@ use std::path::Path;
 pub const FIGURES: [(&str, &str); 7] = [
     (
         "fig3_torque_attitude",
-        "Torque (commanded dashed) and attitude angle",
+        "Torque (applied per axis; commanded black, dashed) and attitude angle",
     ),
     (
         "fig4_voltages_star_tracker",
@@ -21,11 +21,13 @@ pub const FIGURES: [(&str, &str); 7] = [
     ),
     (
         "fig6_beta_convergence",
-        "Convergence of β per axis, both IS, with ±1σ band; truth dashed",
+        "Convergence of β per axis from the first solve: the whole campaign on a symmetric-log \
+         scale, then from a fifth of it on a linear scale; IS1 solid with a shaded ±1σ band, \
+         IS2 dashed with its band's edges",
     ),
     (
         "fig7_com_convergence",
-        "Convergence of r1, r2 per axis with ±1σ band; truth dashed",
+        "Convergence of r1, r2 per axis from the first solve, drawn as β's",
     ),
     (
         "fig8_coupling_acceleration",
@@ -180,8 +182,12 @@ impl Group {
 /// `v` with `digits` significant digits as "5.521430×10⁻⁸" (plain from 0.01 to 10⁴).
 fn sci(v: f64, digits: usize) -> String {
     let a = v.abs();
-    if a == 0.0 || !a.is_finite() || (1e-2..1e4).contains(&a) {
-        return format!("{v:.*}", digits.saturating_sub(1));
+    if a == 0.0 || !a.is_finite() {
+        return format!("{v}");
+    }
+    if (1e-2..1e4).contains(&a) {
+        let decimals = digits as i32 - 1 - a.log10().floor() as i32;
+        return format!("{v:.*}", decimals.max(0) as usize);
     }
     let s = format!("{v:.*e}", digits.saturating_sub(1));
     let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
@@ -312,7 +318,8 @@ pub fn html(r: &Report, dir: &Path, with_figures: bool) -> String {
                 .unwrap_or_else(|_| format!("<p>(figure {stem} missing)</p>"));
             let _ = writeln!(
                 o,
-                "<figure><figcaption><h3>{}</h3></figcaption><div class=\"fig\">\n{}</div></figure>",
+                "<figure id=\"{stem}\"><figcaption><h3>{}</h3></figcaption>\
+                 <div class=\"fig\">\n{}</div></figure>",
                 escape(caption),
                 svg
             );
@@ -331,4 +338,25 @@ pub fn write(r: &Report, dir: &Path, with_figures: bool) -> Result<(), String> {
         std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inline_markdown_becomes_html_without_backticks() {
+        let h = inline_html("Scenario `a<b`, **met**, `{\"x\": 1}`");
+        assert_eq!(
+            h,
+            "Scenario <code>a&lt;b</code>, <strong>met</strong>, <code>{&quot;x&quot;: 1}</code>"
+        );
+    }
+
+    #[test]
+    fn scientific_cells_use_powers_of_ten() {
+        assert_eq!(sci(5.52143e-8, 7), "5.521430×10⁻⁸");
+        assert_eq!(sci(-1.128834e-9, 7), "-1.128834×10⁻⁹");
+        assert_eq!(sci(216.4, 4), "216.4");
+    }
 }

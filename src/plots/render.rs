@@ -41,9 +41,9 @@ fn colour(i: usize) -> RGBColor {
     }
 }
 
-/// Width of every figure [px]: it fits a 1280 px browser window unscaled, so the
-/// report's HTML never shrinks the labels.
-pub const FIGURE_WIDTH: u32 = 1240;
+/// Width of every figure [px]: it fits a 1280 px browser window (less scroll bar and
+/// margins) unscaled, so the report's HTML never has to shrink the labels.
+pub const FIGURE_WIDTH: u32 = 1200;
 /// Height of a row of panels [px].
 const ROW_HEIGHT: u32 = 380;
 const TITLE_HEIGHT: u32 = 40;
@@ -221,9 +221,9 @@ pub fn log_tick_label(v: f64) -> String {
     }
 }
 
-/// Log axis with its own ticks: decades, or 1-2-5, 1-2-3-5 or 1…9 times a decade when the range
-/// holds too few decades, each value once (plotters' own log axis can repeat a decade
-/// as a minor tick, and its labels then collide).
+/// Log axis with its own ticks: decades, or 1-2-5, 1-2-3-5 or 1…9 times a decade when
+/// the range holds too few decades, each value once (plotters' own log axis can repeat a
+/// decade as a minor tick, and its labels then collide).
 #[derive(Debug, Clone, Copy)]
 pub struct LogAxis {
     pub lo: f64,
@@ -615,4 +615,114 @@ pub fn write(f: &Figure, dir: &Path) -> Result<(), String> {
     draw(BitMapBackend::new(&png, size(f)).into_drawing_area(), f)?;
     draw(SVGBackend::new(&svg, size(f)).into_drawing_area(), f)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn large_and_small_ticks_read_as_powers_of_ten() {
+        assert_eq!(tick_label(8e4, 1e5), "8×10⁴");
+        assert_eq!(tick_label(-2e4, 1e5), "−2×10⁴");
+        assert_eq!(tick_label(1e-11, 1e-11), "10⁻¹¹");
+        assert_eq!(tick_label(2.5e-10, 1e-9), "2.5×10⁻¹⁰");
+        assert_eq!(tick_label(1e5, 1e5), "10⁵");
+        // Rounding the mantissa up carries into the exponent.
+        assert_eq!(tick_label(9.999e4, 1e5), "10⁵");
+    }
+
+    #[test]
+    fn ordinary_ticks_stay_plain_and_zero_is_zero() {
+        assert_eq!(tick_label(20.0, 100.0), "20");
+        assert_eq!(tick_label(-0.25, 1.0), "−0.25");
+        assert_eq!(tick_label(1000.0, 4000.0), "1000");
+        // The zero tick computed as 1e-15 on a ±50 axis.
+        assert_eq!(tick_label(1e-15, 100.0), "0");
+        assert_eq!(time_tick_label(10000.0, 10000.0), "10000");
+        assert_eq!(time_tick_label(2.5, 10.0), "2.5");
+        assert_eq!(log_tick_label(1.0), "10⁰");
+        assert_eq!(log_tick_label(2e-12), "2×10⁻¹²");
+    }
+
+    #[test]
+    fn log_axis_labels_are_unique_and_ascending() {
+        // The SRP ASD panel's range, a one-decade range, and many decades.
+        for (lo, hi) in [
+            (8e-13, 3e-11),
+            (6.5e-15, 3.1e-14),
+            (7e-8, 2.9e-7),
+            (1e-20, 1.0),
+        ] {
+            let ticks = LogAxis { lo, hi }.ticks(11);
+            assert!(
+                ticks.len() >= 2 && ticks.len() <= 11,
+                "{lo:e}..{hi:e}: {ticks:?}"
+            );
+            let labels: Vec<String> = ticks.iter().map(|v| log_tick_label(*v)).collect();
+            let mut unique = labels.clone();
+            unique.sort();
+            unique.dedup();
+            assert_eq!(unique.len(), labels.len(), "{labels:?}");
+            assert!(ticks.windows(2).all(|w| w[0] < w[1]), "{ticks:?}");
+            assert!(ticks.iter().all(|v| *v >= lo * 0.999 && *v <= hi * 1.001));
+        }
+        let srp: Vec<String> = LogAxis {
+            lo: 8e-13,
+            hi: 3e-11,
+        }
+        .ticks(11)
+        .iter()
+        .map(|v| log_tick_label(*v))
+        .collect();
+        assert!(srp.contains(&"10⁻¹¹".to_string()) && srp.contains(&"10⁻¹²".to_string()));
+    }
+
+    #[test]
+    fn symlog_axis_shows_the_transient_and_the_converged_scatter() {
+        let axis = SymLogAxis {
+            lo: -3e4,
+            hi: 9e4,
+            c: 12.0,
+        };
+        let ticks = axis.ticks(11);
+        assert!(ticks.contains(&0.0) && ticks.contains(&1e4) && ticks.contains(&-1e4));
+        // No label crowds the zero's: the first decade is clear of the linear part.
+        assert!(
+            ticks.iter().all(|v| *v == 0.0 || v.abs() >= 2.0 * axis.c),
+            "{ticks:?}"
+        );
+        // ±c (the final σ) gets a visible share of the height, not a pixel.
+        let px = |v: f64| axis.map(&v, (0, 300));
+        assert!(
+            px(axis.c) - px(-axis.c) >= 20,
+            "{}",
+            px(axis.c) - px(-axis.c)
+        );
+        assert!(px(9e4) == 300 && px(-3e4) == 0);
+    }
+
+    #[test]
+    fn panel_y_range_holds_every_line_and_band_point() {
+        let mut p = Panel::new("t", "time [s]", "a [m/s²]");
+        p.series.push(Series::line(
+            "square",
+            (0..100)
+                .map(|i| (i as f64, if i % 20 < 10 { 4.3e-10 } else { -3.7e-10 }))
+                .collect(),
+            0,
+        ));
+        p.series.push(
+            Series::line("b", vec![(0.0, 0.0), (99.0, 0.0)], 1).with_band(
+                vec![(0.0, -5e-10, 6e-10), (99.0, -1e-11, 1e-11)],
+                BandStyle::Edges,
+            ),
+        );
+        for symlog in [None, Some(1e-11)] {
+            p.symlog_y = symlog;
+            let ((x0, x1), (y0, y1)) = panel_ranges(&p);
+            assert!(x0 <= 0.0 && x1 >= 99.0);
+            assert!(y0 < -5e-10 && y1 > 6e-10, "{symlog:?}: {y0:e}..{y1:e}");
+        }
+    }
 }
