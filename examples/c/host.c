@@ -125,7 +125,8 @@ int main(int argc, char **argv) {
     struct TaijiSensorSample *samples;
     struct TaijiEstimateMsg est;
     uint8_t *mem = (uint8_t *)state_mem;
-    double *t_update, t_solve_max = 0.0;
+    double *t_update, t_solve_max = 0.0, t_max = 0.0;
+    uint64_t max_at = 0;
     size_t stack_update = 0, stack_solve = 0, d, written = 0;
     int is;
 
@@ -153,6 +154,10 @@ int main(int argc, char **argv) {
         t0 = now_us();
         CHECK(taiji_estimator_update(mem, &samples[i], &rejected, &flags));
         t_update[i] = now_us() - t0;
+        if (t_update[i] > t_max) {
+            t_max = t_update[i];
+            max_at = i;
+        }
         if (measure && (d = painted_depth()) > stack_update) stack_update = d;
         if (flags & TAIJI_SOLVE_DUE) {
             int32_t rc;
@@ -191,6 +196,7 @@ int main(int argc, char **argv) {
         printf("    \"update_us\": {\"p50\": %.3f, \"p99\": %.3f, \"max\": %.3f},\n",
                t_update[n / 2], t_update[(size_t)((double)n * 0.99)], t_update[n - 1]);
     }
+    printf("    \"update_max_at\": %" PRIu64 ",\n", max_at);
     printf("    \"solve_us_max\": %.1f,\n", t_solve_max);
     printf("    \"state_bytes\": %zu,\n    \"checkpoint_bytes\": %zu,\n", taiji_estimator_size(),
            written);
