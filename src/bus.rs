@@ -485,3 +485,21 @@ pub fn notifier(node: &Node<ipc::Service>, name: &str) -> Result<Notifier, Strin
         .create()
         .map_err(|e| format!("cannot create notifier on {name}: {e:?}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_global_object_is_recognised_by_prefix_hash_and_suffix() {
+        let hash = "9204dd183d1c4d8e1ff592a30766ffa6765aa8b5";
+        let name = format!("taiji_{hash}_node.0_9_3.global_mgmt");
+        assert!(is_global_mgmt(&name, "taiji_", ".global_mgmt"));
+        // Another prefix that merely starts like ours, or another object of ours: no.
+        let longer = format!("taiji_x_{hash}_node.0_9_3.global_mgmt");
+        assert!(!is_global_mgmt(&longer, "taiji_", ".global_mgmt"));
+        assert!(!is_global_mgmt(&name, "taij_", ".global_mgmt"));
+        let dynamic = format!("taiji_{hash}_{hash}.dynamic");
+        assert!(!is_global_mgmt(&dynamic, "taiji_", ".global_mgmt"));
+    }
+}
