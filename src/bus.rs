@@ -324,12 +324,6 @@ pub struct PrefixLock {
     _file: std::fs::File,
 }
 
-impl PrefixLock {
-    pub fn path(&self) -> &std::path::Path {
-        &self.path
-    }
-}
-
 impl Drop for PrefixLock {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.path);
@@ -350,7 +344,12 @@ pub fn claim_prefix(prefix: &str) -> Result<Claim, String> {
     use std::os::unix::fs::MetadataExt;
     let path = lock_path(prefix)?;
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)
+        // With the permissions iceoryx2 gives the directories it makes there.
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o750)
+            .create(dir)
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
     loop {

@@ -536,10 +536,10 @@ fn supervise(
 
     let result = watch(&node, &progress, &estimates, &send, &mut set, launch, s);
     set.bar.finish();
-    // Whatever happened: stop everyone, then clear what killed processes left behind.
+    // Whatever happened: stop everyone. What they left on the bus goes when `_hold` is
+    // dropped, after this supervisor's node.
     let _ = send(CMD_STOP, 1);
     set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
-    // What the run left on the bus goes when `_hold` is dropped, after the node.
     let wall = t_start.elapsed().as_secs_f64();
     let members = set
         .members
