@@ -6,7 +6,7 @@ use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
 use crate::estimate::{Estimator, EstimatorConfig};
-use crate::msg::{EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
+use crate::msg::{SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
@@ -110,7 +110,8 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
         args,
     )?;
     let input = bus::subscriber::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
-    let out = bus::publisher::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE)?;
+    // Estimates leave through their own thread (see `outbox`).
+    let mut out = super::outbox::Outbox::start(&args.bus_prefix)?;
     let n = table.n_samples;
     link.progress.next_tick = next;
     link.progress.resume_tick = next;
@@ -145,7 +146,7 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
             continue;
         }
         if allocs_before.is_none() {
-            allocs_before = alloc_count::allocations();
+            allocs_before = alloc_count::thread_allocations();
         }
         link.progress.state = STATE_RUNNING;
         let received = monotonic_ns();
@@ -155,7 +156,7 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
         e.header.origin_ns = sample.header.origin_ns;
         let now = monotonic_ns();
         e.header.publish_ns = now;
-        bus::publish(&out, e)?;
+        out.send(e)?;
         link.e2e.record(now.saturating_sub(sample.header.origin_ns));
         // The tick's deadline: its estimate out within one period of the tick's due
         // time, whichever stage was late (a lost plant tick carries no due time).
@@ -175,13 +176,13 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
             let mut f = est.finish();
             f.header.origin_ns = sample.header.origin_ns;
             f.header.publish_ns = monotonic_ns();
-            bus::publish(&out, f)?;
+            out.send(f)?;
             done = true;
             link.progress.state = STATE_DONE;
         }
         if next % 32 == 0 || done {
             if let Some(a) = allocs_before {
-                link.progress.loop_allocations = alloc_count::allocations().unwrap_or(a) - a;
+                link.progress.loop_allocations = alloc_count::thread_allocations().unwrap_or(a) - a;
             }
             link.beat()?;
         }
@@ -189,10 +190,11 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
     match allocs_before {
         Some(a) => log::info!(
             "taiji-estimator: heap allocations in the filter loop: {}",
-            alloc_count::allocations().unwrap_or(a) - a
+            alloc_count::thread_allocations().unwrap_or(a) - a
         ),
         None => log::info!("taiji-estimator: allocation counting not installed"),
     }
+    out.finish()?;
     link.beat()?;
     Ok(exit)
 }
