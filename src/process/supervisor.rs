@@ -511,7 +511,7 @@ fn supervise(
     }
     // The estimator process is given its table, never the scenario (truths).
     let table = args.out.join(TABLE_FILE);
-    EstimatorTable::of(&s).write(&table).map_err(user)?;
+    EstimatorTable::of(s).write(&table).map_err(user)?;
     let table_args = vec!["--table".into(), table.display().to_string()];
     if args.record {
         common.push("--record".into());
