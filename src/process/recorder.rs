@@ -143,7 +143,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             link.beat()?;
         }
         let complete = c_truth.next >= n && final_seen;
-        if let (true, Some(mut t)) = (complete, tel.take()) {
+        if let Some(mut t) = tel.take_if(|_| complete) {
             if link.progress.samples_lost > 0 {
                 t.flush()?;
                 return Err(format!(

@@ -226,9 +226,11 @@ fn dataspace(dims: Option<&[u64]>) -> Vec<u8> {
 }
 
 /// The messages of a contiguous dataset of `kind` with `dims`, its storage at `addr`,
-/// followed by `attrs`.
+/// followed by `attrs`. An empty dataset has no storage address (readers refuse a
+/// zero-sized storage at a defined one).
 pub fn dataset(kind: Kind, dims: &[u64], addr: u64, attrs: &[Msg]) -> Vec<Msg> {
     let bytes = dims.iter().product::<u64>() * kind.size() as u64;
+    let addr = if bytes == 0 { UNDEF } else { addr };
     let mut layout = vec![3, 1];
     layout.extend(addr.to_le_bytes());
     layout.extend(bytes.to_le_bytes());
