@@ -409,7 +409,14 @@ impl Writer {
         put(heap_at, &heap);
         put(0, &h5::superblock(eof, root_at));
 
-        let file = std::fs::File::create(path).map_err(err)?;
+        // Read too: moving the estimate rows copies them.
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)
+            .map_err(err)?;
         file.write_all_at(&image, 0).map_err(err)?;
         // The reserved storage reads as zeros (and takes no disk space) until written.
         file.set_len(eof).map_err(err)?;
@@ -735,4 +742,56 @@ pub(super) fn write(t: &Telemetry, path: &Path, meta: &Meta) -> Result<(), Strin
         w.push_estimate(e)?;
     }
     w.finish(&t.faults, &t.faults_detected)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn estimate_rows_beyond_the_reserved_room_move_to_the_end_of_the_file() {
+        let dir = std::env::temp_dir().join(format!("taiji-grow-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("grow.h5");
+        let s = crate::scenario::Scenario::default();
+        let mut meta = Meta::of(&s, 1, "joint", "in-process");
+        meta.n_is = 1;
+        // 10 samples at 10 Hz: room for 10 / 100 + 2 = 2 estimate rows; write 9.
+        let mut w = Writer::create(&path, &meta, 10, 2).unwrap();
+        for k in 0..10 {
+            let header = Header::at(k, k, 10.0);
+            let t = TruthState {
+                header,
+                ..Default::default()
+            };
+            let x = SensorSample {
+                header,
+                ..Default::default()
+            };
+            w.record(&t, &x).unwrap();
+            if k < 9 {
+                let e = EstimateMsg {
+                    header,
+                    solved_tick: 100 + k,
+                    ..Default::default()
+                };
+                w.push_estimate(&e).unwrap();
+            }
+        }
+        w.finish(&[], &[]).unwrap();
+        let f = hdf5_pure::File::open(&path).unwrap();
+        assert_eq!(
+            f.dataset(l::EST_TICK).unwrap().read_u64().unwrap(),
+            (100..109).collect::<Vec<u64>>()
+        );
+        assert_eq!(
+            f.dataset(l::EST_BETA).unwrap().shape().unwrap(),
+            vec![9, 1, 3]
+        );
+        assert_eq!(
+            f.dataset(l::TICK).unwrap().read_u64().unwrap(),
+            (0..10).collect::<Vec<u64>>()
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
