@@ -260,20 +260,36 @@ pub fn cleanup_stale(prefix: &str) -> Result<BusSurvey, String> {
     }
 }
 
+/// Names of the live nodes in this prefix (none when they cannot be listed); removes
+/// nothing.
+pub fn live_nodes(prefix: &str) -> Vec<String> {
+    let Ok(cfg) = config(prefix) else {
+        return Vec::new();
+    };
+    let mut alive = Vec::new();
+    let _ = Node::<ipc::Service>::list(&cfg, |state| {
+        if let NodeState::Alive(view) = state {
+            alive.push(node_name(&view));
+        }
+        CallbackProgression::Continue
+    });
+    alive
+}
+
+fn node_name(view: &impl NodeView) -> String {
+    view.details()
+        .as_ref()
+        .map(|d| d.name().as_str().to_string())
+        .unwrap_or_default()
+}
+
 fn cleanup_dead_nodes(prefix: &str) -> Result<BusSurvey, String> {
     let cfg = config(prefix)?;
     let mut survey = BusSurvey::default();
     let mut dead = Vec::new();
     Node::<ipc::Service>::list(&cfg, |state| {
         match state {
-            NodeState::Alive(view) => {
-                let name = view
-                    .details()
-                    .as_ref()
-                    .map(|d| d.name().as_str().to_string())
-                    .unwrap_or_default();
-                survey.alive.push(name);
-            }
+            NodeState::Alive(view) => survey.alive.push(node_name(&view)),
             NodeState::Dead(view) => dead.push(view),
             _ => {}
         }
@@ -286,6 +302,148 @@ fn cleanup_dead_nodes(prefix: &str) -> Result<BusSurvey, String> {
         }
     }
     Ok(survey)
+}
+
+/// Who may run a process set on a bus prefix. Two supervisors started together both
+/// found no live node and both ran, overflowing every service; the lock makes the
+/// check and the start one step.
+pub enum Claim {
+    /// This supervisor has the prefix until the lock is dropped.
+    Won(PrefixLock),
+    /// Another supervisor holds it (its pid, once it has written it).
+    Held { pid: Option<u32> },
+}
+
+/// Exclusive right to a bus prefix: an flock(2) on `<iceoryx2 root>/<prefix>supervisor.lock`.
+/// The kernel releases it when its holder dies, however it dies, so a crashed run never
+/// blocks the next (a PID file would). Dropping it unlinks the file, then releases.
+#[derive(Debug)]
+pub struct PrefixLock {
+    path: std::path::PathBuf,
+    /// Holds the lock; closed after the file is unlinked (field drop follows `drop`).
+    _file: std::fs::File,
+}
+
+impl Drop for PrefixLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// The lock file of a prefix, in the iceoryx2 root of its configuration.
+pub fn lock_path(prefix: &str) -> Result<std::path::PathBuf, String> {
+    let cfg = config(prefix)?;
+    Ok(std::path::PathBuf::from(cfg.global.root_path().to_string())
+        .join(format!("{prefix}supervisor.lock")))
+}
+
+/// Take the prefix without waiting, or say who has it.
+pub fn claim_prefix(prefix: &str) -> Result<Claim, String> {
+    use std::io::{Read, Write};
+    use std::os::fd::AsRawFd;
+    use std::os::unix::fs::MetadataExt;
+    let path = lock_path(prefix)?;
+    if let Some(dir) = path.parent() {
+        // With the permissions iceoryx2 gives the directories it makes there.
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o750)
+            .create(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    }
+    loop {
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        // SAFETY: flock on a descriptor this function owns.
+        if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } != 0 {
+            let e = std::io::Error::last_os_error();
+            match e.raw_os_error() {
+                Some(libc::EWOULDBLOCK) => {
+                    let mut text = String::new();
+                    let _ = file.read_to_string(&mut text);
+                    return Ok(Claim::Held {
+                        pid: text.trim().parse().ok(),
+                    });
+                }
+                Some(libc::EINTR) => continue,
+                _ => return Err(format!("cannot lock {}: {e}", path.display())),
+            }
+        }
+        // The holder before us unlinks the file before releasing it: a lock won on a file
+        // no longer at `path` guards nothing, so take the one there now.
+        let ours = file.metadata().map(|m| (m.dev(), m.ino()));
+        let there = std::fs::metadata(&path).map(|m| (m.dev(), m.ino()));
+        if !matches!((ours, there), (Ok(a), Ok(b)) if a == b) {
+            continue;
+        }
+        // Only for the message of a refused supervisor: who holds the prefix.
+        let _ = file.set_len(0);
+        let _ = write!(file, "{}", std::process::id());
+        return Ok(Claim::Won(PrefixLock { path, _file: file }));
+    }
+}
+
+/// The global management object iceoryx2 0.9.3 makes per prefix in /dev/shm (its node
+/// counter, `<prefix><40 hex>_node.<version><global_mgmt_suffix>`), never removed by it.
+fn is_global_mgmt(name: &str, prefix: &str, suffix: &str) -> bool {
+    let Some(rest) = name.strip_prefix(prefix) else {
+        return false;
+    };
+    rest.len() > 40
+        && rest.as_bytes()[..40].iter().all(u8::is_ascii_hexdigit)
+        && rest[40..].starts_with("_node.")
+        && rest.ends_with(suffix)
+}
+
+/// What `release` removed.
+#[derive(Debug, Default)]
+pub struct Released {
+    /// Dead nodes whose resources were removed.
+    pub dead_nodes: usize,
+    /// Global management objects removed (0 while a node of the prefix remains).
+    pub global_mgmt: usize,
+}
+
+/// Once a run has ended (every process of it exited, the caller holding the prefix's
+/// lock): remove the resources of its dead nodes, then, when no node of the prefix is
+/// left at all, its global management object. Live nodes and anything of another
+/// prefix are never touched.
+pub fn release(prefix: &str) -> Result<Released, String> {
+    if prefix.is_empty() {
+        return Ok(Released::default());
+    }
+    let survey = cleanup_stale(prefix)?;
+    let mut released = Released {
+        dead_nodes: survey.removed_dead,
+        global_mgmt: 0,
+    };
+    let cfg = config(prefix)?;
+    let mut left = 0usize;
+    Node::<ipc::Service>::list(&cfg, |_| {
+        left += 1;
+        CallbackProgression::Continue
+    })
+    .map_err(|e| format!("cannot list iceoryx2 nodes: {e:?}"))?;
+    if left > 0 {
+        return Ok(released);
+    }
+    let suffix = cfg.global.node.global_mgmt_suffix.to_string();
+    let Ok(dir) = std::fs::read_dir(SHM_DIR) else {
+        return Ok(released);
+    };
+    for entry in dir.flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        if is_global_mgmt(&name, prefix, &suffix) && std::fs::remove_file(entry.path()).is_ok() {
+            released.global_mgmt += 1;
+        }
+    }
+    Ok(released)
 }
 
 /// Wake-up event of a stage: its upstream notifies it after publishing data, its
@@ -325,4 +483,22 @@ pub fn notifier(node: &Node<ipc::Service>, name: &str) -> Result<Notifier, Strin
         .notifier_builder()
         .create()
         .map_err(|e| format!("cannot create notifier on {name}: {e:?}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_global_object_is_recognised_by_prefix_hash_and_suffix() {
+        let hash = "9204dd183d1c4d8e1ff592a30766ffa6765aa8b5";
+        let name = format!("taiji_{hash}_node.0_9_3.global_mgmt");
+        assert!(is_global_mgmt(&name, "taiji_", ".global_mgmt"));
+        // Another prefix that merely starts like ours, or another object of ours: no.
+        let longer = format!("taiji_x_{hash}_node.0_9_3.global_mgmt");
+        assert!(!is_global_mgmt(&longer, "taiji_", ".global_mgmt"));
+        assert!(!is_global_mgmt(&name, "taij_", ".global_mgmt"));
+        let dynamic = format!("taiji_{hash}_{hash}.dynamic");
+        assert!(!is_global_mgmt(&dynamic, "taiji_", ".global_mgmt"));
+    }
 }

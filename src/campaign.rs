@@ -2,7 +2,7 @@
 //! the same stage types the process set wires over shared memory.
 
 use crate::commander::Commander;
-use crate::estimate::{Estimator, EstimatorConfig, Method};
+use crate::estimate::{Estimator, Method};
 use crate::faults::{Delivery, FaultScore, Injector};
 use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
@@ -25,7 +25,7 @@ impl Stages {
             commander: Commander::new(s),
             plant: Plant::new(s, seed, PlantNoise::ALL),
             fee: FrontEnd::new(s, seed, true),
-            estimator: Estimator::new(method, EstimatorConfig::from_scenario(s, &priors)),
+            estimator: Estimator::new(method, s.estimator_config(&priors)),
         }
     }
 }

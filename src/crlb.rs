@@ -4,7 +4,7 @@
 
 use crate::commander::Commander;
 use crate::estimate::joint::{P_BETA, P_R};
-use crate::estimate::{EstimatorConfig, JointEstimator};
+use crate::estimate::JointEstimator;
 use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::scenario::{k_from_beta, Scenario};
@@ -19,7 +19,7 @@ pub struct Crlb {
 
 pub fn crlb(s: &Scenario) -> Option<Crlb> {
     let priors = s.priors();
-    let mut cfg = EstimatorConfig::from_scenario(s, &priors);
+    let mut cfg = s.estimator_config(&priors);
     cfg.solve_every = u64::MAX;
     let mut est = JointEstimator::new(cfg);
     let mut cmd = Commander::new(s);

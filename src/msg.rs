@@ -5,11 +5,21 @@
 //! Every type here is `#[repr(C)]`, fixed-size and `ZeroCopySend`, with a stable
 //! `type_name` so that separately built binaries agree on the service's payload type.
 
+#[allow(unused_imports)]
+use crate::math::Real;
+#[cfg(feature = "std")]
 use iceoryx2::prelude::ZeroCopySend;
 
+/// Version of the layouts of these messages and of the estimator's state: bump it
+/// whenever a field changes. It is part of every bus payload's type name and of every
+/// checkpoint, so builds with different layouts refuse each other with a clear error
+/// instead of misreading bytes.
+pub const LAYOUT_VERSION: u32 = 1;
+
 /// Common header of every message.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::Header")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::Header"))]
 #[repr(C)]
 pub struct Header {
     /// Per-publisher sequence number, from 0, no gaps.
@@ -32,8 +42,9 @@ pub struct Header {
 }
 
 /// Commander → plant: torque commanded for the interval.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::TorqueCommand")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::TorqueCommand"))]
 #[repr(C)]
 pub struct TorqueCommand {
     pub header: Header,
@@ -42,8 +53,9 @@ pub struct TorqueCommand {
 }
 
 /// Plant → front-end electronics (and recorder only): the true state.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::TruthState")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::TruthState"))]
 #[repr(C)]
 pub struct TruthState {
     pub header: Header,
@@ -64,8 +76,9 @@ pub struct TruthState {
 }
 
 /// Star-tracker sample.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::StarSample")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::StarSample"))]
 #[repr(C)]
 pub struct StarSample {
     /// Measured attitude (w, x, y, z) of B relative to N [-].
@@ -90,8 +103,9 @@ pub const ANGULAR_OF_PAIR: [usize; 3] = [2, 0, 1];
 pub const PAIR_OF_ANGULAR: [usize; 3] = [1, 2, 0];
 
 /// One IS's drive voltages for the interval (Table 1).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::IsSample")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::IsSample"))]
 #[repr(C)]
 pub struct IsSample {
     /// Electrode drive voltages [V], indexed [x, y, z][1, 2] as V_{j,1}, V_{j,2}.
@@ -110,7 +124,7 @@ impl IsSample {
 
     /// Voltage differences per angular axis a (ω̇_a = β_a ΔV_a, Table 1) [V].
     pub fn angular_volts(&self) -> [f64; 3] {
-        std::array::from_fn(|a| {
+        core::array::from_fn(|a| {
             let pair = self.volts[PAIR_OF_ANGULAR[a]];
             pair[0] - pair[1]
         })
@@ -118,7 +132,7 @@ impl IsSample {
 
     /// Voltage sums per linear axis j (a_j = k_j ΣV_j, Table 1) [V].
     pub fn linear_volts(&self) -> [f64; 3] {
-        std::array::from_fn(|j| self.volts[j][0] + self.volts[j][1])
+        core::array::from_fn(|j| self.volts[j][0] + self.volts[j][1])
     }
 }
 
@@ -130,8 +144,9 @@ impl StarSample {
 }
 
 /// Front-end electronics → estimator: everything the estimator may see.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::SensorSample")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::SensorSample"))]
 #[repr(C)]
 pub struct SensorSample {
     pub header: Header,
@@ -140,8 +155,9 @@ pub struct SensorSample {
 }
 
 /// Estimator → supervisor / recorder: the latest estimates with 1σ.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::EstimateMsg")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::EstimateMsg"))]
 #[repr(C)]
 pub struct EstimateMsg {
     pub header: Header,
@@ -234,6 +250,7 @@ pub const STATUS_NAMES: [&str; 5] = [
 ];
 
 /// The status bits' names, comma-separated ("ok" when none is set).
+#[cfg(feature = "std")]
 pub fn status_text(status: u64) -> String {
     let names: Vec<&str> = STATUS_NAMES
         .iter()
@@ -281,8 +298,9 @@ pub const STATE_DONE: u32 = 3;
 
 /// Every stage → its upstream stage and the supervisor: heartbeat, flow-control credit
 /// and counters. Published after each batch of work and at least every 50 ms.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::Progress")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::Progress"))]
 #[repr(C)]
 pub struct Progress {
     pub header: Header,
@@ -328,8 +346,9 @@ pub const CMD_START: u32 = 1;
 pub const CMD_STOP: u32 = 2;
 
 /// Supervisor → every stage.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("taiji::Control")]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "std", derive(ZeroCopySend))]
+#[cfg_attr(feature = "std", type_name("taiji::Control"))]
 #[repr(C)]
 pub struct Control {
     pub header: Header,

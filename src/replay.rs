@@ -3,7 +3,7 @@
 //! it feeds the same samples, in the same order, to the same estimator. The samples
 //! are read from the file a window at a time, so memory does not grow with its length.
 
-use crate::estimate::{Estimator, EstimatorConfig, Method};
+use crate::estimate::{Estimator, Method};
 use crate::msg::EstimateMsg;
 use crate::telemetry::read::Recording;
 use crate::telemetry::RowGate;
@@ -28,7 +28,7 @@ pub fn run_with_rows(
     mut row: impl FnMut(&EstimateMsg),
 ) -> Result<Replayed, String> {
     let s = &rec.scenario;
-    let mut est = Estimator::new(method, EstimatorConfig::from_scenario(s, &s.priors()));
+    let mut est = Estimator::new(method, s.estimator_config(&s.priors()));
     let mut gate = RowGate::default();
     let fs = s.sample_rate_hz;
     let n = rec.n;

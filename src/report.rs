@@ -1,4 +1,5 @@
-//! The run report (SPEC §5) and the result table printed like the paper's Tables 2–3.
+//! The run report (every key: docs/report.md) and the result table printed like the
+//! paper's Tables 2–3.
 
 use crate::crlb::Crlb;
 use crate::msg::EstimateMsg;

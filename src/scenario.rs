@@ -1,8 +1,11 @@
-//! Scenario file (SPEC §4): what is simulated, with the paper's defaults.
+//! Scenario file: what is simulated, with the paper's defaults (docs/physics.md
+//! explains each quantity).
 //!
 //! Every key has a default; unknown keys, wrong types, non-finite or physically
 //! impossible values are rejected with a message that names the key.
 
+use crate::estimate::EstimatorConfig;
+use crate::model::noise::white_sigma;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
@@ -280,10 +283,7 @@ impl InertialSensor {
     }
 }
 
-/// Eq. 2: kx = Gz βz, ky = Gx βx, kz = Gy βy.
-pub fn k_from_beta(g: &[f64; 3], beta: &[f64; 3]) -> [f64; 3] {
-    [g[2] * beta[2], g[0] * beta[0], g[1] * beta[1]]
-}
+pub use crate::estimate::config::k_from_beta;
 
 /// Ground-calibration priors of one IS, as the estimator receives them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -301,7 +301,9 @@ impl Scenario {
                 e.to_string().trim_end()
             ))
         })?;
-        s.validated()
+        let given = keys_set(text);
+        s.validate(&|k| given.iter().any(|g| g == k))?;
+        Ok(s)
     }
 
     /// Load a scenario file; the error names the file, the key and the problem.
@@ -372,14 +374,19 @@ impl Scenario {
             .collect()
     }
 
-    /// Check every value; the first problem found is returned, naming its key.
+    /// Check every value; the first problem found is returned, naming its key. With no
+    /// file behind the values, a check between two keys names the first and mentions both.
     pub fn validated(self) -> Result<Self, ScenarioError> {
-        self.validate()?;
+        self.validate(&|_| false)?;
         Ok(self)
     }
 
-    fn validate(&self) -> Result<(), ScenarioError> {
+    /// `given(key)`: the file sets this dotted key. A check between two keys blames the
+    /// one the user wrote, not its partner left at its default.
+    fn validate(&self, given: &dyn Fn(&str) -> bool) -> Result<(), ScenarioError> {
         let err = |k: &str, m: &str| Err(ScenarioError(format!("`{k}`: {m}")));
+        // Of two keys in one check: the second only when the file sets it and not the first.
+        let blame_second = |first: &str, second: &str| given(second) && !given(first);
         let pos = |k: &str, v: f64| -> Result<(), ScenarioError> {
             if !v.is_finite() {
                 return err(k, &format!("must be finite, got {v}"));
@@ -406,12 +413,6 @@ impl Scenario {
         }
         pos("duration_s", self.duration_s)?;
         pos("sample_rate_hz", self.sample_rate_hz)?;
-        if self.n_samples() < 100 {
-            return err(
-                "duration_s",
-                "gives fewer than 100 samples at sample_rate_hz",
-            );
-        }
         if self.duration_s > MAX_DURATION_S {
             return err(
                 "duration_s",
@@ -420,9 +421,6 @@ impl Scenario {
                     self.duration_s
                 ),
             );
-        }
-        if self.n_samples() > 100_000_000 {
-            return err("duration_s", "gives more than 10^8 samples; shorten it");
         }
         let inertia = &self.spacecraft.inertia_kg_m2;
         for (i, row) in inertia.iter().enumerate() {
@@ -447,15 +445,30 @@ impl Scenario {
             "spacecraft.attitude_hold_hz",
             self.spacecraft.attitude_hold_hz,
         )?;
-        if self.spacecraft.attitude_hold_hz * 10.0 > self.maneuver.frequency_hz {
-            return err(
-                "spacecraft.attitude_hold_hz",
-                "must stay below a tenth of maneuver.frequency_hz (the hold would fight the rocking)",
-            );
-        }
 
         let mv = &self.maneuver;
         pos("maneuver.frequency_hz", mv.frequency_hz)?;
+        let hold = self.spacecraft.attitude_hold_hz;
+        if hold * 10.0 > mv.frequency_hz {
+            return if blame_second("spacecraft.attitude_hold_hz", "maneuver.frequency_hz") {
+                err(
+                    "maneuver.frequency_hz",
+                    &format!(
+                        "{} Hz must be at least 10 × spacecraft.attitude_hold_hz = {} Hz (the attitude hold would fight the rocking)",
+                        mv.frequency_hz,
+                        sig4(10.0 * hold, true)
+                    ),
+                )
+            } else {
+                err(
+                    "spacecraft.attitude_hold_hz",
+                    &format!(
+                        "{hold} Hz must stay below a tenth of maneuver.frequency_hz, {} Hz (the hold would fight the rocking)",
+                        sig4(mv.frequency_hz / 10.0, false)
+                    ),
+                )
+            };
+        }
         for (a, v) in mv.torque_amplitude_nm.iter().enumerate() {
             if !v.is_finite() || *v < 0.0 {
                 return err(
@@ -474,17 +487,28 @@ impl Scenario {
             );
         }
         if self.periods_per_axis() == 0 {
-            return err(
-                "maneuver.frequency_hz",
-                &format!(
-                    "a period ({} s) does not fit three times into duration_s = {}",
-                    1.0 / mv.frequency_hz,
-                    self.duration_s
-                ),
-            );
-        }
-        if 2.0 * mv.frequency_hz * 4.0 > self.sample_rate_hz {
-            return err("maneuver.frequency_hz", "must be below sample_rate_hz / 8");
+            // Each axis is rocked for whole periods, one axis after the other.
+            return if blame_second("maneuver.frequency_hz", "duration_s") {
+                err(
+                    "duration_s",
+                    &format!(
+                        "{} s does not hold three periods of maneuver.frequency_hz ({} s each): it must be at least {} s",
+                        self.duration_s,
+                        1.0 / mv.frequency_hz,
+                        sig4(3.0 / mv.frequency_hz, true)
+                    ),
+                )
+            } else {
+                err(
+                    "maneuver.frequency_hz",
+                    &format!(
+                        "a period ({} s) does not fit three times into duration_s = {} s: the frequency must be at least {} Hz",
+                        1.0 / mv.frequency_hz,
+                        self.duration_s,
+                        sig4(3.0 / self.duration_s, true)
+                    ),
+                )
+            };
         }
 
         if let Err((k, m)) = self.faults.validate() {
@@ -497,12 +521,6 @@ impl Scenario {
         }
         nonneg("thruster.torque_noise_nm_rthz", th.torque_noise_nm_rthz)?;
         nonneg("thruster.edge_jitter_s", th.edge_jitter_s)?;
-        if 2.0 * th.edge_jitter_s >= self.dt() {
-            return err(
-                "thruster.edge_jitter_s",
-                "must be below half a sample interval",
-            );
-        }
         nonneg("thruster.amplitude_jitter_rel", th.amplitude_jitter_rel)?;
         if th.amplitude_jitter_rel > 0.2 {
             return err("thruster.amplitude_jitter_rel", "must be ≤ 0.2");
@@ -513,9 +531,7 @@ impl Scenario {
 
         let st = &self.star_tracker;
         pos("star_tracker.rate_hz", st.rate_hz)?;
-        if st.rate_hz > self.sample_rate_hz {
-            return err("star_tracker.rate_hz", "must not exceed sample_rate_hz");
-        }
+        self.check_sample_rate(given)?;
         pos("star_tracker.noise_3sigma_arcsec", st.noise_3sigma_arcsec)?;
         for (i, o) in st.outages_s.iter().enumerate() {
             if !(o[0].is_finite() && o[1].is_finite() && o[0] <= o[1]) {
@@ -533,6 +549,17 @@ impl Scenario {
         // it measures; that needs the DC to dominate the fluctuation (verified down to
         // ~9× the ASD at 3 mHz; it fails at ~1×). Any sunlit spacecraft has ≳1e-8 m/s².
         if srp.dc_m_s2 < SRP_DC_OVER_ASD * srp.asd_at_3mhz {
+            if blame_second("srp.dc_m_s2", "srp.asd_at_3mhz") {
+                return err(
+                    "srp.asd_at_3mhz",
+                    &format!(
+                        "{:.2e} m s⁻² Hz^-½ is too large for the DC SRP srp.dc_m_s2 = {:.2e} m/s²: it must be at most srp.dc_m_s2 / {SRP_DC_OVER_ASD} = {:.2e} (the estimator takes the SRP noise direction from the DC)",
+                        srp.asd_at_3mhz,
+                        srp.dc_m_s2,
+                        srp.dc_m_s2 / SRP_DC_OVER_ASD
+                    ),
+                );
+            }
             return err(
                 "srp.dc_m_s2",
                 &format!(
@@ -556,10 +583,23 @@ impl Scenario {
         pos("front_end.full_scale_rad_s2", fe.full_scale_rad_s2)?;
         pos("front_end.maneuver_limit_m_s2", fe.maneuver_limit_m_s2)?;
         if srp.dc_m_s2 >= fe.full_scale_m_s2 {
-            return err(
-                "srp.dc_m_s2",
-                "the DC SRP must fit in front_end.full_scale_m_s2",
-            );
+            return if blame_second("srp.dc_m_s2", "front_end.full_scale_m_s2") {
+                err(
+                    "front_end.full_scale_m_s2",
+                    &format!(
+                        "{:.2e} m/s² must exceed the DC SRP srp.dc_m_s2 = {:.2e} m/s², which every linear channel measures",
+                        fe.full_scale_m_s2, srp.dc_m_s2
+                    ),
+                )
+            } else {
+                err(
+                    "srp.dc_m_s2",
+                    &format!(
+                        "the DC SRP ({:.2e} m/s²) must fit in front_end.full_scale_m_s2 = {:.2e} m/s²",
+                        srp.dc_m_s2, fe.full_scale_m_s2
+                    ),
+                )
+            };
         }
 
         let gc = &self.ground_calibration;
@@ -595,7 +635,7 @@ impl Scenario {
                 for (a, v) in bp.iter().enumerate() {
                     pos(&key("beta_prior"), *v)?;
                     if (v / is.beta[a] - 1.0).abs() > 0.2 {
-                        return err(&key("beta_prior"), &format!("axis {a} is more than 20 % off the truth; the ground calibration cannot be that wrong"));
+                        return err(&key("beta_prior"), &format!("axis {a} is more than 20 % off the truth {} = {:e}; the ground calibration cannot be that wrong", key("beta"), is.beta[a]));
                     }
                 }
             }
@@ -604,7 +644,11 @@ impl Scenario {
                     if !v.is_finite() || (v - is.com_offset_m[a]).abs() > 0.05 {
                         return err(
                             &key("com_offset_prior_m"),
-                            &format!("component {a} must be finite and within 5 cm of the truth"),
+                            &format!(
+                                "component {a} must be finite and within 5 cm of the truth {} = {} m",
+                                key("com_offset_m"),
+                                is.com_offset_m[a]
+                            ),
                         );
                     }
                 }
@@ -612,15 +656,166 @@ impl Scenario {
         }
         let peak = self.peak_maneuver_acceleration();
         if peak.1 > fe.maneuver_limit_m_s2 {
-            return err(
+            let limit = fe.maneuver_limit_m_s2;
+            // The torque that would fit on each axis that overshoots.
+            let fits: Vec<String> = (0..3)
+                .filter(|&a| self.peak_for_axis(a, mv.torque_amplitude_nm[a]).1 > limit)
+                .map(|a| {
+                    let t = self.largest_torque_within(a, limit);
+                    format!("on axis {} at most {t:.3e} N m", ["x", "y", "z"][a])
+                })
+                .collect();
+            let offset = format!("inertial_sensor[{}].com_offset_m", peak.0);
+            // Whichever of the keys behind |A r| the file sets, the torque first.
+            let key = [
                 "maneuver.torque_amplitude_nm",
+                "maneuver.frequency_hz",
+                offset.as_str(),
+                "spacecraft.inertia_kg_m2",
+                "front_end.maneuver_limit_m_s2",
+            ]
+            .into_iter()
+            .find(|k| given(k))
+            .unwrap_or("maneuver.torque_amplitude_nm");
+            return err(
+                key,
                 &format!(
-                    "the maneuver would drive |A r| of inertial_sensor[{}] to {:.3e} m/s², above the IS design limit front_end.maneuver_limit_m_s2 = {:.1e}; lower the torque",
-                    peak.0, peak.1, fe.maneuver_limit_m_s2
+                    "the maneuver would drive |A r| of inertial_sensor[{}] to {:.3e} m/s², above the IS design limit front_end.maneuver_limit_m_s2 = {:.1e}; with this inertia, frequency and {offset}, maneuver.torque_amplitude_nm must be {}",
+                    peak.0,
+                    peak.1,
+                    limit,
+                    fits.join(", ")
                 ),
             );
         }
         Ok(())
+    }
+
+    /// The checks between `sample_rate_hz` and the keys that bound it. The file's
+    /// `sample_rate_hz` (or, with neither key set, the rate) is blamed, with the range
+    /// the other settings allow; a partner key that the file sets alone is blamed instead.
+    fn check_sample_rate(&self, given: &dyn Fn(&str) -> bool) -> Result<(), ScenarioError> {
+        let bounds = self.rate_bounds();
+        let Some(first) = bounds.iter().find(|b| b.violated) else {
+            return Ok(());
+        };
+        if given(first.partner) && !given("sample_rate_hz") {
+            return Err(ScenarioError(format!(
+                "`{}`: {}",
+                first.partner, first.partner_msg
+            )));
+        }
+        let tightest = |low: bool| {
+            let side = bounds.iter().filter(|b| b.low == low);
+            if low {
+                side.max_by(|a, b| a.limit.total_cmp(&b.limit))
+            } else {
+                side.min_by(|a, b| a.limit.total_cmp(&b.limit))
+            }
+        };
+        let (Some(lo), Some(hi)) = (tightest(true), tightest(false)) else {
+            return Err(ScenarioError(format!("`sample_rate_hz`: {}", first.why)));
+        };
+        let upper = |b: &RateBound| {
+            let op = if b.strict { "below" } else { "at most" };
+            format!("{op} {} Hz", sig4(b.limit, false))
+        };
+        let lower = |b: &RateBound| format!("at least {} Hz", sig4(b.limit, true));
+        let (bad, other) = if first.low { (lo, hi) } else { (hi, lo) };
+        let need = if first.low { lower(bad) } else { upper(bad) };
+        let fits = lo.limit < hi.limit || (lo.limit == hi.limit && !hi.strict);
+        let rest = if fits {
+            format!(
+                "these settings allow {} Hz to {}{} Hz (the {} bound because {})",
+                sig4(lo.limit, true),
+                if hi.strict { "just below " } else { "" },
+                sig4(hi.limit, false),
+                if first.low { "upper" } else { "lower" },
+                other.why
+            )
+        } else {
+            format!(
+                "no sample rate fits these settings, since it must also be {} because {}; change one of those keys",
+                if first.low { upper(other) } else { lower(other) },
+                other.why
+            )
+        };
+        Err(ScenarioError(format!(
+            "`sample_rate_hz`: {} Hz is too {}: it must be {need} because {}; {rest}",
+            self.sample_rate_hz,
+            if first.low { "low" } else { "high" },
+            bad.why
+        )))
+    }
+
+    /// Every bound the other settings put on `sample_rate_hz`, in the order checked.
+    fn rate_bounds(&self) -> Vec<RateBound> {
+        let (fs, d) = (self.sample_rate_hz, self.duration_s);
+        let f = self.maneuver.frequency_hz;
+        let st = self.star_tracker.rate_hz;
+        let jitter = self.thruster.edge_jitter_s;
+        let n = self.n_samples();
+        vec![
+            RateBound {
+                partner: "duration_s",
+                low: true,
+                strict: false,
+                limit: 100.0 / d,
+                violated: n < 100,
+                why: format!("duration_s = {d} s must hold at least 100 samples"),
+                partner_msg: format!(
+                    "{d} s gives {n} samples at sample_rate_hz = {fs} Hz; at least 100 are needed, so duration_s must be at least {} s",
+                    sig4(100.0 / fs, true)
+                ),
+            },
+            RateBound {
+                partner: "maneuver.frequency_hz",
+                low: true,
+                strict: false,
+                limit: 8.0 * f,
+                violated: 8.0 * f > fs,
+                why: format!("a period of maneuver.frequency_hz = {f} Hz needs at least 8 samples"),
+                partner_msg: format!(
+                    "{f} Hz must be at most sample_rate_hz / 8 = {} Hz",
+                    sig4(fs / 8.0, false)
+                ),
+            },
+            RateBound {
+                partner: "star_tracker.rate_hz",
+                low: true,
+                strict: false,
+                limit: st,
+                violated: st > fs,
+                why: format!("star_tracker.rate_hz = {st} Hz must not exceed the sample rate"),
+                partner_msg: format!("{st} Hz must not exceed sample_rate_hz = {fs} Hz"),
+            },
+            RateBound {
+                partner: "duration_s",
+                low: false,
+                strict: false,
+                limit: 1e8 / d,
+                violated: n > 100_000_000,
+                why: format!("duration_s = {d} s may hold at most 10^8 samples"),
+                partner_msg: format!(
+                    "{d} s gives {n} samples at sample_rate_hz = {fs} Hz, more than 10^8: duration_s must be at most {} s",
+                    sig4(1e8 / fs, false)
+                ),
+            },
+            RateBound {
+                partner: "thruster.edge_jitter_s",
+                low: false,
+                strict: true,
+                limit: if jitter > 0.0 { 0.5 / jitter } else { f64::INFINITY },
+                violated: 2.0 * jitter >= self.dt(),
+                why: format!(
+                    "a thruster edge, delayed by thruster.edge_jitter_s = {jitter} s ± as much, must stay within half a sample interval"
+                ),
+                partner_msg: format!(
+                    "{jitter} s must be below half a sample interval, 1 / (2 × sample_rate_hz) = {} s",
+                    sig4(0.5 / fs, false)
+                ),
+            },
+        ]
     }
 
     /// Whole square-wave periods per maneuver axis (the rest of the run is quiet).
@@ -631,6 +826,14 @@ impl Scenario {
     /// Worst maneuver-induced TM acceleration |A(ω, ω̇) r| over the IS: (index, m/s²).
     /// Uses the peak torque with overshoot and 3σ amplitude jitter.
     pub fn peak_maneuver_acceleration(&self) -> (usize, f64) {
+        (0..3)
+            .map(|axis| self.peak_for_axis(axis, self.maneuver.torque_amplitude_nm[axis]))
+            .fold((0, 0.0), |w, x| if x.1 > w.1 { x } else { w })
+    }
+
+    /// Worst |A(ω, ω̇) r| over the IS while `axis` is rocked with `amplitude` [N m]:
+    /// (IS index, m/s²).
+    fn peak_for_axis(&self, axis: usize, amplitude: f64) -> (usize, f64) {
         use nalgebra::{Matrix3, Vector3};
         let inertia = Matrix3::from_fn(|i, j| self.spacecraft.inertia_kg_m2[i][j]);
         let Some(inv) = inertia.try_inverse() else {
@@ -639,20 +842,134 @@ impl Scenario {
         let th = &self.thruster;
         let boost = 1.0 + 3.0 * th.amplitude_jitter_rel + 2.0 * th.overshoot_rel;
         let quarter = 0.25 / self.maneuver.frequency_hz;
+        let mut tau = Vector3::zeros();
+        tau[axis] = amplitude * boost;
+        let wdot = inv * tau;
+        let w = wdot * quarter;
         let mut worst = (0, 0.0);
-        for axis in 0..3 {
-            let mut tau = Vector3::zeros();
-            tau[axis] = self.maneuver.torque_amplitude_nm[axis] * boost;
-            let wdot = inv * tau;
-            let w = wdot * quarter;
-            for (i, is) in self.inertial_sensor.iter().enumerate() {
-                let r = Vector3::from(is.com_offset_m);
-                let a = wdot.cross(&r).norm() + w.cross(&w.cross(&r)).norm();
-                if a > worst.1 {
-                    worst = (i, a);
-                }
+        for (i, is) in self.inertial_sensor.iter().enumerate() {
+            let r = Vector3::from(is.com_offset_m);
+            let a = wdot.cross(&r).norm() + w.cross(&w.cross(&r)).norm();
+            if a > worst.1 {
+                worst = (i, a);
             }
         }
         worst
+    }
+
+    /// Largest torque amplitude [N m] on `axis` that keeps |A r| within `limit` [m/s²]
+    /// (|A r| grows monotonically with the torque: bisection).
+    fn largest_torque_within(&self, axis: usize, limit: f64) -> f64 {
+        let (mut lo, mut hi) = (0.0, self.maneuver.torque_amplitude_nm[axis]);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if self.peak_for_axis(axis, mid).1 > limit {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        lo
+    }
+}
+
+/// One bound on `sample_rate_hz` set by another key.
+struct RateBound {
+    /// The other key.
+    partner: &'static str,
+    /// A lower bound (else an upper one); `strict`: the rate must differ from `limit`.
+    low: bool,
+    strict: bool,
+    /// The bound [Hz].
+    limit: f64,
+    violated: bool,
+    /// Why the bound exists, naming the other key.
+    why: String,
+    /// The error when the other key is to blame.
+    partner_msg: String,
+}
+
+/// `x` to 4 significant digits, rounded up or down (a bound shown rounded the other way
+/// would name a value the check refuses).
+fn sig4(x: f64, up: bool) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let scale = 10f64.powi(3 - x.abs().log10().floor() as i32);
+    let m = x * scale;
+    // A bound like 10 × 3e-5 carries rounding noise in its last bits: not a digit to round up.
+    let v = if (m - m.round()).abs() < 1e-9 * m.abs() {
+        m.round()
+    } else if up {
+        m.ceil()
+    } else {
+        m.floor()
+    } / scale;
+    if (1e-3..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Dotted keys a TOML text sets (`thruster.edge_jitter_s`, `inertial_sensor[1].beta`).
+fn keys_set(text: &str) -> Vec<String> {
+    fn walk(prefix: &str, table: &toml::Table, out: &mut Vec<String>) {
+        for (k, v) in table {
+            let key = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            match v {
+                toml::Value::Table(t) => walk(&key, t, out),
+                toml::Value::Array(items) if items.first().is_some_and(|i| i.is_table()) => {
+                    for (i, item) in items.iter().enumerate() {
+                        if let toml::Value::Table(t) = item {
+                            walk(&format!("{key}[{i}]"), t, out);
+                        }
+                    }
+                }
+                _ => out.push(key),
+            }
+        }
+    }
+    let mut out = Vec::new();
+    if let Ok(t) = text.parse::<toml::Table>() {
+        walk("", &t, &mut out);
+    }
+    out
+}
+
+impl Scenario {
+    /// The estimator's table: priors, known geometry and noise specifications only —
+    /// never the truths.
+    pub fn estimator_config(&self, priors: &[Priors]) -> EstimatorConfig {
+        let s = self;
+        let fs = s.sample_rate_hz;
+        let fe = &s.front_end;
+        let mut c = EstimatorConfig {
+            fs,
+            n_is: s.inertial_sensor.len() as u64,
+            geometry_m: [[1.0; 3]; 2],
+            beta_prior: [[1.0; 3]; 2],
+            com_prior_m: [[0.0; 3]; 2],
+            sigma_star_rad: s.star_tracker.noise_3sigma_arcsec / 3.0 * ARCSEC,
+            sigma_angular: white_sigma(fe.angular_noise_rthz, fs),
+            sigma_linear: white_sigma(fe.linear_noise_rthz, fs),
+            sigma_ripple: white_sigma(fe.ripple_rthz, fs),
+            srp_asd_at_3mhz: s.srp.asd_at_3mhz,
+            sigma_force: white_sigma(s.thruster.force_noise_n_rthz / s.spacecraft.mass_kg, fs),
+            solve_every: (60.0 * fs).round().max(1.0) as u64,
+            full_scale_linear: fe.full_scale_m_s2,
+            full_scale_angular: fe.full_scale_rad_s2,
+            max_gap_ticks: (600.0 * fs).round().max(1.0) as u64,
+        };
+        for (i, (is, p)) in s.inertial_sensor.iter().zip(priors).enumerate() {
+            c.geometry_m[i] = is.geometry_m;
+            c.beta_prior[i] = p.beta;
+            c.com_prior_m[i] = p.com_offset_m;
+        }
+        c
     }
 }

@@ -1,6 +1,7 @@
 //! Stale shared memory of killed processes is cleaned without hanging, even when a
 //! process died half-way through making a connection (an empty, unreadable object that
-//! iceoryx2 0.9.3 would wait on forever).
+//! iceoryx2 0.9.3 would wait on forever); a released prefix leaves nothing in /dev/shm;
+//! a bus prefix is held by one claimant at a time, and freed when it dies.
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::PathBuf;
@@ -20,6 +21,16 @@ fn bus_child() {
     let (Ok(role), Ok(prefix)) = (std::env::var(CHILD_ENV), std::env::var(PREFIX_ENV)) else {
         return;
     };
+    if role == "lock" {
+        // Hold the prefix until killed.
+        let _lock = match bus::claim_prefix(&prefix).unwrap() {
+            bus::Claim::Won(lock) => lock,
+            bus::Claim::Held { pid } => panic!("prefix held by {pid:?}"),
+        };
+        loop {
+            std::thread::sleep(Duration::from_secs(1));
+        }
+    }
     let node = bus::node(&format!("child-{role}"), &prefix).unwrap();
     if role == "pub" {
         let p = bus::publisher::<u64>(&node, SERVICE).unwrap();
@@ -97,6 +108,58 @@ fn cleanup_of_a_connection_abandoned_half_made_does_not_hang() {
     assert_eq!(survey.removed_dead, 2);
     assert!(survey.alive.is_empty(), "{:?}", survey.alive);
     assert!(!path.exists(), "{} left behind", path.display());
+    // With no node left, the prefix's global object goes too: nothing of it remains.
+    let released = bus::release(&prefix).unwrap();
+    assert_eq!(released.global_mgmt, 1);
+    assert!(shm_of(&prefix).is_empty(), "{:?}", shm_of(&prefix));
+}
+
+fn shm_of(prefix: &str) -> Vec<String> {
+    std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .filter(|n| n.starts_with(prefix))
+        .collect()
+}
+
+#[test]
+fn a_prefix_is_held_by_one_claimant_and_freed_when_it_dies() {
+    let prefix = format!("tjlock{}_", std::process::id());
+    let mut holder = child("lock", &prefix);
+    let path = bus::lock_path(&prefix).unwrap();
+    let pid = holder.id();
+    let t0 = Instant::now();
+    while std::fs::read_to_string(&path).ok() != Some(pid.to_string()) {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "the child never locked"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(matches!(
+        bus::claim_prefix(&prefix).unwrap(),
+        bus::Claim::Held { pid: Some(p) } if p == pid
+    ));
+    // kill -9: no chance to unlock, yet the kernel releases the lock with the process.
+    holder.kill().unwrap();
+    holder.wait().unwrap();
+    let bus::Claim::Won(lock) = bus::claim_prefix(&prefix).unwrap() else {
+        panic!("the prefix is still held after its holder died");
+    };
+    // Held, even against this same process; released and its file gone when dropped.
+    assert!(matches!(
+        bus::claim_prefix(&prefix).unwrap(),
+        bus::Claim::Held { .. }
+    ));
+    drop(lock);
+    assert!(!path.exists());
+    let bus::Claim::Won(again) = bus::claim_prefix(&prefix).unwrap() else {
+        panic!("the prefix is still held after its lock was dropped");
+    };
+    drop(again);
+    // A release with no global object to remove removes nothing.
+    assert_eq!(bus::release(&prefix).unwrap().global_mgmt, 0);
 }
 
 #[test]

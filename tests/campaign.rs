@@ -2,7 +2,7 @@
 //! sensor data alone.
 
 use taiji::campaign;
-use taiji::estimate::{EstimatorConfig, Method};
+use taiji::estimate::Method;
 use taiji::msg::EstimateMsg;
 use taiji::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use taiji::scenario::Scenario;
@@ -70,8 +70,8 @@ fn the_estimator_configuration_holds_no_truth() {
         "{base}com_offset_m = [0.21, -0.13, 0.001]\nbeta = [5.6e-8, 5.45e-8, 7.4e-8]\n"
     ))
     .unwrap();
-    let c1 = EstimatorConfig::from_scenario(&s1, &s1.priors());
-    let c2 = EstimatorConfig::from_scenario(&s2, &s2.priors());
+    let c1 = s1.estimator_config(&s1.priors());
+    let c2 = s2.estimator_config(&s2.priors());
     assert_eq!(c1, c2);
 }
 
@@ -83,7 +83,8 @@ fn the_paper_route_runs_and_is_worse_than_the_joint_estimator() {
     let (pb, pr) = errors(&s, &paper);
     let (jb, jr) = errors(&s, &joint);
     assert!(pb.is_finite() && pr.is_finite());
-    // SPEC §3's reference: β ≈ 4e-3 (worst 1e-2), r ≈ 0.7 mm: it misses the requirement.
+    // An independent reference found β ≈ 4e-3 (worst 1e-2), r ≈ 0.7 mm: it misses the
+    // requirement (docs/method.md).
     assert!(
         (REQ_SCALE_FACTOR_REL..2e-2).contains(&pb) && (REQ_COM_M..5e-3).contains(&pr),
         "paper route: β {pb:e}, r {pr:e}"
@@ -137,7 +138,7 @@ fn thirty_seeds_give_honest_sigma_and_reach_the_crlb() {
 
 #[test]
 fn sigma_stays_honest_with_thruster_force_noise_and_other_truths() {
-    // Force noise degrades absolute r to ~200 µm (SPEC §3); σ must say so.
+    // Force noise degrades absolute r to ~200 µm (docs/physics.md); σ must say so.
     let s = Scenario::from_toml_str(
         "name = \"force-noise\"\n[thruster]\nforce_noise_n_rthz = 1.0e-7\n",
     )

@@ -34,7 +34,7 @@ fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
 }
 
 #[test]
-fn run_writes_the_report_of_spec_section_5() {
+fn run_writes_the_documented_report() {
     let dir = std::env::temp_dir().join(format!("taiji-cli-run-{}", std::process::id()));
     let out = calib()
         .args(["run", "--seed", "3", "--out"])

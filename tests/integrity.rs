@@ -120,7 +120,7 @@ fn run_with_config(seed: u64, cfg: EstimatorConfig) -> EstimateMsg {
 #[test]
 fn a_noise_model_that_does_not_fit_is_flagged_and_its_sigma_inflated() {
     let s = Scenario::default();
-    let good = EstimatorConfig::from_scenario(&s, &s.priors());
+    let good = s.estimator_config(&s.priors());
     let honest = run_with_config(1, good);
     assert_eq!(honest.status & ST_UNVERIFIED, 0);
     assert!(honest.chi2_per_dof.iter().all(|c| (0.8..1.2).contains(c)));
@@ -251,10 +251,7 @@ fn one_wild_tick_does_not_move_the_timeline_but_a_stream_that_starts_late_is_tak
         samples.push(st.fee.step(&truth));
     }
     // A garbage header first: rejected, and the real stream from tick 0 goes on.
-    let mut est = Estimator::new(
-        Method::Joint,
-        EstimatorConfig::from_scenario(&s, &s.priors()),
-    );
+    let mut est = Estimator::new(Method::Joint, s.estimator_config(&s.priors()));
     let mut wild = samples[0];
     wild.header.tick = u64::MAX - 3;
     let e = est.step(&wild);
@@ -264,10 +261,7 @@ fn one_wild_tick_does_not_move_the_timeline_but_a_stream_that_starts_late_is_tak
     }
     assert_eq!(est.next_tick(), 50);
     // A recording whose ticks start at 10⁶: two consecutive ticks start it there.
-    let mut est = Estimator::new(
-        Method::Joint,
-        EstimatorConfig::from_scenario(&s, &s.priors()),
-    );
+    let mut est = Estimator::new(Method::Joint, s.estimator_config(&s.priors()));
     for (k, m) in samples.iter().enumerate() {
         let mut m = *m;
         m.header.tick = 1_000_000 + k as u64;

@@ -1,9 +1,13 @@
 //! Figures: `run --plots` writes every figure as PNG and SVG; each is non-trivial (not
 //! blank, several colours), has labelled axes and a legend where it draws several
-//! curves; report.md links them and report.html inlines them.
+//! curves; report.md links them and report.html inlines them. Every panel's axes hold
+//! all its data, and the styles keep overlapping curves apart.
 
 use std::process::Command;
+use taiji::estimate::Method;
+use taiji::plots::render::{panel_ranges, BandStyle, BLACK_INDEX, FIGURE_WIDTH};
 use taiji::report_doc::FIGURES;
+use taiji::scenario::Scenario;
 
 #[test]
 fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
@@ -87,4 +91,86 @@ fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
     }
     assert_eq!(html.matches("<svg").count(), FIGURES.len());
     assert!(md.contains("| IS2 rz |") && md.contains("CRLB") && md.contains("Requirements"));
+
+    // Every number's unit is in its column header; r throughout in µm.
+    for header in [
+        "| truth [rad s⁻² V⁻¹] | estimate [rad s⁻² V⁻¹] | 1σ [ppm] | error [ppm] |",
+        "| truth [m s⁻² V⁻¹] | estimate [m s⁻² V⁻¹] | 1σ [ppm] | error [ppm] |",
+        "| truth [µm] | estimate [µm] | 1σ [µm] | error [µm] | CRLB [µm] | requirement [µm] |",
+    ] {
+        assert!(md.contains(header), "report.md lacks {header:?}");
+    }
+    let rz = md.lines().find(|l| l.starts_with("| IS1 rz |")).unwrap();
+    assert!(!rz.contains("e-") && rz.contains("| 200.000 |"), "{rz}");
+
+    // HTML: inline Markdown rendered, figures at their own width (never scaled down).
+    assert!(!html.contains('`'), "report.html shows backticks");
+    assert!(!html.contains("**"), "report.html shows Markdown bold");
+    assert!(html.contains("<code>short</code>"));
+    for w in html.split("<svg width=\"").skip(1) {
+        let w: u32 = w.split('"').next().unwrap().parse().unwrap();
+        assert!(w <= FIGURE_WIDTH, "figure {w} px wide");
+    }
+    assert!(html.contains(".fig svg{display:block;max-width:none"));
+}
+
+fn short_run_figures() -> Vec<taiji::plots::render::Figure> {
+    let s = Scenario::from_toml_str("name = \"short\"\nduration_s = 3000.0\n").unwrap();
+    let (_, tel) = taiji::campaign::run_recorded(&s, 3, Method::Joint, |_| {});
+    taiji::plots::figures(&tel, &s)
+}
+
+#[test]
+fn every_panel_range_holds_all_its_lines_and_bands() {
+    for f in short_run_figures() {
+        for p in &f.panels {
+            let ((x0, x1), (y0, y1)) = panel_ranges(p);
+            let mut n = 0;
+            for s in &p.series {
+                let band = s
+                    .band
+                    .iter()
+                    .flatten()
+                    .flat_map(|b| [(b.0, b.1), (b.0, b.2)]);
+                for (x, y) in s.xy.iter().copied().chain(band) {
+                    if !(x.is_finite() && y.is_finite()) || (p.log_log && (x <= 0.0 || y <= 0.0)) {
+                        continue;
+                    }
+                    n += 1;
+                    assert!(
+                        (x0..=x1).contains(&x) && y > y0 && y < y1,
+                        "{} / {}: ({x}, {y:e}) outside {x0}..{x1} × {y0:e}..{y1:e}",
+                        f.name,
+                        p.title
+                    );
+                }
+            }
+            assert!(n > 1, "{} / {}: nothing drawn", f.name, p.title);
+        }
+    }
+}
+
+#[test]
+fn convergence_starts_at_the_first_solve_and_keeps_the_two_sensors_apart() {
+    let figs = short_run_figures();
+    for name in ["fig6_beta_convergence", "fig7_com_convergence"] {
+        let f = figs.iter().find(|f| f.name == name).unwrap();
+        assert_eq!(f.panels.len(), 6);
+        for (i, p) in f.panels.iter().enumerate() {
+            // Left column: whole campaign on a symmetric-log axis; right: linear zoom.
+            assert_eq!(p.symlog_y.is_some(), i % 2 == 0, "{name} / {}", p.title);
+            let (is1, is2) = (&p.series[0], &p.series[1]);
+            // The priors at t = 0 are no solve: the first point is the first solve (60 s).
+            assert!(is1.xy[0].0 >= 60.0, "{name}: starts at {} s", is1.xy[0].0);
+            assert!(!is1.dashed && is1.band_style == BandStyle::Fill);
+            assert!(is2.dashed && is2.band_style == BandStyle::Edges);
+            assert_ne!(is1.color, is2.color);
+        }
+    }
+    // The commanded torque is black, a colour no applied torque uses.
+    let torque = &figs[0].panels[0];
+    let (cmd, applied): (Vec<_>, Vec<_>) = torque.series.iter().partition(|s| s.dashed);
+    assert_eq!(cmd.len(), 3);
+    assert!(cmd.iter().all(|s| s.color == BLACK_INDEX));
+    assert!(applied.iter().all(|s| s.color != BLACK_INDEX));
 }

@@ -1,7 +1,8 @@
 //! The real process set over iceoryx2: accelerated lock-step bit-identical to the
 //! in-process run, real-time pacing without loss, estimator `kill -9` and restart,
-//! plant death stopping the set, a start after a crash that left stale shared memory, and
-//! SIGTERM stopping every process cleanly.
+//! plant death stopping the set, a start after a crash that left stale shared memory,
+//! SIGTERM stopping every process cleanly, one run per bus prefix, and nothing of a run
+//! left on the bus once it ended.
 //! Every test uses its own bus prefix; they still run one at a time (`serial`), so the
 //! real-time test measures the set alone rather than four sets sharing two cores.
 
@@ -132,6 +133,39 @@ fn wait_for(what: &str, timeout: Duration, mut cond: impl FnMut() -> bool) {
     }
 }
 
+/// Node directories holding a file of this prefix: the nodes of one run, alive or dead
+/// (a directory's own name does not say its prefix).
+fn node_dirs(prefix: &str) -> Vec<PathBuf> {
+    let cfg = taiji::bus::config(prefix).unwrap();
+    let Ok(dir) = std::fs::read_dir(cfg.global.node_dir().to_string()) else {
+        return Vec::new();
+    };
+    dir.flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            std::fs::read_dir(p).is_ok_and(|mut files| {
+                files.any(|f| f.is_ok_and(|f| f.file_name().to_string_lossy().starts_with(prefix)))
+            })
+        })
+        .collect()
+}
+
+/// Every entry of this prefix in /dev/shm and the iceoryx2 node directory, its lock
+/// file, and whichever of `dirs` still exist.
+fn left_on_the_bus(prefix: &str, dirs: &[PathBuf]) -> Vec<PathBuf> {
+    let cfg = taiji::bus::config(prefix).unwrap();
+    let mut left: Vec<PathBuf> = ["/dev/shm".to_string(), cfg.global.node_dir().to_string()]
+        .iter()
+        .filter_map(|d| std::fs::read_dir(d).ok())
+        .flat_map(|d| d.flatten())
+        .filter(|e| e.file_name().to_string_lossy().starts_with(prefix))
+        .map(|e| e.path())
+        .collect();
+    left.extend(dirs.iter().filter(|d| d.exists()).cloned());
+    left.extend(taiji::bus::lock_path(prefix).ok().filter(|p| p.exists()));
+    left
+}
+
 fn finish(child: Child) -> Output {
     child.wait_with_output().unwrap()
 }
@@ -175,6 +209,9 @@ fn accelerated_run_is_bit_identical_to_in_process_and_allocation_free() {
     assert_eq!(r["estimator_loop_allocations"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
+    // The estimator's crash-restart checkpoint is not left in the user's folder.
+    assert!(!out.join("estimator.ckpt").exists());
+    assert!(!out.join("estimator.ckpt.tmp").exists());
 }
 
 #[test]
@@ -369,11 +406,17 @@ fn plant_death_stops_the_set_with_a_clear_error() {
     assert!(stderr.contains("taiji-plant died (signal 9)"), "{stderr}");
     assert!(stderr.contains("not restartable"), "{stderr}");
     assert!(!out.join("report.json").exists());
+    // A failed run keeps the checkpoint for diagnosis and says so.
+    assert!(out.join("estimator.ckpt").exists());
+    assert!(stderr.contains("checkpoint is kept"), "{stderr}");
     wait_for("every process to exit", Duration::from_secs(10), || {
         ["taiji-commander", "taiji-fee", "taiji-estimator"]
             .iter()
             .all(|exe| pids_with(&pfx, exe).is_empty())
     });
+    // The killed plant's node included.
+    let left = left_on_the_bus(&pfx, &[]);
+    assert!(left.is_empty(), "{left:?}");
 }
 
 #[test]
@@ -399,6 +442,8 @@ fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
     }
     let _ = finish(child);
     // Their nodes are now dead but their shared memory is still there.
+    let dirs = node_dirs(&pfx);
+    assert_eq!(dirs.len(), 5, "supervisor and four stages: {dirs:?}");
     let o = supervisor(&sc, &out, &pfx, &[]).output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
@@ -407,6 +452,61 @@ fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
         "{stderr}"
     );
     assert_eq!(estimates(&report(&out)), in_process(&sc, 11));
+    // Neither run left anything: the crashed one's nodes, the lock it held, and the
+    // prefix's global object go with the second.
+    let left = left_on_the_bus(&pfx, &dirs);
+    assert!(left.is_empty(), "{left:?}");
+}
+
+#[test]
+fn a_finished_run_leaves_nothing_on_the_bus() {
+    let _serial = serial();
+    let dir = tmp("leaves");
+    // About 2 s, so the nodes can be seen while it runs.
+    let sc = write_scenario(&dir, "name = \"leaves\"\nduration_s = 10000.0\n");
+    let out = dir.join("out");
+    let pfx = prefix("l");
+    let child = supervisor(&sc, &out, &pfx, &[]).spawn().unwrap();
+    wait_mid_run(&out);
+    let dirs = node_dirs(&pfx);
+    let o = finish(child);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(dirs.len(), 5, "supervisor and four stages: {dirs:?}");
+    // Every process dropped its node and the supervisor removed the prefix's global
+    // object: no directory, file or shared memory of the run is left, the lock neither.
+    let left = left_on_the_bus(&pfx, &dirs);
+    assert!(left.is_empty(), "{left:?}");
+}
+
+#[test]
+fn of_two_supervisors_started_together_on_one_prefix_one_runs_the_other_is_refused() {
+    let _serial = serial();
+    let dir = tmp("pair");
+    let sc = write_scenario(&dir, SHORT);
+    let pfx = prefix("2");
+    for trial in 0..5 {
+        let outs = [dir.join(format!("a{trial}")), dir.join(format!("b{trial}"))];
+        let pair = outs
+            .each_ref()
+            .map(|out| supervisor(&sc, out, &pfx, &[]).spawn().unwrap());
+        let [a, b] = pair.map(finish);
+        let mut codes = [a.status.code(), b.status.code()];
+        codes.sort();
+        let stderr = |o: &Output| String::from_utf8_lossy(&o.stderr).to_string();
+        let both = format!("{}\n{}", stderr(&a), stderr(&b));
+        assert_eq!(codes, [Some(0), Some(2)], "trial {trial}: {both}");
+        let (won, lost) = if a.status.success() { (0, &b) } else { (1, &a) };
+        assert!(
+            stderr(lost).contains(&format!(
+                "another run is active on bus prefix {pfx:?} (supervisor pid"
+            )),
+            "trial {trial}: {both}"
+        );
+        assert!(outs[won].join("report.json").exists());
+        assert!(!outs[1 - won].join("report.json").exists());
+        let left = left_on_the_bus(&pfx, &[]);
+        assert!(left.is_empty(), "trial {trial}: {left:?}");
+    }
 }
 
 #[test]
@@ -466,12 +566,17 @@ fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
     for exe in taiji::launch::REQUIRED {
         assert!(pids_with(&pfx, exe).is_empty(), "{exe} still running");
     }
+    // An interrupted run cleans up after itself as well.
+    let left = left_on_the_bus(&pfx, &[]);
+    assert!(left.is_empty(), "{left:?}");
     // Every process exited by itself: the next run on this prefix finds nothing stale.
     let sc2 = write_scenario(&dir, SHORT);
     let o = supervisor(&sc2, &out, &pfx, &[]).output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     assert!(!stderr.contains("stale"), "{stderr}");
+    let left = left_on_the_bus(&pfx, &[]);
+    assert!(left.is_empty(), "{left:?}");
 }
 
 /// `[faults]` in the process set: the front-end corrupts and the bus duplicates,

@@ -130,3 +130,93 @@ fn every_shipped_scenario_loads_and_says_what_it_shows() {
         ]
     );
 }
+
+/// The key a cross-field error blames: the one between backticks at its start.
+fn blamed(e: &str) -> &str {
+    e.strip_prefix('`')
+        .and_then(|r| r.split('`').next())
+        .unwrap_or("")
+}
+
+#[test]
+fn a_sample_rate_beyond_the_thruster_jitter_names_sample_rate_hz_and_its_range() {
+    for text in ["sample_rate_hz = 1e6", "sample_rate_hz = 30"] {
+        let e = err(text);
+        assert_eq!(blamed(&e), "sample_rate_hz", "{e}");
+        // Why, and what is allowed given the other settings (the star tracker's 10 Hz
+        // below, the default 0.02 s edge jitter above).
+        assert!(e.contains("thruster.edge_jitter_s = 0.02 s"), "{e}");
+        assert!(
+            e.contains("below 25 Hz") && e.contains("allow 10 Hz"),
+            "{e}"
+        );
+    }
+    // The range named is the range accepted.
+    assert!(
+        Scenario::from_toml_str("sample_rate_hz = 24.9\n[star_tracker]\nrate_hz = 10.0").is_ok()
+    );
+    assert_eq!(blamed(&err("sample_rate_hz = 25.0")), "sample_rate_hz");
+    let e = err("sample_rate_hz = 5.0");
+    assert!(
+        blamed(&e) == "sample_rate_hz"
+            && e.contains("at least 10 Hz")
+            && e.contains("star_tracker.rate_hz"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_cross_field_check_blames_the_key_the_file_sets() {
+    let e = err("[thruster]\nedge_jitter_s = 0.1");
+    assert_eq!(blamed(&e), "thruster.edge_jitter_s", "{e}");
+    assert!(e.contains("sample_rate_hz") && e.contains("0.05 s"), "{e}");
+    let e = err("[star_tracker]\nrate_hz = 20.0");
+    assert_eq!(blamed(&e), "star_tracker.rate_hz", "{e}");
+    let e = err("duration_s = 5.0\n[maneuver]\nfrequency_hz = 1.0");
+    assert_eq!(blamed(&e), "duration_s", "{e}");
+    assert!(e.contains("at least 10 s"), "{e}");
+    let e = err("[maneuver]\nfrequency_hz = 2e-4");
+    assert_eq!(blamed(&e), "maneuver.frequency_hz", "{e}");
+    assert!(e.contains("spacecraft.attitude_hold_hz"), "{e}");
+    let e = err("[spacecraft]\nattitude_hold_hz = 1e-3");
+    assert_eq!(blamed(&e), "spacecraft.attitude_hold_hz", "{e}");
+    let e = err("duration_s = 2000.0");
+    assert_eq!(blamed(&e), "duration_s", "{e}");
+    assert!(e.contains("maneuver.frequency_hz"), "{e}");
+    let e = err("[srp]\nasd_at_3mhz = 1e-8");
+    assert_eq!(blamed(&e), "srp.asd_at_3mhz", "{e}");
+    let e = err("[front_end]\nfull_scale_m_s2 = 1e-8");
+    assert_eq!(blamed(&e), "front_end.full_scale_m_s2", "{e}");
+}
+
+#[test]
+fn when_both_keys_of_a_check_are_set_the_error_names_both() {
+    let e = err("sample_rate_hz = 24.0\n[thruster]\nedge_jitter_s = 0.05");
+    assert_eq!(blamed(&e), "sample_rate_hz", "{e}");
+    assert!(
+        e.contains("thruster.edge_jitter_s") && e.contains("no sample rate fits"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_com_offset_beyond_the_maneuver_range_names_the_offset_and_the_torque_that_fits() {
+    let e = err("[[inertial_sensor]]\ncom_offset_m = [1.5, 0.0, 0.0]");
+    assert_eq!(blamed(&e), "inertial_sensor[0].com_offset_m", "{e}");
+    // An offset along x: rocking about y and z swings it, rocking about x barely.
+    assert!(!e.contains("on axis x") && e.contains("on axis y"), "{e}");
+    // The torques it names fit.
+    let fits = |axis: &str| -> f64 {
+        e.split(&format!("on axis {axis} at most "))
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no torque for {axis} in: {e}"))
+    };
+    let text = format!(
+        "[maneuver]\ntorque_amplitude_nm = [2.5e-6, {:e}, {:e}]\n[[inertial_sensor]]\ncom_offset_m = [1.5, 0.0, 0.0]",
+        fits("y"),
+        fits("z")
+    );
+    Scenario::from_toml_str(&text).unwrap_or_else(|e| panic!("{e}"));
+}

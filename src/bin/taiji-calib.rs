@@ -74,6 +74,16 @@ enum Cmd {
         #[arg(long, value_enum)]
         method: Option<MethodArg>,
     },
+    /// Write a recording as the C library's inputs: DIR/estimator_config.bin (the
+    /// estimator's table) and DIR/sensor_samples.bin (the samples replay feeds), each
+    /// in its repr(C) layout of include/taiji_estimator.h (see tools/c-host).
+    Export {
+        /// A telemetry.h5 (ours, or another tool's in the documented layout).
+        #[arg(long)]
+        telemetry: PathBuf,
+        #[arg(long, default_value = "out/export")]
+        out: PathBuf,
+    },
     /// Run N seeds and report RMS error, normalized error, CRLB ratio and pass count.
     Montecarlo {
         /// Number of seeds (campaigns) to run, at least 1
@@ -228,6 +238,16 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             report.faults = res.faults.map(|f| f.summary());
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
             finish(&out, &report, false)
+        }
+        Cmd::Export { telemetry, out } => {
+            out_dir(&out)?;
+            let rec = taiji::telemetry::read::open(&telemetry)?;
+            let n = taiji::export::write(&rec, &out)?;
+            println!(
+                "exported {n} samples and the estimator table to {}",
+                out.display()
+            );
+            Ok(ExitCode::SUCCESS)
         }
         Cmd::Montecarlo {
             runs,

@@ -1,15 +1,16 @@
 //! What the estimators may know: priors, known geometry and the noise specifications —
 //! never the truths. Built from a scenario by copying only those fields.
 
-use crate::model::noise::white_sigma;
-use crate::scenario::{Priors, Scenario, ARCSEC};
-
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+/// The estimator's table: plain numbers, `#[repr(C)]`, like a cFS table — the C ABI
+/// takes it as it is. Built by `Scenario::estimator_config` (std) or by the host.
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct EstimatorConfig {
     /// Sample rate [Hz].
     pub fs: f64,
     /// Number of inertial sensors (1 or 2).
-    pub n_is: usize,
+    pub n_is: u64,
     /// Known geometry ratios (Gx, Gy, Gz) of eq. 2 per IS [m].
     pub geometry_m: [[f64; 3]; 2],
     /// Ground-calibration priors per IS.
@@ -37,32 +38,76 @@ pub struct EstimatorConfig {
     pub max_gap_ticks: u64,
 }
 
+/// Why a table is refused (`EstimatorConfig::check`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConfigError {
+    /// A field is out of its range; the name says which.
+    Field(&'static str),
+}
+
 impl EstimatorConfig {
-    pub fn from_scenario(s: &Scenario, priors: &[Priors]) -> Self {
-        let fs = s.sample_rate_hz;
-        let fe = &s.front_end;
-        let mut c = EstimatorConfig {
-            fs,
-            n_is: s.inertial_sensor.len(),
-            geometry_m: [[1.0; 3]; 2],
-            beta_prior: [[1.0; 3]; 2],
-            com_prior_m: [[0.0; 3]; 2],
-            sigma_star_rad: s.star_tracker.noise_3sigma_arcsec / 3.0 * ARCSEC,
-            sigma_angular: white_sigma(fe.angular_noise_rthz, fs),
-            sigma_linear: white_sigma(fe.linear_noise_rthz, fs),
-            sigma_ripple: white_sigma(fe.ripple_rthz, fs),
-            srp_asd_at_3mhz: s.srp.asd_at_3mhz,
-            sigma_force: white_sigma(s.thruster.force_noise_n_rthz / s.spacecraft.mass_kg, fs),
-            solve_every: (60.0 * fs).round().max(1.0) as u64,
-            full_scale_linear: fe.full_scale_m_s2,
-            full_scale_angular: fe.full_scale_rad_s2,
-            max_gap_ticks: (600.0 * fs).round().max(1.0) as u64,
-        };
-        for (i, (is, p)) in s.inertial_sensor.iter().zip(priors).enumerate() {
-            c.geometry_m[i] = is.geometry_m;
-            c.beta_prior[i] = p.beta;
-            c.com_prior_m[i] = p.com_offset_m;
+    /// Validates the table before an estimator is built on it: every count in range,
+    /// every rate, noise level and range finite and positive, priors finite and the
+    /// scale-factor priors nonzero. An estimator never runs on a table that fails.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        let nonneg = |x: f64| x.is_finite() && x >= 0.0;
+        let bad = |name| Err(ConfigError::Field(name));
+        if !(pos(self.fs) && self.fs <= 1e4) {
+            return bad("fs");
         }
-        c
+        if !(1..=2).contains(&self.n_is) {
+            return bad("n_is");
+        }
+        if !pos(self.sigma_star_rad) {
+            return bad("sigma_star_rad");
+        }
+        if !pos(self.sigma_angular) {
+            return bad("sigma_angular");
+        }
+        if !pos(self.sigma_linear) {
+            return bad("sigma_linear");
+        }
+        if !nonneg(self.sigma_ripple) {
+            return bad("sigma_ripple");
+        }
+        if !pos(self.srp_asd_at_3mhz) {
+            return bad("srp_asd_at_3mhz");
+        }
+        if !nonneg(self.sigma_force) {
+            return bad("sigma_force");
+        }
+        if self.solve_every == 0 || self.solve_every > 1 << 40 {
+            return bad("solve_every");
+        }
+        if !pos(self.full_scale_linear) {
+            return bad("full_scale_linear");
+        }
+        if !pos(self.full_scale_angular) {
+            return bad("full_scale_angular");
+        }
+        if self.max_gap_ticks == 0 || self.max_gap_ticks > 1 << 40 {
+            return bad("max_gap_ticks");
+        }
+        for i in 0..2 {
+            for a in 0..3 {
+                if !pos(self.geometry_m[i][a].abs()) {
+                    return bad("geometry_m");
+                }
+                if !pos(self.beta_prior[i][a].abs()) {
+                    return bad("beta_prior");
+                }
+                if !(self.com_prior_m[i][a].is_finite() && self.com_prior_m[i][a].abs() < 10.0) {
+                    return bad("com_prior_m");
+                }
+            }
+        }
+        Ok(())
     }
+}
+
+/// Eq. 2: linear scale factors from the angular ones and the known geometry,
+/// kx = Gz βz, ky = Gx βx, kz = Gy βy [m s⁻² V⁻¹].
+pub fn k_from_beta(g: &[f64; 3], beta: &[f64; 3]) -> [f64; 3] {
+    [g[2] * beta[2], g[0] * beta[0], g[1] * beta[1]]
 }

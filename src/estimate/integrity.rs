@@ -13,6 +13,8 @@
 //! * [`RatioFit`]: the per-axis ratio of the two IS's angular voltages (β2/β1, the
 //!   same rotation seen twice), fitted from accepted samples only.
 
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 /// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data lose
 /// about one sample per campaign, while an upset moving a voltage by a few noise σ
 /// already fails the cross-IS test (whose noise is far below a voltage's own).
@@ -28,7 +30,9 @@ const RELEARN: u32 = 200;
 
 /// Level and spread of a residual: exponentially weighted mean and variance of the
 /// accepted values, with a floor on the variance (the known noise).
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct Track {
     level: f64,
     var: f64,
@@ -108,10 +112,12 @@ impl Track {
 }
 
 /// Per-IS detector of channels repeating their previous value bit for bit.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct Stuck {
     last: [[u64; 2]; 3],
-    seen: bool,
+    seen: u64,
 }
 
 impl Stuck {
@@ -122,26 +128,28 @@ impl Stuck {
         for (p, pair) in volts.iter().enumerate() {
             for (c, v) in pair.iter().enumerate() {
                 let bits = v.to_bits();
-                rep[p] |= self.seen && bits == self.last[p][c];
+                rep[p] |= self.seen != 0 && bits == self.last[p][c];
                 self.last[p][c] = bits;
             }
         }
-        self.seen = true;
+        self.seen = 1;
         rep
     }
 }
 
 /// Least-squares ratio x ≈ ρ y through the origin, from accepted samples.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct RatioFit {
     sxy: f64,
     syy: f64,
-    n: u32,
+    n: u64,
 }
 
 impl RatioFit {
     /// Samples needed before the fit replaces the prior ratio.
-    pub const MIN: u32 = 20;
+    pub const MIN: u64 = 20;
 
     pub fn add(&mut self, x: f64, y: f64) {
         self.sxy += x * y;
@@ -156,7 +164,7 @@ impl RatioFit {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
     use rand::SeedableRng;

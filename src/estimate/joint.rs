@@ -1,5 +1,5 @@
 //! Joint streaming estimator of β1, β2, r1, r2 (and nuisances) that reaches the
-//! Cramér–Rao bound (SPEC §3).
+//! Cramér–Rao bound (docs/method.md explains the method and why).
 //!
 //! Every measurement residual is a linear combination of *data signals* (voltages,
 //! their single and double integrals, star-tracker angles, 1, t) with coefficients that
@@ -30,6 +30,8 @@
 
 use super::config::EstimatorConfig;
 use super::integrity::{RatioFit, Stuck, Track, GATE};
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 use crate::model::noise::{PowerLawBank, MAX_POLES};
 use crate::msg::*;
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
@@ -85,20 +87,28 @@ struct Coeffs {
     ang: [SVector<f64, 2>; 3],
 }
 
-/// The estimator's whole state: fixed-size and `Copy`; a checkpoint is its serialised bytes.
-#[derive(Clone, Copy, serde::Serialize, serde::Deserialize)]
+/// The estimator's whole state: fixed-size, plain data (`Pod`: every field a number,
+/// no padding), so a checkpoint is its bytes and any bytes that pass the checkpoint's
+/// checks are a valid state.
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct JointEstimator {
     cfg: EstimatorConfig,
-    started: bool,
+    /// 1 once the first usable sample set the references (a word, not a `bool`: the
+    /// state is plain data, so any checkpoint bytes are a valid state).
+    started: u64,
     /// Next tick expected: every tick below it was processed or bridged.
     next_tick: u64,
     /// Ticks processed or bridged since the first usable sample (the solve schedule).
     n_ticks: u64,
     /// A tick too far ahead to bridge, seen last (a second one after it confirms a
     /// stream that starts late).
-    jump_candidate: Option<u64>,
+    /// (set, tick).
+    jump_candidate: [u64; 2],
     sum_ref: [[f64; 3]; 2],
-    q_ref: Option<UnitQuaternion<f64>>,
+    q_ref: UnitQuaternion<f64>,
+    q_ref_set: u64,
     psi: [[f64; 3]; 2],
     phi: [[f64; 3]; 2],
     dv_last: [[f64; 3]; 2],
@@ -127,6 +137,8 @@ pub struct JointEstimator {
     p_sigma: Par,
     sigma: Par,
     solved_tick: u64,
+    /// A solve is due (`solve_every` ticks passed since the last one was due): (due, tick).
+    solve_due: [u64; 2],
     n_used: u64,
     n_rejected: u64,
     seq: u64,
@@ -150,7 +162,7 @@ pub struct JointEstimator {
     /// Consecutive ticks bridged without any angular data, and the last ω̇ voltages
     /// measured before them: when data return, a jump between the two (a torque edge
     /// inside the gap) leaves an unknown rate error that the star filter must allow.
-    bridge_run: [u32; 3],
+    bridge_run: [u64; 3],
     /// Ticks on which some axis had no angular data at all.
     n_bridged: u64,
     dv_anchor: [[f64; 3]; 2],
@@ -248,12 +260,13 @@ impl JointEstimator {
         }
         JointEstimator {
             cfg,
-            started: false,
+            started: 0,
             next_tick: 0,
             n_ticks: 0,
-            jump_candidate: None,
+            jump_candidate: [0; 2],
             sum_ref: [[0.0; 3]; 2],
-            q_ref: None,
+            q_ref: UnitQuaternion::identity(),
+            q_ref_set: 0,
             psi: [[0.0; 3]; 2],
             phi: [[0.0; 3]; 2],
             dv_last: [[0.0; 3]; 2],
@@ -275,6 +288,7 @@ impl JointEstimator {
             p_sigma: ps,
             sigma: ps,
             solved_tick: 0,
+            solve_due: [0; 2],
             n_used: 0,
             n_rejected: 0,
             seq: 0,
@@ -306,6 +320,22 @@ impl JointEstimator {
         }
     }
 
+    /// Builds the estimator in place (the C ABI's caller-owned memory).
+    pub fn init_in_place(dst: &mut Self, cfg: EstimatorConfig) {
+        *dst = Self::new(cfg);
+    }
+
+    /// Could this state have come from `new` and `update`s? Its table passes its
+    /// check and its counts index within their arrays (a restored checkpoint is
+    /// refused otherwise: an index out of range would stop a flight host).
+    pub fn is_sane(&self) -> bool {
+        self.cfg.check().is_ok()
+            && self.bank.n <= MAX_POLES
+            && self.started <= 1
+            && self.q_ref_set <= 1
+            && self.solve_due[0] <= 1
+    }
+
     /// Every tick below this one has been processed or bridged.
     pub fn next_tick(&self) -> u64 {
         self.next_tick
@@ -316,7 +346,7 @@ impl JointEstimator {
     }
 
     fn n_is(&self) -> usize {
-        self.cfg.n_is
+        self.cfg.n_is.min(2) as usize
     }
 
     /// Weight of IS l in the two-IS average angular acceleration.
@@ -451,7 +481,7 @@ impl JointEstimator {
             self.gate_w.set_row(5, &self.t_u.transpose());
         }
         self.gate_c = self.coeffs(&self.p).lin;
-        self.started = true;
+        self.started = 1;
     }
 
     fn reject(&mut self, cause: usize) {
@@ -459,30 +489,43 @@ impl JointEstimator {
         self.tick_mask |= 1 << cause;
     }
 
-    /// Process one sensor sample; returns the estimate message for this tick (the last
-    /// solution, refreshed every `solve_every` samples). Any content, header or tick
-    /// order is accepted without panic: what cannot be trusted is rejected and counted.
+    /// Process one sensor sample and, when one is due, solve; returns the estimate
+    /// message for this tick (the last solution, refreshed every `solve_every` ticks).
+    /// `update` then `solve_scheduled`, as a host calling them separately would.
     pub fn step(&mut self, s: &SensorSample) -> EstimateMsg {
+        self.update(s);
+        self.solve_scheduled();
+        self.message(self.next_tick.saturating_sub(1))
+    }
+
+    /// Take one sensor sample into the statistics (no solve: bounded work, the
+    /// bridging of up to `max_gap_ticks` missing ticks before it aside). Any content,
+    /// header or tick order is accepted without panic: what cannot be trusted is
+    /// rejected and counted. Returns this call's rejection causes (bit `1 << CAUSE_*`);
+    /// `solve_due` says whether a solve is due.
+    pub fn update(&mut self, s: &SensorSample) -> u64 {
         let tick = s.header.tick;
         self.tick_mask = 0;
         if tick < self.next_tick {
             // A duplicate, or a tick that arrived after a later one (already bridged).
             self.reject(CAUSE_TICK_ORDER);
-            return self.message(self.next_tick.saturating_sub(1));
+            return self.tick_mask;
         }
         let gap = tick - self.next_tick;
         if gap > self.cfg.max_gap_ticks || tick == u64::MAX {
             // Before anything is accumulated a stream may start late (a recording's
             // first tick), but only two consecutive ticks say so: one wild tick (a
             // garbage header) must not move the timeline.
-            let confirmed = !self.started && self.jump_candidate == Some(tick.wrapping_sub(1));
+            let confirmed = self.started == 0
+                && self.jump_candidate[0] == 1
+                && self.jump_candidate[1] == tick.wrapping_sub(1);
             if !confirmed || tick == u64::MAX {
-                self.jump_candidate = Some(tick);
+                self.jump_candidate = [1, tick];
                 self.reject(CAUSE_TICK_JUMP);
-                if self.started {
+                if self.started != 0 {
                     self.status |= ST_DEGRADED;
                 }
-                return self.message(self.next_tick.saturating_sub(1));
+                return self.tick_mask;
             }
         } else {
             for k in 0..gap {
@@ -495,10 +538,44 @@ impl JointEstimator {
                 self.star_track = [Track::default(); 3];
             }
         }
-        self.jump_candidate = None;
+        self.jump_candidate = [0; 2];
         self.process(tick, s);
         self.next_tick = tick + 1;
-        self.message(tick)
+        self.tick_mask
+    }
+
+    /// Has `solve_every` ticks' worth of data come in since the last due solve?
+    pub fn solve_due(&self) -> bool {
+        self.solve_due[0] != 0
+    }
+
+    /// The scheduled solve: one Gauss–Newton iteration (warm-started) if one is due.
+    /// Returns whether it ran.
+    pub fn solve_scheduled(&mut self) -> bool {
+        if !self.solve_due() {
+            return false;
+        }
+        self.solve_now();
+        true
+    }
+
+    /// One Gauss–Newton iteration on everything taken so far, now (a host may solve at
+    /// its own rate; `step` solves exactly when one is due). Returns whether the
+    /// iteration succeeded (a failure keeps the previous solution and sets
+    /// `ST_SOLVE_FAILED`).
+    pub fn solve_now(&mut self) -> bool {
+        let tick = if self.solve_due() {
+            self.solve_due[1]
+        } else {
+            self.next_tick.saturating_sub(1)
+        };
+        self.solve_due = [0; 2];
+        if self.started == 0 {
+            return false;
+        }
+        self.solve(1, true);
+        self.solved_tick = tick;
+        self.status & ST_SOLVE_FAILED == 0
     }
 
     /// A tick with no sample at all (missing on the bus): every model propagates as in
@@ -506,7 +583,7 @@ impl JointEstimator {
     fn bridge(&mut self, tick: u64) {
         self.reject(CAUSE_TICK_MISSING);
         self.n_rejected += 1;
-        if !self.started {
+        if self.started == 0 {
             return;
         }
         let dv = self.dv_last;
@@ -674,8 +751,7 @@ impl JointEstimator {
     fn tick_done(&mut self, tick: u64) {
         self.n_ticks += 1;
         if self.n_ticks % self.cfg.solve_every == 0 {
-            self.solve(1, true);
-            self.solved_tick = tick;
+            self.solve_due = [1, tick];
         }
     }
 
@@ -708,7 +784,7 @@ impl JointEstimator {
         }
         let data = [is_data(&s.is[0]), is_data(&s.is[1])];
         let all_valid = (0..n).all(|i| ok[i]);
-        if !self.started {
+        if self.started == 0 {
             if all_valid {
                 self.start(&data);
             } else {
@@ -1046,7 +1122,11 @@ impl JointEstimator {
             return;
         }
         let q = UnitQuaternion::from_quaternion(q);
-        let q_ref = *self.q_ref.get_or_insert(q);
+        if self.q_ref_set == 0 {
+            self.q_ref = q;
+            self.q_ref_set = 1;
+        }
+        let q_ref = self.q_ref;
         let theta = crate::model::attitude::rotation_vector(&(q_ref.inverse() * q));
         // The attitude the IS predicts (prior β) differs from the star tracker's by its
         // white noise around a slowly moving offset: a glitch (a mis-identified star,
@@ -1163,7 +1243,7 @@ impl JointEstimator {
                 lin[(row, S_T)] = -p[P_AL + row];
             }
         }
-        let star = std::array::from_fn(|a| {
+        let star = core::array::from_fn(|a| {
             SVector::<f64, 5>::new(
                 1.0,
                 -p[P_TH0 + a],
@@ -1172,7 +1252,7 @@ impl JointEstimator {
                 -self.w(1) * p[P_BETA + 3 + a],
             )
         });
-        let ang = std::array::from_fn(|a| {
+        let ang = core::array::from_fn(|a| {
             SVector::<f64, 2>::new(1.0, -p[P_BETA + 3 + a] / p[P_BETA + a])
         });
         Coeffs { lin, star, ang }
@@ -1457,9 +1537,10 @@ impl JointEstimator {
 
     /// Final solution: iterate to convergence, with the weak priors (as in the run).
     pub fn finish(&mut self) -> EstimateMsg {
+        self.solve_scheduled();
         self.tick_mask = 0;
         let last = self.next_tick.saturating_sub(1);
-        if self.started {
+        if self.started != 0 {
             if self.solve(20, true) {
                 self.status &= !ST_NOT_CONVERGED;
             } else {
@@ -1543,7 +1624,7 @@ impl JointEstimator {
 
     /// β, k, r and their σ from a parameter vector and its 1σ.
     pub fn fill(cfg: &EstimatorConfig, p: &Par, sigma: &Par, m: &mut EstimateMsg) {
-        for i in 0..cfg.n_is {
+        for i in 0..cfg.n_is.min(2) as usize {
             for a in 0..3 {
                 m.beta[i][a] = p[P_BETA + 3 * i + a];
                 m.beta_sigma[i][a] = sigma[P_BETA + 3 * i + a];

@@ -1,9 +1,12 @@
 //! Static-state Kalman filter (Φ = I, eq. 3–9) with the Joseph-form covariance update
 //! P = (I − K H) P (I − K H)ᵀ + K R Kᵀ (eq. 9 of the paper has a typo).
 
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 use nalgebra::{SMatrix, SVector};
 
-#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
 pub struct StaticKf<const N: usize> {
     pub x: SVector<f64, N>,
     pub p: SMatrix<f64, N, N>,
@@ -32,7 +35,7 @@ impl<const N: usize> StaticKf<N> {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
     use crate::rng::{gauss, stream, Stream};

@@ -1,15 +1,18 @@
 //! Estimators: the joint angle-domain estimator that reaches the CRLB, the paper's
 //! route for comparison, and the static-state Kalman filter both build on.
 pub mod config;
+#[cfg(feature = "std")]
 pub mod fuzz;
 pub mod integrity;
 pub mod joint;
 pub mod kalman;
 pub mod paper;
+pub mod snapshot;
 
 pub use config::EstimatorConfig;
 pub use joint::JointEstimator;
 
+#[cfg(feature = "std")]
 use crate::msg::{EstimateMsg, SensorSample, EST_FINAL};
 
 /// Which estimator a run uses.
@@ -31,13 +34,16 @@ impl Method {
     }
 }
 
-/// Either estimator behind one stage interface (no heap, no dynamic dispatch).
+/// Either estimator behind one stage interface (no dynamic dispatch; boxed because the
+/// joint estimator's state is ~50 KB).
+#[cfg(feature = "std")]
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub enum Estimator {
     Joint(Box<JointEstimator>),
     Paper(Box<paper::PaperEstimator>),
 }
 
+#[cfg(feature = "std")]
 impl Estimator {
     pub fn new(method: Method, cfg: EstimatorConfig) -> Self {
         match method {

@@ -1,11 +1,13 @@
 //! The paper's route (§2.1–2.2), kept so users can reproduce it and compare on the same
 //! data: star-tracker attitude differentiated twice, 0.05 Hz low-pass on both sides,
 //! static-state KF for β per IS, k from eq. 2, then a static-state KF for (r, α, b) per
-//! IS with the SRP folded into R (2×10⁻¹² m/s², §3.2.2). SPEC §3 records that this
-//! route misses the requirement; it is not the default.
+//! IS with the SRP folded into R (2×10⁻¹² m/s², §3.2.2). This route misses the
+//! requirement (docs/method.md, "The paper's route"); it is not the default.
 
 use super::config::EstimatorConfig;
 use super::kalman::StaticKf;
+#[allow(unused_imports)]
+use crate::math::{self, Real};
 use crate::model::attitude::coupling_matrix;
 use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
@@ -18,7 +20,8 @@ const FC: f64 = 0.05;
 const SETTLE_S: f64 = 5.0 / FC;
 
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
-#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
 pub struct Biquad {
     b: [f64; 3],
     a: [f64; 2],
@@ -27,8 +30,8 @@ pub struct Biquad {
 
 impl Biquad {
     pub fn lowpass(fc: f64, fs: f64) -> Self {
-        let k = (std::f64::consts::PI * fc / fs).tan();
-        let q = std::f64::consts::FRAC_1_SQRT_2;
+        let k = math::tan(core::f64::consts::PI * fc / fs);
+        let q = core::f64::consts::FRAC_1_SQRT_2;
         let norm = 1.0 / (1.0 + k / q + k * k);
         let b0 = k * k * norm;
         Biquad {
@@ -47,7 +50,8 @@ impl Biquad {
 }
 
 /// Paper-route streaming estimator.
-#[derive(Clone, serde::Serialize, serde::Deserialize)]
+#[derive(Clone)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
 pub struct PaperEstimator {
     cfg: EstimatorConfig,
     q_ref: Option<UnitQuaternion<f64>>,
@@ -84,8 +88,8 @@ impl PaperEstimator {
             var += y * y;
         }
         let r_beta = var * cfg.sigma_star_rad.powi(2);
-        let beta_kf = std::array::from_fn(|i| {
-            std::array::from_fn(|a| {
+        let beta_kf = core::array::from_fn(|i| {
+            core::array::from_fn(|a| {
                 let b = cfg.beta_prior[i][a];
                 StaticKf::new(
                     SVector::<f64, 1>::new(b),
@@ -93,7 +97,7 @@ impl PaperEstimator {
                 )
             })
         });
-        let com_kf = std::array::from_fn(|i| {
+        let com_kf = core::array::from_fn(|i| {
             let mut x = SVector::<f64, 9>::zeros();
             let mut p = SMatrix::<f64, 9, 9>::zeros();
             for a in 0..3 {
@@ -124,11 +128,11 @@ impl PaperEstimator {
     }
 
     fn beta(&self, i: usize) -> [f64; 3] {
-        std::array::from_fn(|a| self.beta_kf[i][a].x[0])
+        core::array::from_fn(|a| self.beta_kf[i][a].x[0])
     }
 
     fn k(&self, i: usize) -> [f64; 3] {
-        crate::scenario::k_from_beta(&self.cfg.geometry_m[i], &self.beta(i))
+        super::config::k_from_beta(&self.cfg.geometry_m[i], &self.beta(i))
     }
 
     /// The tick after the newest one taken (0 before any).
@@ -149,7 +153,7 @@ impl PaperEstimator {
         self.last_tick = tick;
         let dt = 1.0 / self.cfg.fs;
         let t = (tick as f64 + 1.0) * dt;
-        let n = self.cfg.n_is;
+        let n = self.cfg.n_is.min(2) as usize;
         let ok = (0..n).all(|i| s.is[i].usable());
         let star_ok = s.star.usable();
         if !ok || !star_ok {
@@ -171,7 +175,7 @@ impl PaperEstimator {
         let y_star: Option<[f64; 3]> = match self.theta_hist {
             [Some(t1), Some(t2)] => {
                 let wdot_st = (theta - 2.0 * t1 + t2) / (dt * dt);
-                Some(std::array::from_fn(|a| self.lp_star[a].step(wdot_st[a])))
+                Some(core::array::from_fn(|a| self.lp_star[a].step(wdot_st[a])))
             }
             _ => None,
         };
@@ -222,7 +226,7 @@ impl PaperEstimator {
             ..Default::default()
         };
         self.seq += 1;
-        for i in 0..self.cfg.n_is {
+        for i in 0..self.cfg.n_is.min(2) as usize {
             for a in 0..3 {
                 m.beta[i][a] = self.beta_kf[i][a].x[0];
                 m.beta_sigma[i][a] = self.beta_kf[i][a].sigma(0);
@@ -232,7 +236,7 @@ impl PaperEstimator {
             let g = self.cfg.geometry_m[i];
             m.k[i] = self.k(i);
             let bs = m.beta_sigma[i];
-            m.k_sigma[i] = crate::scenario::k_from_beta(&g, &bs);
+            m.k_sigma[i] = super::config::k_from_beta(&g, &bs);
         }
         m.solved_tick = tick;
         m.n_used = self.n_used;

@@ -1,4 +1,4 @@
-//! Rigid-body attitude dynamics (SPEC §2): I ω̇ + ω × (I ω) = τ, q̇ = ½ q ⊗ (0, ω).
+//! Rigid-body attitude dynamics (docs/physics.md): I ω̇ + ω × (I ω) = τ, q̇ = ½ q ⊗ (0, ω).
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
@@ -109,7 +109,7 @@ pub fn rotation_vector(q: &UnitQuaternion<f64>) -> Vector3<f64> {
     if n < 1e-300 {
         return Vector3::zeros();
     }
-    v * (2.0 * n.atan2(w) / n)
+    v * (2.0 * crate::math::atan2(n, w) / n)
 }
 
 #[cfg(test)]

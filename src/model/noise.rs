@@ -2,6 +2,9 @@
 //! from a bank of first-order (AR(1)) filters. The estimator reuses the bank as the
 //! state-space model that whitens the coloured SRP noise.
 
+#[allow(unused_imports)]
+use crate::math::{self, Real};
+#[cfg(feature = "std")]
 use crate::rng::{gauss, Rng};
 
 /// Standard deviation of one sample of white noise with one-sided ASD `asd`
@@ -16,7 +19,9 @@ pub const MAX_POLES: usize = 32;
 /// Streaming power-law noise, ASD(f) = asd_ref (f_ref / f)^(γ/2), as the sum of AR(1)
 /// processes with log-spaced corners (3 per decade) and weights ∝ f_k^(1-γ), the
 /// continuous-time construction that makes a sum of Lorentzians follow f^-γ.
-#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[repr(C)]
 pub struct PowerLawBank {
     pub n: usize,
     /// AR(1) coefficients a_k = exp(−2π f_k / fs).
@@ -33,7 +38,7 @@ impl PowerLawBank {
     /// `psd_exponent` γ: PSD ∝ f^-γ (SRP: γ = 2/3). Lowest corner 10 µHz.
     pub fn new(asd_ref: f64, f_ref: f64, psd_exponent: f64, fs: f64) -> Self {
         let (f_lo, per_decade) = (1.0e-5_f64, 3.0);
-        let n = (((fs / f_lo).log10() * per_decade).ceil() as usize + 1).min(MAX_POLES);
+        let n = ((math::log10(fs / f_lo) * per_decade).ceil() as usize + 1).min(MAX_POLES);
         let mut b = PowerLawBank {
             n,
             a: [0.0; MAX_POLES],
@@ -43,9 +48,9 @@ impl PowerLawBank {
             fs,
         };
         for k in 0..n {
-            let fk = f_lo * 10f64.powf(k as f64 / per_decade);
-            let a = (-2.0 * std::f64::consts::PI * fk / fs).exp();
-            let v = fk.powf(1.0 - psd_exponent);
+            let fk = f_lo * math::powf(10.0, k as f64 / per_decade);
+            let a = math::exp(-2.0 * core::f64::consts::PI * fk / fs);
+            let v = math::powf(fk, 1.0 - psd_exponent);
             b.a[k] = a;
             b.var[k] = v;
             b.s[k] = (v * (1.0 - a * a)).sqrt();
@@ -54,12 +59,12 @@ impl PowerLawBank {
         let (mut acc, mut m) = (0.0, 0);
         let mut f = 1.0e-4;
         while f <= 0.1 * fs {
-            let target = asd_ref * asd_ref * (f_ref / f).powf(psd_exponent);
-            acc += (target / b.psd(f)).ln();
+            let target = asd_ref * asd_ref * math::powf(f_ref / f, psd_exponent);
+            acc += math::ln(target / b.psd(f));
             m += 1;
             f *= 1.1;
         }
-        let scale = (acc / m as f64).exp();
+        let scale = math::exp(acc / m as f64);
         for k in 0..n {
             b.var[k] *= scale;
             b.s[k] *= scale.sqrt();
@@ -69,7 +74,7 @@ impl PowerLawBank {
 
     /// One-sided PSD of the bank's output at `f` [Hz] (exact for the discrete process).
     pub fn psd(&self, f: f64) -> f64 {
-        let c = (2.0 * std::f64::consts::PI * f / self.fs).cos();
+        let c = math::cos(2.0 * core::f64::consts::PI * f / self.fs);
         (0..self.n)
             .map(|k| {
                 let a = self.a[k];
@@ -78,6 +83,7 @@ impl PowerLawBank {
             .sum()
     }
 
+    #[cfg(feature = "std")]
     /// Draw the state from the stationary distribution (no start-up transient).
     pub fn init_stationary(&mut self, rng: &mut Rng) {
         for k in 0..self.n {
@@ -85,6 +91,7 @@ impl PowerLawBank {
         }
     }
 
+    #[cfg(feature = "std")]
     /// Output of this sample, then advance one sample.
     pub fn next(&mut self, rng: &mut Rng) -> f64 {
         let mut y = 0.0;
@@ -99,6 +106,7 @@ impl PowerLawBank {
 /// Welch estimate of the one-sided ASD of `x` sampled at `fs`: Hann window, segments of
 /// `seg` samples (a power of two is fastest), 50 % overlap. Returns (f, ASD) pairs
 /// without the DC bin.
+#[cfg(feature = "std")]
 pub fn welch_asd(x: &[f64], fs: f64, seg: usize) -> Vec<(f64, f64)> {
     use rustfft::{num_complex::Complex, FftPlanner};
     let seg = seg.min(x.len());
@@ -133,6 +141,7 @@ pub fn welch_asd(x: &[f64], fs: f64, seg: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
+#[cfg(feature = "std")]
 /// Mean ASD of a Welch estimate over the band [f0, f1] (power-averaged).
 pub fn band_asd(asd: &[(f64, f64)], f0: f64, f1: f64) -> f64 {
     let sel: Vec<f64> = asd
@@ -143,7 +152,7 @@ pub fn band_asd(asd: &[(f64, f64)], f0: f64, f1: f64) -> f64 {
     (sel.iter().sum::<f64>() / sel.len().max(1) as f64).sqrt()
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
     use crate::rng::{stream, Stream};

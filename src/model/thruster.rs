@@ -1,4 +1,4 @@
-//! Micro-thruster torque model (§3.1 of the paper, SPEC §2): first-order response,
+//! Micro-thruster torque model (§3.1 of the paper, docs/physics.md): first-order response,
 //! edge timing jitter (duty-cycle change), amplitude jitter per half period and
 //! overshoot decaying after each edge. Torque noise is added by the plant.
 

@@ -5,10 +5,10 @@
 pub mod render;
 
 use crate::model::noise::welch_asd;
-use crate::msg::PAIR_OF_ANGULAR;
+use crate::msg::{PAIR_OF_ANGULAR, ST_NO_SOLUTION};
 use crate::scenario::{Scenario, ARCSEC};
 use crate::telemetry::Telemetry;
-use render::{decimate, Figure, Panel, Series};
+use render::{decimate, BandStyle, Figure, Panel, Series, BLACK_INDEX};
 use std::path::{Path, PathBuf};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -146,6 +146,7 @@ pub fn figures(tel: &Telemetry, s: &Scenario) -> Vec<Figure> {
 fn fig_torque_attitude(d: &Data) -> Figure {
     let mut torque = Panel::new("Torque (Fig. 3a)", "time [s]", "torque [µN m]");
     let mut att = Panel::new("Attitude angle (Fig. 3b)", "time [s]", "angle [arcsec]");
+    let mut commanded = Vec::new();
     for a in 0..3 {
         let cmd = d.col(&d.tel.torque_cmd, 3, a);
         let act = d.col(&d.tel.torque, 3, a);
@@ -154,9 +155,7 @@ fn fig_torque_attitude(d: &Data) -> Figure {
             series_xy(&d.t, act.iter().map(|v| v * 1e6)),
             a,
         ));
-        torque
-            .series
-            .push(Series::line("", series_xy(&d.t, cmd.iter().map(|v| v * 1e6)), a).dashed());
+        commanded.push(series_xy(&d.t, cmd.iter().map(|v| v * 1e6)));
         let ang: Vec<f64> = d
             .tel
             .attitude
@@ -169,7 +168,13 @@ fn fig_torque_attitude(d: &Data) -> Figure {
             a,
         ));
     }
-    torque.title += " — dashed: commanded";
+    // Commanded in black over the noisy applied torque of every axis, one legend entry.
+    for (a, xy) in commanded.into_iter().enumerate() {
+        let label = if a == 0 { "commanded (x, y, z)" } else { "" };
+        torque
+            .series
+            .push(Series::line(label, xy, BLACK_INDEX).dashed());
+    }
     Figure {
         name: "fig3_torque_attitude".into(),
         title: "Maneuver: torque and attitude".into(),
@@ -280,7 +285,10 @@ fn fig_is_srp(d: &Data) -> Figure {
     }
 }
 
-/// Convergence of one parameter per axis and IS: (estimate − truth)·scale with ±σ.
+/// Convergence of one parameter per axis and IS: (estimate − truth)·scale with ±σ,
+/// from the first solve (the priors before it are no estimate). One row per axis: the
+/// whole campaign on a symmetric-log axis (the first solves' errors are 10³–10⁴ times
+/// the final σ), then the same on a linear axis after the first fifth of the campaign.
 fn convergence(
     d: &Data,
     name: &str,
@@ -288,33 +296,50 @@ fn convergence(
     y_label: &str,
     value: impl Fn(&crate::msg::EstimateMsg, usize, usize) -> (f64, f64),
 ) -> Figure {
+    let rows: Vec<&crate::msg::EstimateMsg> = d
+        .tel
+        .estimates
+        .iter()
+        .filter(|e| e.status & ST_NO_SOLUTION == 0)
+        .collect();
+    let tt: Vec<f64> = rows
+        .iter()
+        .map(|e| (e.header.tick + 1) as f64 / d.fs)
+        .collect();
     let mut panels = Vec::new();
-    let mut zooms = Vec::new();
     for a in 0..3 {
         let mut p = Panel::new(format!("axis {}", AXES[a]), "time [s]", y_label);
-        let rows = &d.tel.estimates;
-        let tt: Vec<f64> = rows
-            .iter()
-            .map(|e| (e.header.tick + 1) as f64 / d.fs)
-            .collect();
+        // The linear part of the symmetric-log axis: the largest final σ.
+        let mut c = 0.0f64;
         for i in 0..d.tel.n_is {
             let v: Vec<(f64, f64)> = rows.iter().map(|e| value(e, i, a)).collect();
+            c = c.max(v.last().map_or(0.0, |v| v.1.abs()));
             let xy = tt.iter().zip(&v).map(|(t, v)| (*t, v.0)).collect();
             let band = tt
                 .iter()
                 .zip(&v)
                 .map(|(t, v)| (*t, v.0 - v.1, v.0 + v.1))
                 .collect();
-            p.series
-                .push(Series::line(format!("IS{} ±1σ", i + 1), xy, i).with_band(band));
+            // IS1 solid over a shaded band; IS2 dashed over its band's edges, so
+            // both stay visible where the sensors agree.
+            let line = Series::line(format!("IS{} ±1σ", i + 1), xy, i).width(2);
+            p.series.push(if i == 0 {
+                line.with_band(band, BandStyle::Fill)
+            } else {
+                line.dashed().with_band(band, BandStyle::Edges)
+            });
         }
         if let (Some(t0), Some(t1)) = (tt.first(), tt.last()) {
-            p.series
-                .push(Series::line("truth", vec![(*t0, 0.0), (*t1, 0.0)], 5).dashed());
+            p.series.push(
+                Series::line("truth", vec![(*t0, 0.0), (*t1, 0.0)], BLACK_INDEX)
+                    .dashed()
+                    .width(1),
+            );
         }
-        // The same after the first fifth of the campaign, where the band is visible.
+        p.symlog_y = Some(if c.is_finite() && c > 0.0 { c } else { 1.0 });
         let t_zoom = tt.last().copied().unwrap_or(0.0) * 0.2;
         let mut z = p.clone();
+        z.symlog_y = None;
         z.title = format!("axis {}, from {t_zoom:.0} s", AXES[a]);
         for s in &mut z.series {
             if s.label == "truth" {
@@ -325,15 +350,15 @@ fn convergence(
                 b.retain(|v| v.0 >= t_zoom);
             }
         }
+        p.title = format!("axis {}, whole campaign (symmetric log scale)", AXES[a]);
         panels.push(p);
-        zooms.push(z);
+        panels.push(z);
     }
-    panels.extend(zooms);
     Figure {
         name: name.into(),
         title: title.into(),
         panels,
-        cols: 3,
+        cols: 2,
     }
 }
 
@@ -400,11 +425,14 @@ fn fig_coupling(d: &Data) -> Figure {
         let meas: Vec<f64> = smooth(&meas, w_smooth).iter().map(|v| v - mean).collect();
         let model: Vec<f64> = smooth(&coupled.iter().map(|c| c[j]).collect::<Vec<_>>(), w_smooth);
         let mut p = Panel::new(format!("IS1 axis {}", AXES[j]), "time [s]", "a [m/s²]");
-        p.series.push(Series::line(
-            "measured k_est·ΣV − mean (10 s avg)",
-            series_xy(&d.t, meas.into_iter()),
-            0,
-        ));
+        p.series.push(
+            Series::line(
+                "measured k_est·ΣV − mean (10 s avg)",
+                series_xy(&d.t, meas.into_iter()),
+                0,
+            )
+            .width(2),
+        );
         p.series.push(
             Series::line(
                 "identified A(ω, dω/dt)·r_est",
@@ -419,7 +447,7 @@ fn fig_coupling(d: &Data) -> Figure {
         name: "fig8_coupling_acceleration".into(),
         title: "Measured linear acceleration vs identified CoM coupling (Fig. 8)".into(),
         panels,
-        cols: 3,
+        cols: 1,
     }
 }
 
@@ -514,7 +542,10 @@ fn fig_asd(d: &Data) -> Figure {
         .collect();
     p_srp.series.push(
         Series::line(
-            format!("model {:.2e}·(f/3 mHz)^-1/3", s.srp.asd_at_3mhz),
+            format!(
+                "model {}·(f/3 mHz)^−1/3",
+                render::log_tick_label(s.srp.asd_at_3mhz)
+            ),
             model,
             5,
         )

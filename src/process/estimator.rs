@@ -5,7 +5,7 @@ use super::{Exit, Link, StageArgs};
 use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
-use crate::estimate::{Estimator, EstimatorConfig};
+use crate::estimate::Estimator;
 use crate::msg::{EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 use std::time::Duration;
@@ -48,10 +48,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             log::warn!("taiji-estimator: resuming from checkpoint at tick {next}");
             (est, next)
         }
-        None => (
-            Estimator::new(method, EstimatorConfig::from_scenario(&s, &s.priors())),
-            0,
-        ),
+        None => (Estimator::new(method, s.estimator_config(&s.priors())), 0),
     };
     let mut ckpt = Checkpointer::with_write_delay(&ckpt_path, &est, fault_checkpoint_delay()?)?;
     let mut link = Link::new(

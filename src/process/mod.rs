@@ -119,7 +119,6 @@ impl Downstream {
 /// A stage's connection to the rest of the set: its node, its progress (heartbeat and
 /// credit) publisher, the control stream, and its downstream's progress.
 pub struct Link {
-    pub node: Node<ipc::Service>,
     wake: bus::Listener,
     wake_up: Option<bus::Notifier>,
     wake_down: Option<bus::Notifier>,
@@ -140,6 +139,9 @@ pub struct Link {
     seq: u64,
     /// Data published since the downstream was last woken.
     pending_wake: bool,
+    /// Last field, so dropped after every port: iceoryx2 0.9.3 removes a node's
+    /// directory only when the node itself is released last (else it stays, empty).
+    pub node: Node<ipc::Service>,
 }
 
 /// Heartbeat period when idle [ns].

@@ -37,7 +37,7 @@ pub struct SupervisorArgs {
     /// Seed (default: the scenario's).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Output directory: report.json and the estimator's checkpoint.
+    /// Output directory: report.json (and, while the set runs, the estimator's checkpoint).
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
     /// Pace the set at the sample rate divided by --time-scale.
@@ -368,6 +368,45 @@ impl Drop for Janitor {
     }
 }
 
+/// The refusal of a run on a prefix in use, naming its supervisor (when known) and
+/// its live nodes.
+fn another_run(prefix: &str, pid: Option<u32>, alive: &[String]) -> String {
+    let mut who: Vec<String> = pid
+        .map(|p| format!("supervisor pid {p}"))
+        .into_iter()
+        .collect();
+    who.push(match alive {
+        [] => "no live node yet".into(),
+        _ => format!("live nodes: {}", alive.join(", ")),
+    });
+    format!(
+        "another run is active on bus prefix {prefix:?} ({}); stop it or pass a different --bus-prefix",
+        who.join("; ")
+    )
+}
+
+/// The run's hold on its bus prefix. Dropped last, when every process of the set has
+/// exited and the supervisor's node is gone: removes what the run left on the bus
+/// (`bus::release`: dead nodes, then the prefix's global object), then frees the prefix.
+struct PrefixHold {
+    prefix: String,
+    _lock: bus::PrefixLock,
+}
+
+impl Drop for PrefixHold {
+    fn drop(&mut self) {
+        match bus::release(&self.prefix) {
+            Ok(r) => log::info!(
+                "bus prefix {:?} released: {} dead node(s), {} global object(s) removed",
+                self.prefix,
+                r.dead_nodes,
+                r.global_mgmt
+            ),
+            Err(e) => log::warn!("bus prefix {:?}: {e}", self.prefix),
+        }
+    }
+}
+
 fn supervise(
     args: &SupervisorArgs,
     s: &Scenario,
@@ -386,6 +425,19 @@ fn supervise(
     })?;
     // A prefix iceoryx2 cannot use as a file name is the user's to fix.
     bus::config(&args.bus_prefix).map_err(|e| user(format!("--bus-prefix: {e}")))?;
+    // One supervisor per prefix: the lock, not the live-node check below, decides.
+    let lock = match bus::claim_prefix(&args.bus_prefix).map_err(set_err)? {
+        bus::Claim::Won(lock) => lock,
+        bus::Claim::Held { pid } => {
+            let alive = bus::live_nodes(&args.bus_prefix);
+            return Err(user(another_run(&args.bus_prefix, pid, &alive)));
+        }
+    };
+    // Declared before every port and node of the run, so dropped after them.
+    let _hold = PrefixHold {
+        prefix: args.bus_prefix.clone(),
+        _lock: lock,
+    };
     let survey = bus::cleanup_stale(&args.bus_prefix).map_err(set_err)?;
     if survey.removed_dead > 0 {
         log::warn!(
@@ -393,12 +445,9 @@ fn supervise(
             survey.removed_dead
         );
     }
+    // Live nodes without a supervisor: the set of a supervisor killed a moment ago.
     if !survey.alive.is_empty() {
-        return Err(user(format!(
-            "another run is active on bus prefix {:?} (live nodes: {}); stop it or pass a different --bus-prefix",
-            args.bus_prefix,
-            survey.alive.join(", ")
-        )));
+        return Err(user(another_run(&args.bus_prefix, None, &survey.alive)));
     }
     let _janitor = Janitor::start(&args.bus_prefix).map_err(set_err)?;
     std::fs::create_dir_all(&args.out)
@@ -487,12 +536,23 @@ fn supervise(
 
     let result = watch(&node, &progress, &estimates, &send, &mut set, launch, s);
     set.bar.finish();
-    // Whatever happened: stop everyone, then clear what killed processes left behind.
+    // Whatever happened: stop everyone. What they left on the bus goes when `_hold` is
+    // dropped, after this supervisor's node.
     let _ = send(CMD_STOP, 1);
     set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
-    drop((progress, estimates));
-    let _ = bus::cleanup_stale(&args.bus_prefix);
     let wall = t_start.elapsed().as_secs_f64();
+    // The checkpoint only serves restarts within this run (the next run starts afresh):
+    // a run that ended is cleared of it; a failed set keeps it for diagnosis and says so.
+    let result = match result {
+        Err(SupervisorError::Set(e)) if ckpt.exists() => Err(SupervisorError::Set(format!(
+            "{e} (the estimator's last crash-restart checkpoint is kept: {})",
+            ckpt.display()
+        ))),
+        r => {
+            remove_checkpoint(&ckpt);
+            r
+        }
+    };
     let members = set
         .members
         .into_iter()
@@ -507,6 +567,19 @@ fn supervise(
         Ok(Some(est)) => Ok(Supervised::Done(Box::new(est), members, wall)),
         Ok(None) => Ok(Supervised::Interrupted),
         Err(e) => Err(e),
+    }
+}
+
+/// Remove the estimator's checkpoint and the temporary file a killed writer may leave.
+fn remove_checkpoint(ckpt: &std::path::Path) {
+    let mut tmp = ckpt.as_os_str().to_owned();
+    tmp.push(".tmp");
+    for p in [ckpt.to_path_buf(), PathBuf::from(tmp)] {
+        if let Err(e) = std::fs::remove_file(&p) {
+            if e.kind() != std::io::ErrorKind::NotFound {
+                log::warn!("cannot remove {}: {e}", p.display());
+            }
+        }
     }
 }
 

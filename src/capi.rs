@@ -1,0 +1,311 @@
+//! The C ABI of the joint estimator, for flight software in C or C++ (a cFS app, an
+//! F Prime component): the caller owns the state's memory (query its size and
+//! alignment, then `taiji_estimator_init` into it), every call returns a status code
+//! (`TAIJI_OK` = 0, errors after it) and nothing is global. `update` is bounded
+//! per-sample work; `solve` is the Gauss–Newton step the host schedules in its own
+//! rate group (`update` says when one is due). Checkpoints go to a caller's buffer.
+//!
+//! Every entry point checks its pointers (null, alignment) and the state's magic word
+//! before touching anything, and the library is built with `panic = "abort"`, so
+//! nothing unwinds into C. The header `include/taiji_estimator.h` is generated from
+//! this file by cbindgen (a test keeps it up to date).
+
+use crate::estimate::config::EstimatorConfig;
+use crate::estimate::joint::JointEstimator;
+use crate::estimate::snapshot;
+use crate::msg::{EstimateMsg, SensorSample, EST_FINAL, LAYOUT_VERSION};
+use core::mem::{align_of, size_of};
+
+/// Success.
+pub const TAIJI_OK: i32 = 0;
+/// A required pointer is null.
+pub const TAIJI_ERR_NULL: i32 = 1;
+/// The state's memory is not aligned to `taiji_estimator_align()`.
+pub const TAIJI_ERR_ALIGNMENT: i32 = 2;
+/// A buffer is smaller than needed (`taiji_estimator_size`, `taiji_checkpoint_size`).
+pub const TAIJI_ERR_SIZE: i32 = 3;
+/// The configuration table fails its check (a field out of range).
+pub const TAIJI_ERR_CONFIG: i32 = 4;
+/// The state's memory does not hold an initialised estimator.
+pub const TAIJI_ERR_STATE: i32 = 5;
+/// The checkpoint is not one: wrong magic, size or checksum, or an impossible state.
+pub const TAIJI_ERR_CHECKPOINT: i32 = 6;
+/// The checkpoint was written by a build with another layout version.
+pub const TAIJI_ERR_VERSION: i32 = 7;
+/// The solve failed (singular normal equations); the previous solution is kept and the
+/// estimate's status word says so.
+pub const TAIJI_ERR_SOLVE: i32 = 8;
+
+/// `update` flag: a solve is due (the host may run it now or in its slower rate group).
+pub const TAIJI_SOLVE_DUE: u32 = 1;
+
+/// Marks initialised state ("TAIJIEST").
+const MAGIC: u64 = 0x5453_4549_4A49_4154;
+
+/// The caller-owned state: a magic word, then the estimator.
+#[repr(C)]
+struct State {
+    magic: u64,
+    est: JointEstimator,
+}
+
+/// Bytes the estimator's state needs.
+#[no_mangle]
+pub extern "C" fn taiji_estimator_size() -> usize {
+    size_of::<State>()
+}
+
+/// Alignment the estimator's state needs [bytes].
+#[no_mangle]
+pub extern "C" fn taiji_estimator_align() -> usize {
+    align_of::<State>()
+}
+
+/// Version of the message and state layouts this library was built with.
+#[no_mangle]
+pub extern "C" fn taiji_layout_version() -> u32 {
+    LAYOUT_VERSION
+}
+
+/// Bytes a checkpoint needs.
+#[no_mangle]
+pub extern "C" fn taiji_checkpoint_size() -> usize {
+    snapshot::size()
+}
+
+fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
+    if mem.is_null() {
+        return Err(TAIJI_ERR_NULL);
+    }
+    if (mem as usize) % align_of::<State>() != 0 {
+        return Err(TAIJI_ERR_ALIGNMENT);
+    }
+    if size < size_of::<State>() {
+        return Err(TAIJI_ERR_SIZE);
+    }
+    // SAFETY: non-null, aligned, at least size_of::<State>() bytes the caller owns;
+    // every bit pattern is a valid `State` (plain numbers: `JointEstimator` is `Pod`).
+    Ok(unsafe { &mut *(mem as *mut State) })
+}
+
+/// The initialised state behind `mem`, or why not.
+fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
+    let st = state_mut(mem, size_of::<State>())?;
+    if st.magic != MAGIC {
+        return Err(TAIJI_ERR_STATE);
+    }
+    Ok(st)
+}
+
+fn code(r: Result<i32, i32>) -> i32 {
+    match r {
+        Ok(c) | Err(c) => c,
+    }
+}
+
+/// Builds an estimator from the table `cfg` in the caller's memory `mem` of
+/// `mem_size` bytes (at least `taiji_estimator_size()`, aligned to
+/// `taiji_estimator_align()`). Nothing is allocated; `mem` is the whole state.
+///
+/// # Safety
+/// `mem` must point to `mem_size` writable bytes and `cfg` to a readable table, or be
+/// null (refused).
+#[no_mangle]
+pub unsafe extern "C" fn taiji_estimator_init(
+    mem: *mut u8,
+    mem_size: usize,
+    cfg: *const EstimatorConfig,
+) -> i32 {
+    code((|| {
+        if cfg.is_null() {
+            return Err(TAIJI_ERR_NULL);
+        }
+        // SAFETY: non-null; read unaligned, so any readable bytes will do.
+        let cfg = unsafe { core::ptr::read_unaligned(cfg) };
+        let st = state_mut(mem, mem_size)?;
+        st.magic = 0;
+        cfg.check().map_err(|_| TAIJI_ERR_CONFIG)?;
+        JointEstimator::init_in_place(&mut st.est, cfg);
+        st.magic = MAGIC;
+        Ok(TAIJI_OK)
+    })())
+}
+
+/// Takes one sensor sample (bounded work; no solve). `rejected` (may be null) receives
+/// the causes this sample was rejected for (bit `1 << CAUSE_*`, 0 if accepted),
+/// `flags` (may be null) `TAIJI_SOLVE_DUE` when a solve is due.
+///
+/// # Safety
+/// Pointers must be valid for their types or null.
+#[no_mangle]
+pub unsafe extern "C" fn taiji_estimator_update(
+    mem: *mut u8,
+    sample: *const SensorSample,
+    rejected: *mut u64,
+    flags: *mut u32,
+) -> i32 {
+    code((|| {
+        let st = live(mem)?;
+        if sample.is_null() {
+            return Err(TAIJI_ERR_NULL);
+        }
+        // SAFETY: non-null; any bytes are a valid sample (plain numbers).
+        let s = unsafe { core::ptr::read_unaligned(sample) };
+        let causes = st.est.update(&s);
+        if !rejected.is_null() {
+            // SAFETY: non-null, caller-provided.
+            unsafe { rejected.write_unaligned(causes) };
+        }
+        if !flags.is_null() {
+            let f = if st.est.solve_due() {
+                TAIJI_SOLVE_DUE
+            } else {
+                0
+            };
+            // SAFETY: non-null, caller-provided.
+            unsafe { flags.write_unaligned(f) };
+        }
+        Ok(TAIJI_OK)
+    })())
+}
+
+/// One Gauss–Newton iteration on everything taken so far (warm-started; the host
+/// schedules it, typically when `update` flags `TAIJI_SOLVE_DUE`).
+///
+/// # Safety
+/// `mem` must be the state passed to `taiji_estimator_init`, or null (refused).
+#[no_mangle]
+pub unsafe extern "C" fn taiji_estimator_solve(mem: *mut u8) -> i32 {
+    code((|| {
+        let st = live(mem)?;
+        if st.est.solve_now() {
+            Ok(TAIJI_OK)
+        } else {
+            Err(TAIJI_ERR_SOLVE)
+        }
+    })())
+}
+
+/// The current estimate (β, k, r with σ, status word, rejection counts) into `out`.
+///
+/// # Safety
+/// Pointers must be valid for their types or null (refused).
+#[no_mangle]
+pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut EstimateMsg) -> i32 {
+    code((|| {
+        let st = live(mem)?;
+        if out.is_null() {
+            return Err(TAIJI_ERR_NULL);
+        }
+        let m = st.est.message(st.est.next_tick().saturating_sub(1));
+        // SAFETY: non-null, caller-provided.
+        unsafe { out.write_unaligned(m) };
+        Ok(TAIJI_OK)
+    })())
+}
+
+/// End of campaign: runs a due solve, iterates to convergence and writes the final
+/// estimate (flagged `EST_FINAL`) into `out`.
+///
+/// # Safety
+/// Pointers must be valid for their types or null (refused).
+#[no_mangle]
+pub unsafe extern "C" fn taiji_estimator_finish(mem: *mut u8, out: *mut EstimateMsg) -> i32 {
+    code((|| {
+        let st = live(mem)?;
+        if out.is_null() {
+            return Err(TAIJI_ERR_NULL);
+        }
+        let mut m = st.est.finish();
+        m.flags |= EST_FINAL;
+        // SAFETY: non-null, caller-provided.
+        unsafe { out.write_unaligned(m) };
+        Ok(TAIJI_OK)
+    })())
+}
+
+/// Writes a checkpoint of the state into `buf` (`len` ≥ `taiji_checkpoint_size()`;
+/// no alignment needed); `written` (may be null) receives its size.
+///
+/// # Safety
+/// `buf` must point to `len` writable bytes; other pointers valid or null.
+#[no_mangle]
+pub unsafe extern "C" fn taiji_estimator_checkpoint(
+    mem: *mut u8,
+    buf: *mut u8,
+    len: usize,
+    written: *mut usize,
+) -> i32 {
+    code((|| {
+        let st = live(mem)?;
+        if buf.is_null() {
+            return Err(TAIJI_ERR_NULL);
+        }
+        // SAFETY: non-null, `len` bytes the caller owns.
+        let out = unsafe { core::slice::from_raw_parts_mut(buf, len) };
+        let n = snapshot::write(&st.est, out).map_err(|_| TAIJI_ERR_SIZE)?;
+        if !written.is_null() {
+            // SAFETY: non-null, caller-provided.
+            unsafe { written.write_unaligned(n) };
+        }
+        Ok(TAIJI_OK)
+    })())
+}
+
+/// Restores the state in `mem` (as for `init`) from a checkpoint of `len` bytes. A
+/// buffer that is not an intact checkpoint of this layout is refused and `mem` is
+/// left uninitialised (calls on it return `TAIJI_ERR_STATE`).
+///
+/// # Safety
+/// `mem` must point to `mem_size` writable bytes, `buf` to `len` readable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn taiji_estimator_restore(
+    mem: *mut u8,
+    mem_size: usize,
+    buf: *const u8,
+    len: usize,
+) -> i32 {
+    code((|| {
+        if buf.is_null() {
+            return Err(TAIJI_ERR_NULL);
+        }
+        let st = state_mut(mem, mem_size)?;
+        st.magic = 0;
+        // SAFETY: non-null, `len` readable bytes.
+        let bytes = unsafe { core::slice::from_raw_parts(buf, len) };
+        let est = snapshot::read(bytes).map_err(|e| match e {
+            snapshot::SnapshotError::TooSmall => TAIJI_ERR_SIZE,
+            snapshot::SnapshotError::Version => TAIJI_ERR_VERSION,
+            _ => TAIJI_ERR_CHECKPOINT,
+        })?;
+        st.est = est;
+        st.magic = MAGIC;
+        Ok(TAIJI_OK)
+    })())
+}
+
+/// Panics cannot happen on any input (fuzzed); should one, a flight host gets an
+/// abort, never an unwind into C. Only the C static library defines it (the `c-lib`
+/// feature without `std`): an embedding Rust firmware brings its own.
+#[cfg(all(feature = "c-lib", not(feature = "std"), not(test)))]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    extern "C" {
+        fn abort() -> !;
+    }
+    // SAFETY: the C library's abort, always present in a C host.
+    unsafe { abort() }
+}
+
+/// The precompiled `core` carries unwind tables that name this personality routine;
+/// with `panic = "abort"` nothing ever unwinds, so it is never called (and aborts if
+/// it were).
+#[cfg(all(feature = "c-lib", not(feature = "std"), not(test)))]
+#[no_mangle]
+pub extern "C" fn rust_eh_personality() {
+    extern "C" {
+        fn abort() -> !;
+    }
+    // SAFETY: the C library's abort.
+    unsafe { abort() }
+}

@@ -1,0 +1,93 @@
+//! The joint estimator's checkpoint in a caller's buffer, for hosts without files or
+//! heap (the C ABI): the state is plain data, so a checkpoint is a header and the
+//! state's bytes. Layout (little-endian): magic `TJEST001` (8 B) | layout version (u64)
+//! | state size (u64) | FNV-1a 64 of the state bytes (u64) | state bytes.
+//!
+//! Restoring checks every header field and the checksum, then the table and the
+//! counts inside the state, so a torn, foreign or corrupted buffer is refused with a
+//! reason instead of becoming an estimator.
+
+use super::joint::JointEstimator;
+use crate::msg::LAYOUT_VERSION;
+
+const MAGIC: [u8; 8] = *b"TJEST001";
+/// Bytes before the state.
+pub const HEADER: usize = 32;
+
+/// Why a checkpoint cannot be written or restored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SnapshotError {
+    /// The buffer is shorter than `size()`.
+    TooSmall,
+    /// Not a checkpoint: wrong magic.
+    Magic,
+    /// Written by a build with another message/state layout.
+    Version,
+    /// Wrong state size or checksum: truncated or corrupted.
+    Corrupt,
+    /// The bytes are intact but hold a state no estimator could be in (its table fails
+    /// `EstimatorConfig::check`).
+    Invalid,
+}
+
+/// FNV-1a 64: a checksum that needs no table and no allocation.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
+/// Bytes a checkpoint takes.
+pub const fn size() -> usize {
+    HEADER + core::mem::size_of::<JointEstimator>()
+}
+
+fn word(buf: &[u8], k: usize) -> u64 {
+    let mut w = [0u8; 8];
+    w.copy_from_slice(&buf[8 * k..8 * k + 8]);
+    u64::from_le_bytes(w)
+}
+
+/// Writes the checkpoint of `est` into `buf`; returns the bytes written.
+pub fn write(est: &JointEstimator, buf: &mut [u8]) -> Result<usize, SnapshotError> {
+    let state = bytemuck::bytes_of(est);
+    let n = HEADER + state.len();
+    if buf.len() < n {
+        return Err(SnapshotError::TooSmall);
+    }
+    buf[0..8].copy_from_slice(&MAGIC);
+    buf[8..16].copy_from_slice(&(LAYOUT_VERSION as u64).to_le_bytes());
+    buf[16..24].copy_from_slice(&(state.len() as u64).to_le_bytes());
+    buf[24..32].copy_from_slice(&fnv1a(state).to_le_bytes());
+    buf[HEADER..n].copy_from_slice(state);
+    Ok(n)
+}
+
+/// Reads a checkpoint written by `write` (the buffer needs no alignment).
+pub fn read(buf: &[u8]) -> Result<JointEstimator, SnapshotError> {
+    if buf.len() < HEADER {
+        return Err(SnapshotError::TooSmall);
+    }
+    if buf[0..8] != MAGIC {
+        return Err(SnapshotError::Magic);
+    }
+    if word(buf, 1) != LAYOUT_VERSION as u64 {
+        return Err(SnapshotError::Version);
+    }
+    let len = core::mem::size_of::<JointEstimator>();
+    if word(buf, 2) != len as u64 || buf.len() < HEADER + len {
+        return Err(SnapshotError::Corrupt);
+    }
+    let state = &buf[HEADER..HEADER + len];
+    if word(buf, 3) != fnv1a(state) {
+        return Err(SnapshotError::Corrupt);
+    }
+    let est: JointEstimator = bytemuck::pod_read_unaligned(state);
+    if !est.is_sane() {
+        return Err(SnapshotError::Invalid);
+    }
+    Ok(est)
+}

@@ -1,0 +1,259 @@
+//! The C ABI (`src/capi.rs`) driven as a C host would, including as a careless or
+//! hostile one: null pointers, misaligned or too-small state, uninitialised memory, a
+//! wrong table, garbage samples, torn checkpoints. Every call returns a code; none may
+//! panic (a panic here fails the test; in the C library it would abort the host).
+
+use taiji::capi::*;
+use taiji::estimate::EstimatorConfig;
+use taiji::msg::{EstimateMsg, SensorSample};
+use taiji::scenario::Scenario;
+
+fn config() -> EstimatorConfig {
+    let s = Scenario::default();
+    s.estimator_config(&s.priors())
+}
+
+/// 8-byte aligned memory for the state, with room to misalign it.
+fn memory() -> Vec<u64> {
+    vec![0u64; taiji_estimator_size() / 8 + 2]
+}
+
+fn init(mem: &mut [u64]) -> *mut u8 {
+    let p = mem.as_mut_ptr() as *mut u8;
+    let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &config()) };
+    assert_eq!(rc, TAIJI_OK);
+    p
+}
+
+/// Deterministic garbage (xorshift).
+struct Garbage(u64);
+impl Garbage {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn fill(&mut self, bytes: &mut [u8]) {
+        for b in bytes {
+            *b = self.next() as u8;
+        }
+    }
+}
+
+fn garbage_sample(g: &mut Garbage) -> SensorSample {
+    let mut raw = [0u8; std::mem::size_of::<SensorSample>()];
+    g.fill(&mut raw);
+    unsafe { std::ptr::read_unaligned(raw.as_ptr() as *const SensorSample) }
+}
+
+#[test]
+fn size_and_alignment_are_queried_not_assumed() {
+    assert!(taiji_estimator_size() >= std::mem::size_of::<u64>());
+    assert!(taiji_estimator_align().is_power_of_two());
+    assert!(taiji_checkpoint_size() > taiji_estimator_size() - 8);
+    assert_eq!(taiji_layout_version(), taiji::msg::LAYOUT_VERSION);
+}
+
+#[test]
+fn null_pointers_get_an_error_code() {
+    let mut mem = memory();
+    let p = mem.as_mut_ptr() as *mut u8;
+    let null = std::ptr::null_mut();
+    let s = SensorSample::default();
+    let mut out = EstimateMsg::default();
+    unsafe {
+        assert_eq!(
+            taiji_estimator_init(null, 1 << 20, &config()),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(
+            taiji_estimator_init(p, mem.len() * 8, std::ptr::null()),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(
+            taiji_estimator_update(null, &s, null as _, null as _),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(taiji_estimator_solve(null), TAIJI_ERR_NULL);
+        assert_eq!(taiji_estimator_estimate(null, &mut out), TAIJI_ERR_NULL);
+        assert_eq!(taiji_estimator_finish(null, &mut out), TAIJI_ERR_NULL);
+        assert_eq!(
+            taiji_estimator_checkpoint(null, null, 0, null as _),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(
+            taiji_estimator_restore(null, 1 << 20, null, 0),
+            TAIJI_ERR_NULL
+        );
+        let p = init(&mut mem);
+        assert_eq!(
+            taiji_estimator_update(p, std::ptr::null(), null as _, null as _),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(
+            taiji_estimator_estimate(p, std::ptr::null_mut()),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(
+            taiji_estimator_finish(p, std::ptr::null_mut()),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(
+            taiji_estimator_checkpoint(p, null, 1 << 20, null as _),
+            TAIJI_ERR_NULL
+        );
+        // The optional out-parameters of update may be null.
+        assert_eq!(
+            taiji_estimator_update(p, &s, null as _, null as _),
+            TAIJI_OK
+        );
+    }
+}
+
+#[test]
+fn misaligned_or_small_state_memory_is_refused() {
+    let mut mem = memory();
+    let base = mem.as_mut_ptr() as *mut u8;
+    for off in 1..8 {
+        let rc = unsafe { taiji_estimator_init(base.add(off), mem.len() * 8 - 8, &config()) };
+        assert_eq!(rc, TAIJI_ERR_ALIGNMENT, "offset {off}");
+    }
+    let rc = unsafe { taiji_estimator_init(base, taiji_estimator_size() - 1, &config()) };
+    assert_eq!(rc, TAIJI_ERR_SIZE);
+}
+
+#[test]
+fn memory_that_was_never_initialised_is_refused() {
+    let mut g = Garbage(7);
+    for _ in 0..20 {
+        let mut mem = memory();
+        let bytes =
+            unsafe { std::slice::from_raw_parts_mut(mem.as_mut_ptr() as *mut u8, mem.len() * 8) };
+        g.fill(bytes);
+        let p = mem.as_mut_ptr() as *mut u8;
+        let mut out = EstimateMsg::default();
+        unsafe {
+            assert_eq!(taiji_estimator_solve(p), TAIJI_ERR_STATE);
+            assert_eq!(taiji_estimator_estimate(p, &mut out), TAIJI_ERR_STATE);
+        }
+    }
+}
+
+#[test]
+fn a_wrong_table_is_refused_and_leaves_no_estimator() {
+    let mut mem = memory();
+    let p = mem.as_mut_ptr() as *mut u8;
+    let bad: [fn(&mut EstimatorConfig); 12] = [
+        |c| c.fs = f64::NAN,
+        |c| c.fs = 0.0,
+        |c| c.n_is = 0,
+        |c| c.n_is = 3,
+        |c| c.sigma_star_rad = -1.0,
+        |c| c.sigma_angular = f64::INFINITY,
+        |c| c.solve_every = 0,
+        |c| c.max_gap_ticks = 0,
+        |c| c.beta_prior[0][1] = 0.0,
+        |c| c.com_prior_m[1][2] = f64::NAN,
+        |c| c.geometry_m[0][0] = 0.0,
+        |c| c.srp_asd_at_3mhz = 0.0,
+    ];
+    for (k, f) in bad.iter().enumerate() {
+        let mut c = config();
+        f(&mut c);
+        let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &c) };
+        assert_eq!(rc, TAIJI_ERR_CONFIG, "case {k}");
+        assert_eq!(
+            unsafe { taiji_estimator_solve(p) },
+            TAIJI_ERR_STATE,
+            "case {k}"
+        );
+    }
+    let mut g = Garbage(99);
+    for _ in 0..1000 {
+        let mut raw = [0u8; std::mem::size_of::<EstimatorConfig>()];
+        g.fill(&mut raw);
+        let c: EstimatorConfig = unsafe { std::ptr::read_unaligned(raw.as_ptr() as *const _) };
+        let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &c) };
+        assert!(rc == TAIJI_ERR_CONFIG || rc == TAIJI_OK);
+    }
+}
+
+#[test]
+fn garbage_samples_give_codes_and_a_finite_or_flagged_estimate() {
+    let mut g = Garbage(12345);
+    let mut mem = memory();
+    let p = init(&mut mem);
+    let (mut rejected, mut flags) = (0u64, 0u32);
+    for k in 0..20_000u64 {
+        let mut s = garbage_sample(&mut g);
+        if k % 3 == 0 {
+            s.header.tick = k; // plausible ticks now and then, so more of it gets in
+        }
+        let rc = unsafe { taiji_estimator_update(p, &s, &mut rejected, &mut flags) };
+        assert_eq!(rc, TAIJI_OK);
+        if flags & TAIJI_SOLVE_DUE != 0 {
+            let rc = unsafe { taiji_estimator_solve(p) };
+            assert!(rc == TAIJI_OK || rc == TAIJI_ERR_SOLVE);
+        }
+    }
+    let mut out = EstimateMsg::default();
+    assert_eq!(unsafe { taiji_estimator_finish(p, &mut out) }, TAIJI_OK);
+    let finite = out
+        .beta
+        .iter()
+        .flatten()
+        .chain(out.r_b.iter().flatten())
+        .all(|v| v.is_finite());
+    assert!(finite || out.status & taiji::msg::ST_UNVERIFIED != 0);
+}
+
+#[test]
+fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
+    let mut g = Garbage(5);
+    let mut mem = memory();
+    let p = init(&mut mem);
+    let s0 = SensorSample::default();
+    for k in 0..50u64 {
+        let mut s = s0;
+        s.header.tick = k;
+        s.star.valid = 1;
+        s.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+        unsafe { taiji_estimator_update(p, &s, std::ptr::null_mut(), std::ptr::null_mut()) };
+    }
+    let mut buf = vec![0u8; taiji_checkpoint_size() + 3];
+    let mut n = 0usize;
+    // Unaligned buffer on purpose.
+    let rc =
+        unsafe { taiji_estimator_checkpoint(p, buf.as_mut_ptr().add(3), buf.len() - 3, &mut n) };
+    assert_eq!(rc, TAIJI_OK);
+    assert_eq!(n, taiji_checkpoint_size());
+    let small = unsafe { taiji_estimator_checkpoint(p, buf.as_mut_ptr(), n - 1, &mut n) };
+    assert_eq!(small, TAIJI_ERR_SIZE);
+    let ck = buf[3..3 + n].to_vec();
+    let mut mem2 = memory();
+    let q = mem2.as_mut_ptr() as *mut u8;
+    assert_eq!(
+        unsafe { taiji_estimator_restore(q, mem2.len() * 8, ck.as_ptr(), n) },
+        TAIJI_OK
+    );
+    let (mut a, mut b) = (EstimateMsg::default(), EstimateMsg::default());
+    unsafe {
+        taiji_estimator_estimate(p, &mut a);
+        taiji_estimator_estimate(q, &mut b);
+    }
+    assert_eq!(a, b);
+    // Every torn or flipped checkpoint is refused, and the memory is left unusable.
+    for k in 0..200 {
+        let mut bad = ck.clone();
+        let i = (g.next() as usize) % bad.len();
+        bad[i] ^= 1 << (g.next() % 8);
+        let len = if k % 10 == 0 { i } else { bad.len() };
+        let rc = unsafe { taiji_estimator_restore(q, mem2.len() * 8, bad.as_ptr(), len) };
+        assert!(
+            [TAIJI_ERR_CHECKPOINT, TAIJI_ERR_VERSION, TAIJI_ERR_SIZE].contains(&rc),
+            "byte {i}: code {rc}"
+        );
+        assert_eq!(unsafe { taiji_estimator_solve(q) }, TAIJI_ERR_STATE);
+    }
+}

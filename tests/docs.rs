@@ -1,0 +1,267 @@
+//! The repository explains itself: no file points outside it, every key a run writes
+//! and every scenario key is documented in `docs/`, and every relative link resolves.
+
+use serde_json::Value;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use taiji::estimate::Method;
+use taiji::report::Report;
+use taiji::scenario::Scenario;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn read(rel: &str) -> String {
+    std::fs::read_to_string(root().join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// The repository's files: git's list when this is a clone, else every file outside
+/// build and output folders.
+fn repository_files() -> Vec<PathBuf> {
+    let git = Command::new("git")
+        .args(["ls-files", "-z"])
+        .current_dir(root())
+        .output();
+    if let Some(o) = git
+        .ok()
+        .filter(|o| o.status.success() && !o.stdout.is_empty())
+    {
+        return o
+            .stdout
+            .split(|b| *b == 0)
+            .filter(|p| !p.is_empty())
+            .map(|p| root().join(String::from_utf8_lossy(p).as_ref()))
+            .filter(|p| p.is_file())
+            .collect();
+    }
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if p.is_dir() {
+                if !(name == ".git" || name == "target" || name.starts_with("out")) {
+                    walk(&p, out);
+                }
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(root(), &mut out);
+    out
+}
+
+#[test]
+fn no_file_points_to_documents_outside_the_repository() {
+    // Spelled in pieces so this file does not match itself.
+    let needles = [
+        ["SPEC", ".md"].concat(),
+        ["..", "/shared"].concat(),
+        ["SPEC", " §"].concat(),
+    ];
+    let files = repository_files();
+    assert!(files.len() > 50, "only {} files found", files.len());
+    let mut hits = Vec::new();
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
+        for n in &needles {
+            if bytes.windows(n.len()).any(|w| w == n.as_bytes()) {
+                hits.push(format!("{} mentions {n:?}", f.display()));
+            }
+        }
+    }
+    assert!(hits.is_empty(), "{}", hits.join("\n"));
+}
+
+/// Is `key` documented, i.e. written as `key` (in backticks) in the text?
+fn undocumented<'a>(keys: impl IntoIterator<Item = &'a String>, doc: &str) -> Vec<String> {
+    keys.into_iter()
+        .filter(|k| !doc.contains(&format!("`{k}`")))
+        .cloned()
+        .collect()
+}
+
+fn object_keys(v: &Value) -> BTreeSet<String> {
+    v.as_object()
+        .unwrap_or_else(|| panic!("not an object: {v}"))
+        .keys()
+        .cloned()
+        .collect()
+}
+
+/// Every key of `v`, its objects' and its arrays' first elements', recursively —
+/// except inside maps keyed by data (causes, groups, processes, hops, fault kinds),
+/// whose keys are listed in the text rather than as table rows.
+fn all_keys(v: &Value, out: &mut BTreeSet<String>) {
+    match v {
+        Value::Object(m) => {
+            for (k, x) in m {
+                out.insert(k.clone());
+                all_keys(x, out);
+            }
+        }
+        Value::Array(a) => {
+            if let Some(x) = a.first() {
+                all_keys(x, out);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[test]
+fn every_key_of_a_default_runs_report_is_documented() {
+    let dir = std::env::temp_dir().join(format!("taiji-docs-{}", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+        .args(["run", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.join("report.json")).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    let v: Value = serde_json::from_str(&text).unwrap();
+    let doc = read("docs/report.md");
+    let mut keys = BTreeSet::new();
+    all_keys(&v, &mut keys);
+    assert!(keys.contains("com_offset") && keys.contains("chi2_per_dof"));
+    let missing = undocumented(&keys, &doc);
+    assert!(missing.is_empty(), "docs/report.md lacks {missing:?}");
+
+    // The keys that only some runs write (faults, timing, the process set's counters).
+    let mut full: Report = serde_json::from_str(&text).unwrap();
+    full.faults = Some(serde_json::json!({}));
+    full.wall_time_s = Some(1.0);
+    full.timing = Some(serde_json::json!({}));
+    full.restarts = Some(serde_json::json!({}));
+    full.estimator_loop_allocations = Some(0);
+    let top = object_keys(&serde_json::to_value(&full).unwrap());
+    assert!(top.len() > object_keys(&v).len());
+    let missing = undocumented(&top, &doc);
+    assert!(missing.is_empty(), "docs/report.md lacks {missing:?}");
+}
+
+#[test]
+fn every_key_of_montecarlo_json_is_documented() {
+    let s = Scenario::from_toml_str("name = \"short\"\nduration_s = 3000.0\n").unwrap();
+    let mc = taiji::montecarlo::run(&s, 1, 1, Method::Joint).unwrap();
+    let mut v = serde_json::to_value(&mc).unwrap();
+    // The runs' reports are report.json's, checked above.
+    v.as_object_mut().unwrap().remove("reports");
+    let mut keys = BTreeSet::new();
+    all_keys(&v, &mut keys);
+    keys.insert("reports".into());
+    assert!(keys.contains("crlb_ratio"));
+    let missing = undocumented(&keys, &read("docs/report.md"));
+    assert!(missing.is_empty(), "docs/report.md lacks {missing:?}");
+}
+
+#[test]
+fn every_scenario_key_is_documented() {
+    let mut s = Scenario::default();
+    // Optional keys are left out of a serialised default: give them values.
+    for is in &mut s.inertial_sensor {
+        is.beta_prior = Some(is.beta);
+        is.com_offset_prior_m = Some(is.com_offset_m);
+    }
+    let v = toml::Value::try_from(&s).unwrap();
+    let doc = read("docs/scenario.md");
+    let mut missing = Vec::new();
+    let table = v.as_table().unwrap();
+    for (k, x) in table {
+        let (heading, fields) = match x {
+            toml::Value::Table(t) => (format!("`[{k}]`"), Some(t)),
+            toml::Value::Array(a) if a.first().is_some_and(|e| e.is_table()) => {
+                (format!("`[[{k}]]`"), a[0].as_table())
+            }
+            _ => (format!("`{k}`"), None),
+        };
+        if !doc.contains(&heading) {
+            missing.push(heading);
+        }
+        for f in fields.into_iter().flat_map(|t| t.keys()) {
+            if !doc.contains(&format!("`{f}`")) {
+                missing.push(format!("{k}.{f}"));
+            }
+        }
+    }
+    assert!(table.len() >= 12, "{table:?}");
+    assert!(missing.is_empty(), "docs/scenario.md lacks {missing:?}");
+}
+
+/// GitHub's heading anchor: lower case, punctuation dropped, spaces to hyphens.
+fn slug(heading: &str) -> String {
+    heading
+        .trim()
+        .to_lowercase()
+        .chars()
+        .filter_map(|c| match c {
+            ' ' => Some('-'),
+            c if c.is_alphanumeric() || c == '-' || c == '_' => Some(c),
+            _ => None,
+        })
+        .collect()
+}
+
+fn anchors(markdown: &str) -> BTreeSet<String> {
+    let mut in_code = false;
+    let mut out = BTreeSet::new();
+    for line in markdown.lines() {
+        if line.starts_with("```") {
+            in_code = !in_code;
+        } else if !in_code && line.starts_with('#') {
+            out.insert(slug(line.trim_start_matches('#')));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_relative_link_of_the_readme_and_docs_resolves() {
+    let mut pages = vec!["README.md".to_string()];
+    for e in std::fs::read_dir(root().join("docs")).unwrap().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.ends_with(".md") {
+            pages.push(format!("docs/{name}"));
+        }
+    }
+    assert!(pages.len() >= 6, "{pages:?}");
+    let mut broken = Vec::new();
+    for page in &pages {
+        let text = read(page);
+        let base = root().join(page);
+        let dir = base.parent().unwrap();
+        for (i, _) in text.match_indices("](") {
+            let rest = &text[i + 2..];
+            let Some(end) = rest.find(')') else { continue };
+            let target = &rest[..end];
+            if target.contains("://") || target.starts_with("mailto:") {
+                continue;
+            }
+            let (file, anchor) = target.split_once('#').unwrap_or((target, ""));
+            let path = if file.is_empty() {
+                base.clone()
+            } else {
+                dir.join(file)
+            };
+            if !path.exists() {
+                broken.push(format!("{page}: {target} (no such file)"));
+                continue;
+            }
+            if !anchor.is_empty() {
+                let md = std::fs::read_to_string(&path).unwrap_or_default();
+                if !anchors(&md).contains(anchor) {
+                    broken.push(format!("{page}: {target} (no such heading)"));
+                }
+            }
+        }
+    }
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
