@@ -8,7 +8,7 @@ use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::EstimateMsg;
 use crate::scenario::Scenario;
-use crate::telemetry::Telemetry;
+use crate::telemetry::{Sink, Telemetry};
 
 /// The stages of one campaign, built from a scenario and seed.
 pub struct Stages {
@@ -39,10 +39,13 @@ pub struct CampaignResult {
 
 /// Run the campaign; `progress` is called with the fraction done now and then.
 pub fn run(s: &Scenario, seed: u64, method: Method, progress: impl FnMut(f64)) -> CampaignResult {
-    run_with(s, seed, method, progress, None)
+    match run_with(s, seed, method, progress, None) {
+        Ok(r) => r,
+        Err(e) => unreachable!("a campaign that records nothing cannot fail: {e}"),
+    }
 }
 
-/// Run the campaign and record every stream (for `telemetry.h5`). Recording only
+/// Run the campaign and record every stream in memory (figures, tests). Recording only
 /// copies the stages' outputs: the estimates are those of [`run`], bit for bit.
 pub fn run_recorded(
     s: &Scenario,
@@ -51,8 +54,28 @@ pub fn run_recorded(
     progress: impl FnMut(f64),
 ) -> (CampaignResult, Telemetry) {
     let mut tel = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, s.n_samples());
-    let res = run_with(s, seed, method, progress, Some(&mut tel));
+    let res = match run_with(s, seed, method, progress, Some(&mut tel)) {
+        Ok(r) => r,
+        Err(e) => unreachable!("recording to memory cannot fail: {e}"),
+    };
+    if let Some(sc) = &res.faults {
+        tel.faults = sc.records.clone();
+        tel.faults_detected = sc.detected.clone();
+    }
     (res, tel)
+}
+
+/// Run the campaign recording every stream into `sink` as it goes (a
+/// [`crate::telemetry::Writer`] streams it to `telemetry.h5`); the fault log, if any,
+/// is in the result. The estimates are those of [`run`], bit for bit.
+pub fn run_into(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    progress: impl FnMut(f64),
+    sink: &mut dyn Sink,
+) -> Result<CampaignResult, String> {
+    run_with(s, seed, method, progress, Some(sink))
 }
 
 fn run_with(
@@ -60,8 +83,8 @@ fn run_with(
     seed: u64,
     method: Method,
     mut progress: impl FnMut(f64),
-    mut rec: Option<&mut Telemetry>,
-) -> CampaignResult {
+    mut rec: Option<&mut dyn Sink>,
+) -> Result<CampaignResult, String> {
     let mut st = Stages::new(s, seed, method);
     let mut inj = Injector::new(s, seed);
     let mut score = inj.enabled().then(|| FaultScore::new(s));
@@ -87,12 +110,11 @@ fn run_with(
                 sc.observe(of, d, second, est.tick_rejections);
             }
             if let Some(t) = rec.as_deref_mut() {
-                t.record_estimate(&est);
+                t.record_estimate(&est)?;
             }
         }
         if let Some(t) = rec.as_deref_mut() {
-            t.record_truth(&truth);
-            t.record_sensor(&sample);
+            t.record(&truth, &sample)?;
         }
         prev = Some(sample);
         if tick % 10_000 == 0 {
@@ -101,15 +123,11 @@ fn run_with(
     }
     let estimate = st.estimator.finish();
     if let Some(t) = rec {
-        t.record_estimate(&estimate);
-        if let Some(sc) = &score {
-            t.faults = sc.records.clone();
-            t.faults_detected = sc.detected.clone();
-        }
+        t.record_estimate(&estimate)?;
     }
     progress(1.0);
-    CampaignResult {
+    Ok(CampaignResult {
         estimate,
         faults: score,
-    }
+    })
 }
