@@ -400,11 +400,6 @@ int32_t taiji_estimator_checkpoint(uint8_t *mem, uint8_t *buf, size_t len, size_
 // `mem` must point to `mem_size` writable bytes, `buf` to `len` readable bytes.
 int32_t taiji_estimator_restore(uint8_t *mem, size_t mem_size, const uint8_t *buf, size_t len);
 
-// The precompiled `core` carries unwind tables that name this personality routine;
-// with `panic = "abort"` nothing ever unwinds, so it is never called (and aborts if
-// it were).
-void rust_eh_personality(void);
-
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

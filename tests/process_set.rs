@@ -443,7 +443,11 @@ fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
     let _ = finish(child);
     // Their nodes are now dead but their shared memory is still there.
     let dirs = node_dirs(&pfx);
-    assert_eq!(dirs.len(), 5, "supervisor and four stages: {dirs:?}");
+    assert_eq!(
+        dirs.len(),
+        6,
+        "supervisor, four stages and the estimator's publisher: {dirs:?}"
+    );
     let o = supervisor(&sc, &out, &pfx, &[]).output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
@@ -471,7 +475,11 @@ fn a_finished_run_leaves_nothing_on_the_bus() {
     let dirs = node_dirs(&pfx);
     let o = finish(child);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(dirs.len(), 5, "supervisor and four stages: {dirs:?}");
+    assert_eq!(
+        dirs.len(),
+        6,
+        "supervisor, four stages and the estimator's publisher: {dirs:?}"
+    );
     // Every process dropped its node and the supervisor removed the prefix's global
     // object: no directory, file or shared memory of the run is left, the lock neither.
     let left = left_on_the_bus(&pfx, &dirs);
