@@ -29,6 +29,7 @@ impl RigidBody {
     }
 
     /// Euler's equation: ω̇ = I⁻¹ (τ − ω × I ω) [rad/s²].
+    #[inline(always)]
     pub fn omega_dot(&self, omega: &Vector3<f64>, torque: &Vector3<f64>) -> Vector3<f64> {
         self.inertia_inv * (torque - omega.cross(&(self.inertia * omega)))
     }
@@ -36,6 +37,7 @@ impl RigidBody {
     /// q̇ = ½ q ⊗ (0, ω): nalgebra's product written out without the terms of the zero
     /// scalar part, which change no bit of the attitude (they only add ±0; a zero
     /// component of q stays +0 whatever the sign of a zero rate).
+    #[inline(always)]
     fn q_dot(q: &Quaternion<f64>, omega: &Vector3<f64>) -> Quaternion<f64> {
         let (w, x, y, z) = (q.w, q.i, q.j, q.k);
         let (p, r, s) = (omega.x, omega.y, omega.z);
@@ -48,6 +50,7 @@ impl RigidBody {
     }
 
     /// Advance by `h` seconds under constant body torque `torque` [N m] (classic RK4).
+    #[inline(always)]
     pub fn step(&mut self, torque: &Vector3<f64>, h: f64) {
         let q0 = *self.q_bn.quaternion();
         let w0 = self.omega_b;
@@ -82,6 +85,7 @@ impl RigidBody {
 }
 
 /// A(ω, ω̇) r ≡ ω̇ × r + ω × (ω × r) (eq. 16): TM acceleration from the CoM offset [m/s²].
+#[inline(always)]
 pub fn coupling_acceleration(
     omega: &Vector3<f64>,
     omega_dot: &Vector3<f64>,

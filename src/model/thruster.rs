@@ -49,6 +49,7 @@ impl Decays {
     };
 
     /// (e^(−len/τ), e^(−len/τ_overshoot)).
+    #[inline(always)]
     fn of(&mut self, len: f64, p: &ParamsCopy) -> (f64, f64) {
         if len == self.len[0] {
             return self.e[0];
@@ -112,6 +113,7 @@ impl Thrusters {
     }
 
     /// Mean torque per axis over [t, t + h] [N m], advancing the state.
+    #[inline(always)]
     pub fn mean_over(&mut self, t: f64, h: f64) -> [f64; 3] {
         let p = self.p;
         let mut out = [0.0; 3];
@@ -153,6 +155,7 @@ impl ThrusterAxis {
     }
 
     /// Integral of the torque over the next `len` seconds [N m s].
+    #[inline(always)]
     fn integrate(&mut self, len: f64, p: &ParamsCopy, decay: &mut Decays) -> f64 {
         if len <= 0.0 {
             return 0.0;
