@@ -114,24 +114,6 @@ impl Plant {
 
     /// Advance one output interval under `cmd` (the commander's torque for `tick`).
     pub fn step(&mut self, tick: u64, torque_cmd_b: &[f64; 3]) -> TruthState {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, checked just above.
-            return unsafe { self.step_avx2(tick, torque_cmd_b) };
-        }
-        self.step_any(tick, torque_cmd_b)
-    }
-
-    /// [`Plant::step`] compiled for AVX2: wider registers for the same IEEE operations
-    /// in the same order (no fused multiply-add), so the same bits, faster.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn step_avx2(&mut self, tick: u64, torque_cmd_b: &[f64; 3]) -> TruthState {
-        self.step_any(tick, torque_cmd_b)
-    }
-
-    #[inline(always)]
-    fn step_any(&mut self, tick: u64, torque_cmd_b: &[f64; 3]) -> TruthState {
         let dt = 1.0 / self.fs;
         let h = dt / SUBSTEPS as f64;
         let t0 = tick as f64 * dt;

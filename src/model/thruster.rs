@@ -27,6 +27,38 @@ pub struct Thrusters {
     pub axes: [ThrusterAxis; 3],
     p: ParamsCopy,
     decay: Decays,
+    stuck: Stuck,
+}
+
+/// Mean torques of idle axes (no torque, lag gone, no edge pending) whose overshoot has
+/// decayed into the subnormals and stopped there (x e^(−h/τ) rounds back to x below
+/// ~25 ulp): the same inputs give the same mean, and subnormal arithmetic is slow.
+/// Keyed by the bits of (overshoot, interval length); round-robin.
+#[derive(Debug, Clone, Copy)]
+struct Stuck {
+    key: [(u64, u64); 4],
+    mean: [f64; 4],
+    next: usize,
+}
+
+impl Stuck {
+    /// No entry: NaN bits no overshoot has.
+    const EMPTY: Stuck = Stuck {
+        key: [(u64::MAX, u64::MAX); 4],
+        mean: [0.0; 4],
+        next: 0,
+    };
+
+    fn get(&self, overshoot: f64, len: f64) -> Option<f64> {
+        let k = (overshoot.to_bits(), len.to_bits());
+        (0..4).find(|&i| self.key[i] == k).map(|i| self.mean[i])
+    }
+
+    fn put(&mut self, overshoot: f64, len: f64, mean: f64) {
+        self.key[self.next] = (overshoot.to_bits(), len.to_bits());
+        self.mean[self.next] = mean;
+        self.next = (self.next + 1) % 4;
+    }
 }
 
 /// The decay factors (e^(−len/τ) of the lag, of the overshoot) of the last two interval
@@ -96,6 +128,7 @@ impl Thrusters {
                 overshoot_decay: p.overshoot_decay_s,
             },
             decay: Decays::EMPTY,
+            stuck: Stuck::EMPTY,
         }
     }
 
@@ -123,6 +156,16 @@ impl Thrusters {
                 (ax.lag, ax.overshoot) = (0.0, 0.0);
                 continue;
             }
+            // Idle, the mean depends on the overshoot and the length alone (the lag's
+            // part is +0 whatever the signs of its zeros), and the lag stays +0.
+            let idle = ax.edge_t.is_nan() && ax.target == 0.0 && ax.lag == 0.0;
+            let os = ax.overshoot;
+            if idle {
+                if let Some(m) = self.stuck.get(os, t + h - t) {
+                    (*o, ax.lag) = (m, 0.0);
+                    continue;
+                }
+            }
             if ax.edge_t <= t {
                 ax.apply_edge(p.overshoot_rel);
             }
@@ -135,6 +178,9 @@ impl Thrusters {
             }
             acc += ax.integrate(t + h - t_a, &p, &mut self.decay);
             *o = acc / h;
+            if idle && ax.overshoot.to_bits() == os.to_bits() {
+                self.stuck.put(os, t + h - t, *o);
+            }
         }
         out
     }
@@ -233,8 +279,9 @@ mod tests {
 
     #[test]
     fn remembered_decay_factors_change_no_bit() {
-        // Late in a campaign, with jittered edges: the cached run must equal one that
-        // computes every `exp` afresh, bit for bit.
+        // Late in a campaign, with jittered edges, and an axis left idle until its
+        // overshoot is stuck in the subnormals: the run that remembers must equal one
+        // that computes every `exp` and every mean afresh, bit for bit.
         let p = Params::default();
         let mut cached = Thrusters::new(&p);
         let mut fresh = cached;
@@ -243,19 +290,19 @@ mod tests {
             stream(5, Stream::ThrusterEdges),
         );
         let (fs, h) = (10.0, 0.01);
-        for tick in 90_000u64..92_000 {
+        for tick in 90_000u64..95_000 {
             let t0 = tick as f64 / fs;
             let level = if (tick / 250) % 2 == 0 {
                 2.5e-6
             } else {
                 -2.5e-6
             };
-            let cmd = [level, -level, 0.0];
+            let cmd = [level, if tick < 90_500 { -level } else { 0.0 }, 0.0];
             cached.command(t0, &cmd, &mut ra);
             fresh.command(t0, &cmd, &mut rb);
             for k in 0..10 {
                 let t = t0 + k as f64 * h;
-                fresh.decay = Decays::EMPTY;
+                (fresh.decay, fresh.stuck) = (Decays::EMPTY, Stuck::EMPTY);
                 let (a, b) = (cached.mean_over(t, h), fresh.mean_over(t, h));
                 assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "tick {tick}");
                 for (x, y) in cached.axes.iter().zip(&fresh.axes) {
@@ -264,5 +311,8 @@ mod tests {
                 }
             }
         }
+        let x = cached.axes[1].overshoot;
+        assert!(x != 0.0 && x.abs() < f64::MIN_POSITIVE, "{x:e}");
+        assert!(cached.stuck.key.iter().any(|k| k.0 == x.to_bits()));
     }
 }
