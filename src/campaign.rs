@@ -286,6 +286,9 @@ fn drive(threads: Threads, mut sim: Sim, mut take: impl FnMut(&Batch)) {
                         }
                     }
                 });
+                // Owned here, so that a panic in `take` drops them and the simulation,
+                // its channels closed, stops instead of waiting forever.
+                let (full_rx, free_tx) = (full_rx, free_tx);
                 // Ends when the simulation is done (or failed) and dropped its sender.
                 while let Ok(b) = full_rx.recv() {
                     take(&b);
@@ -381,6 +384,36 @@ mod tests {
             fnv(&mut h, m.star.q_bn);
         }
         assert_eq!(h, 0x321e_6d81_c5ff_50dc, "{h:#x}");
+    }
+
+    #[test]
+    fn a_failing_estimator_side_stops_the_simulation_thread() {
+        let s = Scenario::default();
+        let (done_tx, done_rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            let st = Stages::new(&s, 1, Method::Joint);
+            let sim = Sim {
+                commander: st.commander,
+                plant: st.plant,
+                fee: st.fee,
+                inj: None,
+                faults: false,
+                record: false,
+                prev: None,
+                next: 0,
+                n: s.n_samples(),
+            };
+            let mut taken = 0;
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                drive(Threads::Two, sim, |_| {
+                    taken += 1;
+                    assert!(taken < 3, "the estimator side fails");
+                })
+            }));
+            let _ = done_tx.send((r.is_err(), taken));
+        });
+        let got = done_rx.recv_timeout(std::time::Duration::from_secs(60));
+        assert_eq!(got, Ok((true, 3)), "the campaign hung or did not fail");
     }
 
     fn bits(v: &[f64]) -> Vec<u64> {
