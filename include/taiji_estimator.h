@@ -42,9 +42,10 @@
 #define TAIJI_SOLVE_DUE 1
 
 // Version of the layouts of these messages and of the estimator's state: bump it
-// whenever a field changes. It is part of every bus payload's type name and of every
-// checkpoint, so builds with different layouts refuse each other with a clear error
-// instead of misreading bytes.
+// whenever a field changes. It is part of every bus payload's type name
+// (`taiji::v1::EstimateMsg`; a test keeps the two in step) and of every checkpoint,
+// so builds with different layouts refuse each other with a clear error instead of
+// misreading bytes.
 #define TAIJI_LAYOUT_VERSION 1
 
 // Saturation flags of an IS sample: bit j for the linear channel j, bit 3+j angular.

@@ -9,7 +9,7 @@ use clap::Parser;
 )]
 struct Args {
     #[command(flatten)]
-    stage: taiji::process::StageArgs,
+    stage: taiji::process::estimator::EstimatorArgs,
 }
 
 fn main() -> std::process::ExitCode {

@@ -3,9 +3,21 @@
 //! loop reads `allocations()` before and after.
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 static ALLOCS: AtomicU64 = AtomicU64::new(0);
+
+thread_local! {
+    /// This thread's allocations (a const-initialised `Cell`: reading it allocates
+    /// nothing and it has no destructor, so the allocator may touch it at any time).
+    static MINE: Cell<u64> = const { Cell::new(0) };
+}
+
+fn count() {
+    ALLOCS.fetch_add(1, Ordering::Relaxed);
+    let _ = MINE.try_with(|c| c.set(c.get() + 1));
+}
 static INSTALLED: AtomicBool = AtomicBool::new(false);
 
 /// The system allocator, counting every `alloc` and `realloc`.
@@ -14,7 +26,7 @@ pub struct CountingAlloc;
 // SAFETY: forwards every call unchanged to the system allocator.
 unsafe impl GlobalAlloc for CountingAlloc {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
+        count();
         INSTALLED.store(true, Ordering::Relaxed);
         System.alloc(l)
     }
@@ -22,12 +34,12 @@ unsafe impl GlobalAlloc for CountingAlloc {
         System.dealloc(p, l)
     }
     unsafe fn alloc_zeroed(&self, l: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
+        count();
         INSTALLED.store(true, Ordering::Relaxed);
         System.alloc_zeroed(l)
     }
     unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
+        count();
         System.realloc(p, l, n)
     }
 }
@@ -36,6 +48,17 @@ unsafe impl GlobalAlloc for CountingAlloc {
 pub fn allocations() -> Option<u64> {
     if INSTALLED.load(Ordering::Relaxed) {
         Some(ALLOCS.load(Ordering::Relaxed))
+    } else {
+        None
+    }
+}
+
+/// Allocations so far by the calling thread, or `None` when `CountingAlloc` is not
+/// installed: a filter loop counts its own, not those of its helper threads (the
+/// checkpoint writer, the estimate publisher).
+pub fn thread_allocations() -> Option<u64> {
+    if INSTALLED.load(Ordering::Relaxed) {
+        MINE.try_with(|c| c.get()).ok()
     } else {
         None
     }

@@ -93,7 +93,21 @@ fn service<T: Debug + ZeroCopySend>(
         .subscriber_max_buffer_size(queue)
         .history_size(0)
         .open_or_create()
-        .map_err(|e| format!("cannot open service {name}: {e:?}"))
+        .map_err(|e| {
+            let e = format!("{e:?}");
+            if e.contains("IncompatibleTypes") {
+                format!(
+                    "cannot open service {name}: its payload type differs from this build's \
+                     ({}, message layout version {}): a process of another build (or an \
+                     outside client with another layout) holds the bus; use the same \
+                     build everywhere or another --bus-prefix",
+                    std::any::type_name::<T>(),
+                    crate::msg::LAYOUT_VERSION
+                )
+            } else {
+                format!("cannot open service {name}: {e}")
+            }
+        })
 }
 
 fn is_small(name: &str) -> bool {

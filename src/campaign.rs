@@ -9,7 +9,7 @@ use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::{EstimateMsg, SensorSample, TruthState};
 use crate::scenario::Scenario;
-use crate::telemetry::Telemetry;
+use crate::telemetry::{Sink, Telemetry};
 use std::sync::mpsc;
 
 /// The stages of one campaign, built from a scenario and seed.
@@ -81,10 +81,13 @@ pub fn run_on(
     threads: Threads,
     progress: impl FnMut(f64),
 ) -> CampaignResult {
-    run_with(s, seed, method, threads, progress, None)
+    match run_with(s, seed, method, threads, progress, None) {
+        Ok(r) => r,
+        Err(e) => unreachable!("a campaign that records nothing cannot fail: {e}"),
+    }
 }
 
-/// Run the campaign and record every stream (for `telemetry.h5`). Recording only
+/// Run the campaign and record every stream in memory (figures, tests). Recording only
 /// copies the stages' outputs: the estimates are those of [`run`], bit for bit.
 pub fn run_recorded(
     s: &Scenario,
@@ -93,15 +96,29 @@ pub fn run_recorded(
     progress: impl FnMut(f64),
 ) -> (CampaignResult, Telemetry) {
     let mut tel = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, s.n_samples());
-    let res = run_with(
-        s,
-        seed,
-        method,
-        Threads::available(),
-        progress,
-        Some(&mut tel),
-    );
+    let threads = Threads::available();
+    let res = match run_with(s, seed, method, threads, progress, Some(&mut tel)) {
+        Ok(r) => r,
+        Err(e) => unreachable!("recording to memory cannot fail: {e}"),
+    };
+    if let Some(sc) = &res.faults {
+        tel.faults = sc.records.clone();
+        tel.faults_detected = sc.detected.clone();
+    }
     (res, tel)
+}
+
+/// Run the campaign recording every stream into `sink` as it goes (a
+/// [`crate::telemetry::Writer`] streams it to `telemetry.h5`); the fault log, if any,
+/// is in the result. The estimates are those of [`run`], bit for bit.
+pub fn run_into(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    progress: impl FnMut(f64),
+    sink: &mut dyn Sink,
+) -> Result<CampaignResult, String> {
+    run_with(s, seed, method, Threads::available(), progress, Some(sink))
 }
 
 /// A run of consecutive ticks as the estimator's side takes them.
@@ -195,14 +212,14 @@ impl Sim {
 struct Est<'a, P> {
     estimator: Estimator,
     score: Option<FaultScore>,
-    rec: Option<&'a mut Telemetry>,
+    rec: Option<&'a mut dyn Sink>,
     progress: P,
     n: u64,
 }
 
 impl<P: FnMut(f64)> Est<'_, P> {
-    /// Take a batch's ticks in order.
-    fn take(&mut self, b: &Batch) {
+    /// Take a batch's ticks in order; a recording error stops the campaign.
+    fn take(&mut self, b: &Batch) -> Result<(), String> {
         let (mut di, mut ri) = (0, 0);
         for (i, &(nd, nr)) in b.counts.iter().enumerate() {
             let tick = b.first + i as u64;
@@ -218,18 +235,18 @@ impl<P: FnMut(f64)> Est<'_, P> {
                     sc.observe(*of, *d, *second, est.tick_rejections);
                 }
                 if let Some(t) = self.rec.as_deref_mut() {
-                    t.record_estimate(&est);
+                    t.record_estimate(&est)?;
                 }
             }
             di += nd;
             if let Some(t) = self.rec.as_deref_mut() {
-                t.record_truth(&b.truth[i]);
-                t.record_sensor(&b.sample[i]);
+                t.record(&b.truth[i], &b.sample[i])?;
             }
             if tick % 10_000 == 0 {
                 (self.progress)(tick as f64 / self.n as f64);
             }
         }
+        Ok(())
     }
 }
 
@@ -254,21 +271,27 @@ pub fn samples(
         next: 0,
         n: s.n_samples(),
     };
-    drive(threads, sim, |b| {
-        for (m, ..) in &b.delivered {
-            take(m);
-        }
+    let all: Result<(), String> = drive(threads, sim, |b| {
+        b.delivered.iter().for_each(|(m, ..)| take(m));
+        Ok(())
     });
+    debug_assert!(all.is_ok());
 }
 
-/// Simulate batch after batch and hand each to `take`, on the calling thread.
-fn drive(threads: Threads, mut sim: Sim, mut take: impl FnMut(&Batch)) {
+/// Simulate batch after batch and hand each to `take`, on the calling thread, until
+/// the end or `take`'s first error.
+fn drive(
+    threads: Threads,
+    mut sim: Sim,
+    mut take: impl FnMut(&Batch) -> Result<(), String>,
+) -> Result<(), String> {
     match threads {
         Threads::One => {
             let mut b = Batch::with_capacity();
             while sim.fill(&mut b) {
-                take(&b);
+                take(&b)?;
             }
+            Ok(())
         }
         Threads::Two => {
             // Full batches to `take`, emptied ones back: a fixed pool, no allocation
@@ -286,15 +309,16 @@ fn drive(threads: Threads, mut sim: Sim, mut take: impl FnMut(&Batch)) {
                         }
                     }
                 });
-                // Owned here, so that a panic in `take` drops them and the simulation,
-                // its channels closed, stops instead of waiting forever.
+                // Owned here, so that an error or a panic in `take` drops them and the
+                // simulation, its channels closed, stops instead of waiting forever.
                 let (full_rx, free_tx) = (full_rx, free_tx);
                 // Ends when the simulation is done (or failed) and dropped its sender.
                 while let Ok(b) = full_rx.recv() {
-                    take(&b);
+                    take(&b)?;
                     let _ = free_tx.send(b);
                 }
-            });
+                Ok(())
+            })
         }
     }
 }
@@ -305,8 +329,8 @@ fn run_with(
     method: Method,
     threads: Threads,
     progress: impl FnMut(f64),
-    rec: Option<&mut Telemetry>,
-) -> CampaignResult {
+    rec: Option<&mut dyn Sink>,
+) -> Result<CampaignResult, String> {
     let st = Stages::new(s, seed, method);
     let inj = Injector::new(s, seed);
     let n = s.n_samples();
@@ -328,7 +352,7 @@ fn run_with(
         progress,
         n,
     };
-    drive(threads, sim, |b| est.take(b));
+    drive(threads, sim, |b| est.take(b))?;
     let Est {
         mut estimator,
         score,
@@ -338,17 +362,13 @@ fn run_with(
     } = est;
     let estimate = estimator.finish();
     if let Some(t) = rec {
-        t.record_estimate(&estimate);
-        if let Some(sc) = &score {
-            t.faults = sc.records.clone();
-            t.faults_detected = sc.detected.clone();
-        }
+        t.record_estimate(&estimate)?;
     }
     progress(1.0);
-    CampaignResult {
+    Ok(CampaignResult {
         estimate,
         faults: score,
-    }
+    })
 }
 
 #[cfg(test)]
@@ -408,6 +428,7 @@ mod tests {
                 drive(Threads::Two, sim, |_| {
                     taken += 1;
                     assert!(taken < 3, "the estimator side fails");
+                    Ok(())
                 })
             }));
             let _ = done_tx.send((r.is_err(), taken));
@@ -442,7 +463,7 @@ mod tests {
                 |_| calls += 1,
                 Some(&mut tel),
             );
-            (r, tel, calls)
+            (r.unwrap(), tel, calls)
         };
         let (r1, t1, c1) = run(Threads::One);
         let (r2, t2, c2) = run(Threads::Two);
@@ -467,6 +488,32 @@ mod tests {
         ] {
             assert_eq!(bits(a), bits(b));
         }
-        assert_eq!(t1.faults_detected, t2.faults_detected);
+    }
+
+    /// Takes `left` ticks, then fails like a full disk.
+    struct Failing {
+        left: u32,
+    }
+
+    impl Sink for Failing {
+        fn record(&mut self, _: &TruthState, _: &SensorSample) -> Result<(), String> {
+            self.left = self.left.checked_sub(1).ok_or("disk full")?;
+            Ok(())
+        }
+        fn record_estimate(&mut self, _: &EstimateMsg) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_recording_error_ends_the_campaign_with_it_on_either_threads() {
+        let s = Scenario::default();
+        for threads in [Threads::One, Threads::Two] {
+            let mut sink = Failing { left: 3000 };
+            let mut last = 0.0;
+            let r = run_with(&s, 1, Method::Joint, threads, |f| last = f, Some(&mut sink));
+            assert_eq!(r.err().as_deref(), Some("disk full"), "{threads:?}");
+            assert!(last < 0.1, "{threads:?}: ran on to {last}");
+        }
     }
 }

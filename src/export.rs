@@ -52,11 +52,11 @@ pub fn write(rec: &Recording, dir: &Path) -> Result<u64, String> {
         .map_err(err)?;
     f.write_all(bytemuck::bytes_of(&cfg)).map_err(err)?;
     f.flush().map_err(err)?;
-    let n = rec.samples.len() as u64;
+    let n = rec.n;
     let mut f = create(dir, SAMPLES_FILE)?;
     f.write_all(&header::<SensorSample>(n)).map_err(err)?;
-    for sample in &rec.samples {
-        f.write_all(bytes_of(sample)).map_err(err)?;
+    for sample in rec.samples() {
+        f.write_all(bytes_of(&sample?)).map_err(err)?;
     }
     f.flush().map_err(err)?;
     Ok(n)

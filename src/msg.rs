@@ -11,15 +11,16 @@ use crate::math::Real;
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of the layouts of these messages and of the estimator's state: bump it
-/// whenever a field changes. It is part of every bus payload's type name and of every
-/// checkpoint, so builds with different layouts refuse each other with a clear error
-/// instead of misreading bytes.
+/// whenever a field changes. It is part of every bus payload's type name
+/// (`taiji::v1::EstimateMsg`; a test keeps the two in step) and of every checkpoint,
+/// so builds with different layouts refuse each other with a clear error instead of
+/// misreading bytes.
 pub const LAYOUT_VERSION: u32 = 1;
 
 /// Common header of every message.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::Header"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::Header"))]
 #[repr(C)]
 pub struct Header {
     /// Per-publisher sequence number, from 0, no gaps.
@@ -44,7 +45,7 @@ pub struct Header {
 /// Commander → plant: torque commanded for the interval.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::TorqueCommand"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::TorqueCommand"))]
 #[repr(C)]
 pub struct TorqueCommand {
     pub header: Header,
@@ -55,7 +56,7 @@ pub struct TorqueCommand {
 /// Plant → front-end electronics (and recorder only): the true state.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::TruthState"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::TruthState"))]
 #[repr(C)]
 pub struct TruthState {
     pub header: Header,
@@ -78,7 +79,7 @@ pub struct TruthState {
 /// Star-tracker sample.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::StarSample"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::StarSample"))]
 #[repr(C)]
 pub struct StarSample {
     /// Measured attitude (w, x, y, z) of B relative to N [-].
@@ -105,7 +106,7 @@ pub const PAIR_OF_ANGULAR: [usize; 3] = [1, 2, 0];
 /// One IS's drive voltages for the interval (Table 1).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::IsSample"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::IsSample"))]
 #[repr(C)]
 pub struct IsSample {
     /// Electrode drive voltages [V], indexed [x, y, z][1, 2] as V_{j,1}, V_{j,2}.
@@ -146,7 +147,7 @@ impl StarSample {
 /// Front-end electronics → estimator: everything the estimator may see.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::SensorSample"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::SensorSample"))]
 #[repr(C)]
 pub struct SensorSample {
     pub header: Header,
@@ -157,7 +158,7 @@ pub struct SensorSample {
 /// Estimator → supervisor / recorder: the latest estimates with 1σ.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::EstimateMsg"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::EstimateMsg"))]
 #[repr(C)]
 pub struct EstimateMsg {
     pub header: Header,
@@ -300,7 +301,7 @@ pub const STATE_DONE: u32 = 3;
 /// and counters. Published after each batch of work and at least every 50 ms.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::Progress"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::Progress"))]
 #[repr(C)]
 pub struct Progress {
     pub header: Header,
@@ -348,11 +349,33 @@ pub const CMD_STOP: u32 = 2;
 /// Supervisor → every stage.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "std", derive(ZeroCopySend))]
-#[cfg_attr(feature = "std", type_name("taiji::Control"))]
+#[cfg_attr(feature = "std", type_name("taiji::v1::Control"))]
 #[repr(C)]
 pub struct Control {
     pub header: Header,
     /// `CMD_*`.
     pub command: u32,
     pub _pad: u32,
+}
+
+#[cfg(all(test, feature = "std"))]
+mod layout_tests {
+    use super::*;
+    use iceoryx2::prelude::ZeroCopySend;
+
+    #[test]
+    fn every_bus_type_name_carries_the_layout_version() {
+        let v = format!("taiji::v{LAYOUT_VERSION}::");
+        for name in [
+            unsafe { Header::type_name() },
+            unsafe { TorqueCommand::type_name() },
+            unsafe { TruthState::type_name() },
+            unsafe { SensorSample::type_name() },
+            unsafe { EstimateMsg::type_name() },
+            unsafe { Progress::type_name() },
+            unsafe { Control::type_name() },
+        ] {
+            assert!(name.starts_with(&v), "{name} lacks {v}");
+        }
+    }
 }

@@ -1,26 +1,37 @@
 //! Replay: the estimator alone on a recording's star-tracker and IS channels (never
 //! truth). On our own recordings it reproduces the live estimates bit for bit, since
-//! it feeds the same samples, in the same order, to the same estimator.
+//! it feeds the same samples, in the same order, to the same estimator. The samples
+//! are read from the file a window at a time, so memory does not grow with its length.
 
 use crate::estimate::{Estimator, Method};
 use crate::msg::EstimateMsg;
 use crate::telemetry::read::Recording;
-use crate::telemetry::Telemetry;
+use crate::telemetry::RowGate;
 
-/// The final estimate and the estimate rows a live recording would hold.
+/// The final estimate of a replay.
 pub struct Replayed {
     pub estimate: EstimateMsg,
-    pub rows: Vec<EstimateMsg>,
     /// Detection of the recording's own fault log (`/faults`; bus faults are not in a
     /// recording's samples, so they are left out).
     pub faults: Option<crate::faults::FaultScore>,
 }
 
-pub fn run(rec: &Recording, method: Method, mut progress: impl FnMut(f64)) -> Replayed {
+pub fn run(rec: &Recording, method: Method, progress: impl FnMut(f64)) -> Result<Replayed, String> {
+    run_with_rows(rec, method, progress, |_| {})
+}
+
+/// [`run`], handing `row` each estimate row a live recording would hold, in order.
+pub fn run_with_rows(
+    rec: &Recording,
+    method: Method,
+    mut progress: impl FnMut(f64),
+    mut row: impl FnMut(&EstimateMsg),
+) -> Result<Replayed, String> {
     let s = &rec.scenario;
     let mut est = Estimator::new(method, s.estimator_config(&s.priors()));
-    let mut rows = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, 0);
-    let n = rec.samples.len();
+    let mut gate = RowGate::default();
+    let fs = s.sample_rate_hz;
+    let n = rec.n;
     let mut score = (!rec.faults.is_empty()).then(|| {
         let mut sc = crate::faults::FaultScore::new(s);
         for r in rec
@@ -32,8 +43,9 @@ pub fn run(rec: &Recording, method: Method, mut progress: impl FnMut(f64)) -> Re
         }
         sc
     });
-    for (i, sample) in rec.samples.iter().enumerate() {
-        let e = est.step(sample);
+    for (i, sample) in rec.samples().enumerate() {
+        let sample = sample?;
+        let e = est.step(&sample);
         if let Some(sc) = score.as_mut() {
             sc.observe(
                 sample.header.tick,
@@ -42,17 +54,20 @@ pub fn run(rec: &Recording, method: Method, mut progress: impl FnMut(f64)) -> Re
                 e.tick_rejections,
             );
         }
-        rows.record_estimate(&e);
+        if gate.due(&e, fs) {
+            row(&e);
+        }
         if i % 10_000 == 0 {
             progress(i as f64 / n as f64);
         }
     }
     let estimate = est.finish();
-    rows.record_estimate(&estimate);
-    progress(1.0);
-    Replayed {
-        estimate,
-        rows: rows.estimates,
-        faults: score,
+    if gate.due(&estimate, fs) {
+        row(&estimate);
     }
+    progress(1.0);
+    Ok(Replayed {
+        estimate,
+        faults: score,
+    })
 }

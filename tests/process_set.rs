@@ -443,7 +443,11 @@ fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
     let _ = finish(child);
     // Their nodes are now dead but their shared memory is still there.
     let dirs = node_dirs(&pfx);
-    assert_eq!(dirs.len(), 5, "supervisor and four stages: {dirs:?}");
+    assert_eq!(
+        dirs.len(),
+        6,
+        "supervisor, four stages and the estimator's publisher: {dirs:?}"
+    );
     let o = supervisor(&sc, &out, &pfx, &[]).output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
@@ -471,7 +475,11 @@ fn a_finished_run_leaves_nothing_on_the_bus() {
     let dirs = node_dirs(&pfx);
     let o = finish(child);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(dirs.len(), 5, "supervisor and four stages: {dirs:?}");
+    assert_eq!(
+        dirs.len(),
+        6,
+        "supervisor, four stages and the estimator's publisher: {dirs:?}"
+    );
     // Every process dropped its node and the supervisor removed the prefix's global
     // object: no directory, file or shared memory of the run is left, the lock neither.
     let left = left_on_the_bus(&pfx, &dirs);
@@ -633,4 +641,67 @@ fn injected_faults_are_the_same_in_the_process_set_and_a_killed_estimator_change
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("restarting it"), "{stderr}");
     assert_eq!(estimates(&report(&out2)), in_process(&sc, 13));
+}
+
+/// Outside clients on the bus (the official iceoryx2 Python bindings, as a user's tool
+/// would use them): one attaches mid-run, follows the live estimates and detaches;
+/// another attaches and never reads. The estimator loop allocates nothing, no sample
+/// is lost, and the estimates are those of the in-process run.
+#[test]
+fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
+    let _s = serial();
+    if std::process::Command::new("python3")
+        .args(["-c", "import iceoryx2"])
+        .status()
+        .map(|s| !s.success())
+        .unwrap_or(true)
+    {
+        panic!("the iceoryx2 Python bindings are missing: tools/test installs them");
+    }
+    let dir = tmp("python");
+    let sc = write_scenario(
+        &dir,
+        "name = \"py\"\nseed = 5\nduration_s = 600.0\n[maneuver]\nfrequency_hz = 1e-2\n",
+    );
+    let out = dir.join("out");
+    let pre = prefix("py");
+    let child = supervisor(&sc, &out, &pre, &["--realtime", "--time-scale", "100"])
+        .spawn()
+        .unwrap();
+    let client = |extra: &[&str]| {
+        Command::new("python3")
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/python/follow_estimates.py"))
+            .args(["--bus-prefix", &pre, "--timeout", "20", "--quiet"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    std::thread::sleep(Duration::from_millis(1000));
+    let stalled = client(&["--never-read", "3"]);
+    std::thread::sleep(Duration::from_millis(500));
+    let follower = client(&["--count", "100"]);
+    let f = follower.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&f.stdout);
+    assert!(
+        f.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&f.stderr)
+    );
+    assert!(text.contains("100 estimates"), "{text}");
+    let s = stalled.wait_with_output().unwrap();
+    assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+    let o = finish(child);
+    // A 600 s campaign misses the β requirement (exit 1, as in-process); it must run.
+    assert!(
+        matches!(o.status.code(), Some(0 | 1)),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let r = report(&out);
+    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(estimates(&r), in_process(&sc, 5));
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -160,29 +160,54 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             let seed = seed.unwrap_or(s.seed);
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
+            // The bound's noise-free campaign runs beside the campaign itself.
+            let crlb = {
+                let s = s.clone();
+                std::thread::spawn(move || crlb_of(&s))
+            };
             let bar = Bar::new(1000, "campaign");
             let tick = |f: f64| bar.set((f * 1000.0) as u64);
-            // The bound's noise-free campaign runs beside the campaign itself.
-            let (crlb, (res, tel)) = std::thread::scope(|sc| {
-                let crlb = sc.spawn(|| crlb_of(&s));
-                let run = if record || plots {
-                    let (res, tel) = taiji::campaign::run_recorded(&s, seed, method, tick);
-                    (res, Some(tel))
-                } else {
-                    (taiji::campaign::run(&s, seed, method, tick), None)
+            let (estimate, tel, faults) = if record || plots {
+                // The recording streams to disk as the campaign runs; figures need
+                // the streams in memory.
+                let mut file = match record {
+                    true => Some(taiji::telemetry::Writer::create(
+                        &out.join("telemetry.h5"),
+                        &Meta::of(&s, seed, method.name(), "in-process"),
+                        s.n_samples(),
+                        taiji::telemetry::CHUNK_ROWS,
+                    )?),
+                    false => None,
                 };
-                let crlb = crlb.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
-                (crlb, run)
-            });
-            let crlb = crlb?;
-            if let (true, Some(tel)) = (record, &tel) {
-                std::fs::create_dir_all(&out)
-                    .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
-                let meta = Meta::of(&s, seed, method.name(), "in-process");
-                tel.write(&out.join("telemetry.h5"), &meta)?;
-            }
-            let (estimate, faults) = (res.estimate, res.faults);
+                let mut tel = plots.then(|| {
+                    let n = s.n_samples();
+                    taiji::telemetry::Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n)
+                });
+                let mut sink = taiji::telemetry::Tee {
+                    memory: tel.as_mut(),
+                    file: file.as_mut(),
+                };
+                let res = taiji::campaign::run_into(&s, seed, method, tick, &mut sink)?;
+                if let Some(f) = file {
+                    let (r, d) = res
+                        .faults
+                        .as_ref()
+                        .map_or((&[][..], &[][..]), |f| (&f.records[..], &f.detected[..]));
+                    f.finish(r, d)?;
+                }
+                if let (Some(t), Some(f)) = (tel.as_mut(), &res.faults) {
+                    t.faults = f.records.clone();
+                    t.faults_detected = f.detected.clone();
+                }
+                (res.estimate, tel, res.faults)
+            } else {
+                let res = taiji::campaign::run(&s, seed, method, tick);
+                (res.estimate, None, res.faults)
+            };
             bar.finish();
+            let crlb = crlb
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e))?;
             let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
             report.faults = faults.map(|f| f.summary());
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
@@ -207,7 +232,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             };
             let crlb = crlb_of(&rec.scenario)?;
             let bar = Bar::new(1000, "replay");
-            let res = taiji::replay::run(&rec, method, |f| bar.set((f * 1000.0) as u64));
+            let res = taiji::replay::run(&rec, method, |f| bar.set((f * 1000.0) as u64))?;
             bar.finish();
             let mut report = Report::new(
                 &rec.scenario,

@@ -53,7 +53,7 @@ impl EstimatorConfig {
         let pos = |x: f64| x.is_finite() && x > 0.0;
         let nonneg = |x: f64| x.is_finite() && x >= 0.0;
         let bad = |name| Err(ConfigError::Field(name));
-        if !(pos(self.fs) && self.fs <= 1e4) {
+        if !(self.fs.is_finite() && (1e-2..=1e4).contains(&self.fs)) {
             return bad("fs");
         }
         if !(1..=2).contains(&self.n_is) {
@@ -86,7 +86,8 @@ impl EstimatorConfig {
         if !pos(self.full_scale_angular) {
             return bad("full_scale_angular");
         }
-        if self.max_gap_ticks == 0 || self.max_gap_ticks > 1 << 40 {
+        // It bounds the work of one update (each missing tick is bridged).
+        if self.max_gap_ticks == 0 || self.max_gap_ticks > 10_000_000 {
             return bad("max_gap_ticks");
         }
         for i in 0..2 {

@@ -1,12 +1,12 @@
 //! `taiji-estimator`: the calibration filters on the sensor stream. Resumes from its
 //! checkpoint when restarted; allocates nothing in its loop (it counts and reports it).
 
-use super::{Exit, Link, StageArgs};
+use super::{BusArgs, Exit, Link};
 use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
-use crate::estimate::Estimator;
-use crate::msg::{EstimateMsg, SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
+use crate::estimate::{Estimator, EstimatorConfig};
+use crate::msg::{SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
@@ -36,10 +36,60 @@ fn fault_checkpoint_delay() -> Result<Duration, String> {
     }
 }
 
-pub fn run(args: &StageArgs) -> Result<Exit, String> {
-    let s = args.scenario()?;
+/// Everything the estimator process is given: the estimator's table (priors, known
+/// geometry, noise levels — `EstimatorConfig` has no field for a truth) and the length
+/// of the campaign. The supervisor writes it from the scenario (`TABLE_FILE`); the
+/// process never sees the scenario itself.
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
+pub struct EstimatorTable {
+    pub config: EstimatorConfig,
+    /// Samples in the campaign (the final estimate follows the last).
+    pub n_samples: u64,
+}
+
+/// File name of the table in the run directory.
+pub const TABLE_FILE: &str = "estimator_table.json";
+
+impl EstimatorTable {
+    pub fn of(s: &crate::scenario::Scenario) -> Self {
+        EstimatorTable {
+            config: s.estimator_config(&s.priors()),
+            n_samples: s.n_samples(),
+        }
+    }
+
+    pub fn write(&self, path: &std::path::Path) -> Result<(), String> {
+        let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    }
+
+    pub fn load(path: &std::path::Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read the estimator table {}: {e}", path.display()))?;
+        let t: Self = serde_json::from_str(&text)
+            .map_err(|e| format!("{}: not an estimator table: {e}", path.display()))?;
+        t.config
+            .check()
+            .map_err(|e| format!("{}: estimator table refused: {e:?}", path.display()))?;
+        Ok(t)
+    }
+}
+
+/// The estimator process's arguments: the bus's and its table — no scenario.
+#[derive(Debug, Clone, clap::Args)]
+pub struct EstimatorArgs {
+    /// The estimator's table (JSON; the supervisor writes it to the run directory).
+    #[arg(long)]
+    pub table: std::path::PathBuf,
+    #[command(flatten)]
+    pub bus: BusArgs,
+}
+
+pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
+    let table = EstimatorTable::load(&args.table)?;
+    let args = &args.bus;
     let method = args.method()?;
-    let period = args.period_ns(&s)?;
+    let period = args.period_ns(table.config.fs)?;
     std::fs::create_dir_all(&args.run_dir)
         .map_err(|e| format!("cannot create {}: {e}", args.run_dir.display()))?;
     let ckpt_path = args.run_dir.join(CHECKPOINT_FILE);
@@ -48,7 +98,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             log::warn!("taiji-estimator: resuming from checkpoint at tick {next}");
             (est, next)
         }
-        None => (Estimator::new(method, s.estimator_config(&s.priors())), 0),
+        None => (Estimator::new(method, table.config), 0),
     };
     let mut ckpt = Checkpointer::with_write_delay(&ckpt_path, &est, fault_checkpoint_delay()?)?;
     let mut link = Link::new(
@@ -60,8 +110,9 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         args,
     )?;
     let input = bus::subscriber::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
-    let out = bus::publisher::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE)?;
-    let n = s.n_samples();
+    // Estimates leave through their own thread (see `outbox`).
+    let mut out = super::outbox::Outbox::start(&args.bus_prefix)?;
+    let n = table.n_samples;
     link.progress.next_tick = next;
     link.progress.resume_tick = next;
     link.beat()?;
@@ -95,7 +146,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             continue;
         }
         if allocs_before.is_none() {
-            allocs_before = alloc_count::allocations();
+            allocs_before = alloc_count::thread_allocations();
         }
         link.progress.state = STATE_RUNNING;
         let received = monotonic_ns();
@@ -105,7 +156,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
         e.header.origin_ns = sample.header.origin_ns;
         let now = monotonic_ns();
         e.header.publish_ns = now;
-        bus::publish(&out, e)?;
+        out.send(e)?;
         link.e2e.record(now.saturating_sub(sample.header.origin_ns));
         // The tick's deadline: its estimate out within one period of the tick's due
         // time, whichever stage was late (a lost plant tick carries no due time).
@@ -125,13 +176,13 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             let mut f = est.finish();
             f.header.origin_ns = sample.header.origin_ns;
             f.header.publish_ns = monotonic_ns();
-            bus::publish(&out, f)?;
+            out.send(f)?;
             done = true;
             link.progress.state = STATE_DONE;
         }
         if next % 32 == 0 || done {
             if let Some(a) = allocs_before {
-                link.progress.loop_allocations = alloc_count::allocations().unwrap_or(a) - a;
+                link.progress.loop_allocations = alloc_count::thread_allocations().unwrap_or(a) - a;
             }
             link.beat()?;
         }
@@ -139,10 +190,11 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     match allocs_before {
         Some(a) => log::info!(
             "taiji-estimator: heap allocations in the filter loop: {}",
-            alloc_count::allocations().unwrap_or(a) - a
+            alloc_count::thread_allocations().unwrap_or(a) - a
         ),
         None => log::info!("taiji-estimator: allocation counting not installed"),
     }
+    out.finish()?;
     link.beat()?;
     Ok(exit)
 }

@@ -9,6 +9,7 @@
 pub mod commander;
 pub mod estimator;
 pub mod fee;
+pub mod outbox;
 pub mod plant;
 pub mod recorder;
 pub mod supervisor;
@@ -22,7 +23,8 @@ use iceoryx2::prelude::*;
 use std::path::PathBuf;
 use std::time::Duration;
 
-/// Arguments every stage process takes (the supervisor passes them).
+/// Arguments of the stages that simulate (commander, plant, front-end, recorder): the
+/// bus arguments and the scenario, truths included.
 #[derive(Debug, Clone, clap::Args)]
 pub struct StageArgs {
     /// Scenario TOML (default: the paper's case).
@@ -31,6 +33,21 @@ pub struct StageArgs {
     /// Seed (default: the scenario's).
     #[arg(long)]
     pub seed: Option<u64>,
+    #[command(flatten)]
+    pub bus: BusArgs,
+}
+
+impl std::ops::Deref for StageArgs {
+    type Target = BusArgs;
+    fn deref(&self) -> &BusArgs {
+        &self.bus
+    }
+}
+
+/// Arguments every stage process takes (the supervisor passes them); no scenario: the
+/// estimator gets only these and its table (`estimator::EstimatorArgs`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct BusArgs {
     /// Prefix of the run's iceoryx2 resources.
     #[arg(long, default_value = bus::DEFAULT_PREFIX)]
     pub bus_prefix: String,
@@ -67,12 +84,19 @@ impl StageArgs {
         self.seed.unwrap_or(s.seed)
     }
 
+    /// Real-time tick period [ns] (0 in accelerated mode).
+    pub fn period_ns(&self, s: &Scenario) -> Result<u64, String> {
+        self.bus.period_ns(s.sample_rate_hz)
+    }
+}
+
+impl BusArgs {
     pub fn method(&self) -> Result<Method, String> {
         parse_method(&self.method)
     }
 
-    /// Real-time tick period [ns] (0 in accelerated mode).
-    pub fn period_ns(&self, s: &Scenario) -> Result<u64, String> {
+    /// Real-time tick period [ns] at sample rate `fs` [Hz] (0 in accelerated mode).
+    pub fn period_ns(&self, fs: f64) -> Result<u64, String> {
         if !self.realtime {
             return Ok(0);
         }
@@ -82,9 +106,7 @@ impl StageArgs {
                 self.time_scale
             ));
         }
-        Ok((1e9 / (s.sample_rate_hz * self.time_scale))
-            .round()
-            .max(1.0) as u64)
+        Ok((1e9 / (fs * self.time_scale)).round().max(1.0) as u64)
     }
 }
 
@@ -158,7 +180,7 @@ impl Link {
         stage: &str,
         upstream: Option<&str>,
         downstream: Option<(&str, u32)>,
-        args: &StageArgs,
+        args: &BusArgs,
     ) -> Result<Self, String> {
         let node = bus::node(name, &args.bus_prefix)?;
         let wake = bus::listener(&node, &bus::wake_service(stage))?;

@@ -1,5 +1,6 @@
-//! `taiji-recorder`: subscribes to the truth and estimate streams and writes
-//! `telemetry.h5` at the end of the campaign. It only reads: the estimates are those of
+//! `taiji-recorder`: subscribes to the truth and estimate streams and streams them to
+//! `telemetry.h5` a chunk at a time (its memory does not grow with the campaign; if it
+//! dies, the file holds every chunk but the last). It only reads: the estimates are those of
 //! the set without it, bit for bit. Its credit paces the commander (never the
 //! estimator directly), so no sample is dropped however the OS schedules it.
 //!
@@ -14,7 +15,7 @@ use crate::bus;
 use crate::faults::{FaultScore, Injector};
 use crate::fee::FrontEnd;
 use crate::msg::{EstimateMsg, TruthState, EST_FINAL, PROC_RECORDER, STATE_DONE, STATE_RUNNING};
-use crate::telemetry::{Meta, Telemetry};
+use crate::telemetry::{Meta, Writer, CHUNK_ROWS};
 use std::time::Duration;
 
 /// File name of the recording in the run directory.
@@ -59,7 +60,8 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let truth = bus::subscriber_with_queue::<TruthState>(&link.node, bus::SVC_TRUTH, q)?;
     let estimate = bus::subscriber_with_queue::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE, q)?;
     let n = s.n_samples();
-    let mut tel = Some(Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n));
+    let meta = Meta::of(&s, seed, method.name(), "multi-process");
+    let mut tel = Some(Writer::create(&path, &meta, n, CHUNK_ROWS)?);
     let mut fee = FrontEnd::new(&s, seed, true);
     let mut inj = Injector::new(&s, seed);
     let mut score = FaultScore::new(&s);
@@ -70,14 +72,16 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let (mut turn, mut in_turn) = (0u64, 0usize);
     let mut pending = std::collections::VecDeque::<EstimateMsg>::with_capacity(4096);
     let mut final_seen = false;
-    let mut writer: Option<std::thread::JoinHandle<Result<(), String>>> = None;
     link.beat()?;
     loop {
         if let Some(e) = link.poll()? {
-            if writer.is_some() || tel.is_some() {
+            if let Some(mut t) = tel.take() {
+                // Stopped early: the file keeps every sample received.
+                t.flush()?;
                 log::warn!(
-                    "taiji-recorder: stopped before {} was written",
-                    path.display()
+                    "taiji-recorder: stopped before {} was complete ({} samples)",
+                    path.display(),
+                    t.samples()
                 );
             }
             return Ok(e);
@@ -87,11 +91,10 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             while let Some(m) = bus::receive(&truth)? {
                 got += 1;
                 if c_truth.take(m.header.tick) {
-                    t.record_truth(&m);
                     let mut smp = fee.step(&m);
                     inj.corrupt(&mut smp, &mut |r| score.push(r));
                     inj.bus_records(m.header.tick, &mut |r| score.push(r));
-                    t.record_sensor(&smp);
+                    t.record(&m, &smp)?;
                 }
             }
             while let Some(m) = bus::receive(&estimate)? {
@@ -108,7 +111,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                     pending.pop_front();
                     next_seq = m.header.seq + 1;
                     if !final_seen {
-                        t.record_estimate(&m);
+                        t.record_estimate(&m)?;
                         final_seen = true;
                     }
                     continue;
@@ -129,7 +132,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
                 let (d, of, second) = plan[in_turn];
                 score.observe(of, d, second, m.tick_rejections);
                 in_turn += 1;
-                t.record_estimate(&m);
+                t.record_estimate(&m)?;
             }
         }
         if got > 0 {
@@ -140,31 +143,23 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             link.beat()?;
         }
         let complete = c_truth.next >= n && final_seen;
-        if complete {
-            if let Some(mut t) = tel.take() {
-                if inj.enabled() {
-                    t.faults = score.records.clone();
-                    t.faults_detected = score.detected.clone();
-                }
-                if link.progress.samples_lost > 0 {
-                    return Err(format!(
-                        "{} samples never reached the recorder; {} not written",
-                        link.progress.samples_lost,
-                        path.display()
-                    ));
-                }
-                // Write on a thread: the heartbeat goes on while tens of MB are encoded.
-                let meta = Meta::of(&s, seed, method.name(), "multi-process");
-                let p = path.clone();
-                writer = Some(std::thread::spawn(move || t.write(&p, &meta)));
+        if let Some(mut t) = tel.take_if(|_| complete) {
+            if link.progress.samples_lost > 0 {
+                t.flush()?;
+                return Err(format!(
+                    "{} samples never reached the recorder; {} is incomplete",
+                    link.progress.samples_lost,
+                    path.display()
+                ));
             }
-            if writer.as_ref().is_some_and(|w| w.is_finished()) {
-                let w = writer.take().expect("checked above");
-                w.join()
-                    .map_err(|_| "the telemetry writer panicked".to_string())??;
-                log::info!("taiji-recorder: wrote {}", path.display());
-                return link.linger(STATE_DONE);
-            }
+            let none: (&[_], &[_]) = (&[], &[]);
+            let (records, detected) = match inj.enabled() {
+                true => (&score.records[..], &score.detected[..]),
+                false => none,
+            };
+            t.finish(records, detected)?;
+            log::info!("taiji-recorder: wrote {}", path.display());
+            return link.linger(STATE_DONE);
         }
         if got == 0 {
             if let Some(e) = link.idle(Duration::from_millis(1)) {

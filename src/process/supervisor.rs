@@ -9,7 +9,7 @@ use crate::msg::{
     Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_COMMANDER,
     PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER, STATE_DONE,
 };
-use crate::process::estimator::CHECKPOINT_FILE;
+use crate::process::estimator::{EstimatorTable, CHECKPOINT_FILE, TABLE_FILE};
 use crate::report::Report;
 use crate::scenario::Scenario;
 use crate::timing::monotonic_ns;
@@ -113,6 +113,10 @@ struct Set {
     /// Bus prefix of the run (for cleaning a dead member's resources).
     prefix: String,
     common: Vec<String>,
+    /// Arguments of the simulating stages only (the scenario, the seed); the estimator
+    /// gets its table instead.
+    scenario_args: Vec<String>,
+    table_args: Vec<String>,
     /// Real-time run: stages get their launch-description SCHED_FIFO priority.
     realtime: bool,
     bin_dir: PathBuf,
@@ -125,6 +129,11 @@ impl Set {
         let exe = self.bin_dir.join(&spec.name);
         let mut cmd = Command::new(&exe);
         cmd.args(&self.common);
+        if spec.name == "taiji-estimator" {
+            cmd.args(&self.table_args);
+        } else {
+            cmd.args(&self.scenario_args);
+        }
         if self.realtime && spec.rt_priority > 0 {
             cmd.args(["--rt-priority", &spec.rt_priority.to_string()]);
         }
@@ -493,12 +502,17 @@ fn supervise(
         "--method".into(),
         args.method.clone(),
     ];
+    let mut scenario_args: Vec<String> = Vec::new();
     if let Some(sc) = &args.scenario {
-        common.extend(["--scenario".into(), sc.display().to_string()]);
+        scenario_args.extend(["--scenario".into(), sc.display().to_string()]);
     }
     if let Some(seed) = args.seed {
-        common.extend(["--seed".into(), seed.to_string()]);
+        scenario_args.extend(["--seed".into(), seed.to_string()]);
     }
+    // The estimator process is given its table, never the scenario (truths).
+    let table = args.out.join(TABLE_FILE);
+    EstimatorTable::of(s).write(&table).map_err(user)?;
+    let table_args = vec!["--table".into(), table.display().to_string()];
     if args.record {
         common.push("--record".into());
     }
@@ -513,6 +527,8 @@ fn supervise(
         members: Vec::new(),
         prefix: args.bus_prefix.clone(),
         common,
+        scenario_args,
+        table_args,
         realtime: args.realtime,
         bin_dir,
         bar: crate::progress::Bar::new(s.n_samples(), "process set"),

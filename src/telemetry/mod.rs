@@ -1,10 +1,15 @@
 //! Telemetry: every stream of a run, recorded to `telemetry.h5` (HDF5, written in pure
 //! Rust) with SI units as attributes, and read back for replay. The layout is in
-//! [`layout`]; the README shows it as a table.
+//! [`layout`]; the README shows it as a table. Recordings stream to disk a chunk at a
+//! time ([`Writer`]) and replay reads them a chunk at a time ([`read::Recording`]), so
+//! memory does not grow with the campaign.
 
+mod h5;
 pub mod layout;
 pub mod read;
 mod write;
+
+pub use write::{Writer, CHUNK_ROWS};
 
 use crate::msg::{EstimateMsg, SensorSample, TruthState, EST_FINAL};
 
@@ -53,7 +58,92 @@ pub struct Telemetry {
     /// Injected faults (`[faults]`) and how many of each one's samples were rejected.
     pub faults: Vec<crate::faults::FaultRecord>,
     pub faults_detected: Vec<u64>,
-    last_row_tick: Option<u64>,
+    gate: RowGate,
+}
+
+/// Which estimates become estimate rows: the final estimate, and a new solve at least
+/// [`ESTIMATE_ROW_EVERY_S`] after the last row. Fed every estimate of a run in tick
+/// order, live or replayed, it keeps the same rows.
+#[derive(Debug, Clone, Default)]
+pub struct RowGate {
+    /// Tick and solve tick of the last row.
+    last: Option<(u64, u64)>,
+}
+
+impl RowGate {
+    /// Is `e` a row (at sample rate `fs` [Hz])? If so it is taken as the last row.
+    pub fn due(&mut self, e: &EstimateMsg, fs: f64) -> bool {
+        let spacing = (ESTIMATE_ROW_EVERY_S * fs).round() as u64;
+        let due = e.flags & EST_FINAL != 0
+            || match self.last {
+                Some((tick, solved)) => e.solved_tick != solved && e.header.tick >= tick + spacing,
+                None => e.n_used > 0,
+            };
+        if due {
+            self.last = Some((e.header.tick, e.solved_tick));
+        }
+        due
+    }
+}
+
+/// Where a campaign's streams go: memory ([`Telemetry`]), a file ([`Writer`]), or
+/// both ([`Tee`]).
+pub trait Sink {
+    /// One tick: the plant's truth and the front-end's sample of it.
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String>;
+    /// An estimate, kept if a row is due ([`RowGate`]).
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String>;
+}
+
+impl Sink for Telemetry {
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+        self.record_truth(t);
+        self.record_sensor(s);
+        Ok(())
+    }
+
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+        Telemetry::record_estimate(self, e);
+        Ok(())
+    }
+}
+
+impl Sink for Writer {
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+        Writer::record(self, t, s)
+    }
+
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+        Writer::record_estimate(self, e)
+    }
+}
+
+/// Both sinks, either optional: the file for `--record`, memory for `--plots`.
+pub struct Tee<'a> {
+    pub memory: Option<&'a mut Telemetry>,
+    pub file: Option<&'a mut Writer>,
+}
+
+impl Sink for Tee<'_> {
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+        if let Some(m) = self.memory.as_deref_mut() {
+            Sink::record(m, t, s)?;
+        }
+        match self.file.as_deref_mut() {
+            Some(f) => f.record(t, s),
+            None => Ok(()),
+        }
+    }
+
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+        if let Some(m) = self.memory.as_deref_mut() {
+            m.record_estimate(e);
+        }
+        match self.file.as_deref_mut() {
+            Some(f) => f.record_estimate(e),
+            None => Ok(()),
+        }
+    }
 }
 
 impl Telemetry {
@@ -103,25 +193,15 @@ impl Telemetry {
         }
     }
 
-    /// Record `e` if a row is due: the final estimate, or a new solve at least
-    /// `ESTIMATE_ROW_EVERY_S` after the last row. Fed every estimate of a run in tick
-    /// order, live or replayed, it keeps the same rows.
+    /// Record `e` if a row is due (see [`RowGate`]).
     pub fn record_estimate(&mut self, e: &EstimateMsg) {
-        let spacing = (ESTIMATE_ROW_EVERY_S * self.fs).round() as u64;
-        let due = e.flags & EST_FINAL != 0
-            || match (self.last_row_tick, self.estimates.last()) {
-                (Some(t), Some(last)) => {
-                    e.solved_tick != last.solved_tick && e.header.tick >= t + spacing
-                }
-                _ => e.n_used > 0,
-            };
-        if due {
-            self.last_row_tick = Some(e.header.tick);
+        if self.gate.due(e, self.fs) {
             self.estimates.push(*e);
         }
     }
 
-    /// Write `path` (HDF5). Every truth and sensor row must be present.
+    /// Write `path` (HDF5) through a [`Writer`]. Every truth and sensor row must be
+    /// present.
     pub fn write(&self, path: &std::path::Path, meta: &Meta) -> Result<(), String> {
         write::write(self, path, meta)
     }

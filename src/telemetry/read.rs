@@ -1,6 +1,7 @@
 //! Reading `telemetry.h5` (ours, or one another tool wrote in the documented layout)
 //! for replay: the scenario and the star-tracker and IS channels, never truth. Every
-//! problem is an error naming the file, the dataset and what is wrong.
+//! problem is an error naming the file, the dataset and what is wrong. The file is read
+//! from disk as needed, a window of rows at a time, so memory does not grow with it.
 
 use super::layout as l;
 use super::Telemetry;
@@ -8,10 +9,10 @@ use crate::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
 use crate::scenario::Scenario;
 use hdf5_pure::{AttrValue, File};
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// What a replay needs from a recording.
-#[derive(Debug, Clone)]
+/// What a replay needs from a recording. The samples stay on disk: [`Recording::samples`]
+/// reads them in windows of [`Recording::chunk_rows`] rows.
 pub struct Recording {
     /// The scenario of the file's `scenario` attribute, or the default scenario with
     /// the file's sample rate, duration and number of IS.
@@ -20,10 +21,14 @@ pub struct Recording {
     pub seed: u64,
     /// The estimator the recording was made with (`method` attribute), if any.
     pub method: Option<String>,
-    /// The sensor stream, in tick order.
-    pub samples: Vec<SensorSample>,
     /// Faults injected into the recording (`/faults/*`, from a `[faults]` run).
     pub faults: Vec<crate::faults::FaultRecord>,
+    /// Number of samples.
+    pub n: u64,
+    /// Rows per window read.
+    pub chunk_rows: u64,
+    has_tick: bool,
+    r: Reader,
 }
 
 fn text_attr(v: &AttrValue) -> Option<String> {
@@ -48,12 +53,12 @@ fn num_attr(v: &AttrValue) -> Option<f64> {
     }
 }
 
-struct Reader<'a> {
+struct Reader {
     file: File,
-    origin: &'a Path,
+    origin: PathBuf,
 }
 
-impl Reader<'_> {
+impl Reader {
     fn err(&self, what: impl std::fmt::Display) -> String {
         format!("{}: {what}", self.origin.display())
     }
@@ -91,12 +96,46 @@ impl Reader<'_> {
             .read_u64()
             .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
     }
+
+    /// Rows `[start, start + count)` of `d` (dataset `path`), as floats.
+    fn f64_rows(
+        &self,
+        d: &hdf5_pure::Dataset,
+        path: &str,
+        start: u64,
+        count: u64,
+    ) -> Result<Vec<f64>, String> {
+        d.read_f64_rows(start, count)
+            .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
+    }
+
+    /// Rows `[start, start + count)` of `d` (dataset `path`), as integers.
+    fn int_rows(
+        &self,
+        d: &hdf5_pure::Dataset,
+        path: &str,
+        start: u64,
+        count: u64,
+    ) -> Result<Vec<u64>, String> {
+        d.read_u64_rows(start, count)
+            .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
+    }
 }
 
-/// Open `path` and read what a replay needs.
+/// Open `path` and check what a replay needs (reading /time and /tick in windows).
 pub fn open(path: &Path) -> Result<Recording, String> {
     let r = load(path)?;
-    guarded(&r, read)
+    let c = guarded(&r, read)?;
+    Ok(Recording {
+        scenario: c.scenario,
+        seed: c.seed,
+        method: c.method,
+        faults: c.faults,
+        n: c.n,
+        chunk_rows: super::CHUNK_ROWS as u64,
+        has_tick: c.has_tick,
+        r,
+    })
 }
 
 /// Run `f` on the file; a panic inside the HDF5 reader is reported as corruption.
@@ -105,12 +144,12 @@ fn guarded<T>(r: &Reader, f: impl FnOnce(&Reader) -> Result<T, String>) -> Resul
         .map_err(|_| r.err("corrupt HDF5 file (its structure could not be decoded)"))?
 }
 
-/// Read and check the file as a whole (signature, superblock, length).
-fn load(path: &Path) -> Result<Reader<'_>, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+/// Open the file (its superblock and length checked; data is read on demand).
+fn load(path: &Path) -> Result<Reader, String> {
+    std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     // The HDF5 reader is defensive, but a malformed file must never take the process
     // down with a panic trace: treat a panic as "corrupt".
-    let file = std::panic::catch_unwind(|| File::from_bytes(bytes))
+    let file = std::panic::catch_unwind(|| File::open_streaming(path))
         .map_err(|_| format!("{}: corrupt HDF5 file", path.display()))?
         .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
     // Contiguous data past the end of a truncated file would read as fill values.
@@ -123,16 +162,70 @@ fn load(path: &Path) -> Result<Reader<'_>, String> {
             file.file_size()
         ));
     }
-    Ok(Reader { file, origin: path })
+    Ok(Reader {
+        file,
+        origin: path.to_path_buf(),
+    })
 }
 
-fn read(r: &Reader) -> Result<Recording, String> {
+/// A recording's metadata, checked.
+struct Checked {
+    scenario: Scenario,
+    seed: u64,
+    method: Option<String>,
+    faults: Vec<crate::faults::FaultRecord>,
+    n: u64,
+    has_tick: bool,
+}
+
+/// Check that `/time` (and `/tick`, if present) hold `n` finite, strictly increasing
+/// values, reading them a window at a time.
+fn check_increasing(r: &Reader, n: u64) -> Result<bool, String> {
+    let rows = super::CHUNK_ROWS as u64;
+    let time = r.shaped(l::TIME, &[n])?;
+    let mut prev: Option<f64> = None;
+    for start in (0..n).step_by(rows as usize) {
+        let t = r.f64_rows(&time, l::TIME, start, rows)?;
+        for (k, &x) in t.iter().enumerate() {
+            let i = start + k as u64;
+            if !x.is_finite() {
+                return Err(r.err(format!("/time[{i}] is not finite")));
+            }
+            if let Some(p) = prev.filter(|&p| x <= p) {
+                return Err(r.err(format!(
+                    "/time is not strictly increasing at row {i} ({x} s after {p} s)"
+                )));
+            }
+            prev = Some(x);
+        }
+    }
+    if !r.has(l::TICK) {
+        return Ok(false);
+    }
+    let tick = r.shaped(l::TICK, &[n])?;
+    let mut prev: Option<u64> = None;
+    for start in (0..n).step_by(rows as usize) {
+        let t = r.int_rows(&tick, l::TICK, start, rows)?;
+        for (k, &x) in t.iter().enumerate() {
+            if let Some(p) = prev.filter(|&p| x <= p) {
+                return Err(r.err(format!(
+                    "/tick is not strictly increasing at row {} ({x} after {p})",
+                    start + k as u64
+                )));
+            }
+            prev = Some(x);
+        }
+    }
+    Ok(true)
+}
+
+fn read(r: &Reader) -> Result<Checked, String> {
     let attrs: HashMap<String, AttrValue> = r
         .file
         .root()
         .attrs()
         .map_err(|e| r.err(format!("unreadable root attributes ({e})")))?;
-    let time = {
+    let (n, t01) = {
         let d = r
             .file
             .dataset(l::TIME)
@@ -143,20 +236,16 @@ fn read(r: &Reader) -> Result<Recording, String> {
                 "/time has shape {shape:?}, the layout needs [N] with N > 0"
             )));
         }
-        d.read_f64()
-            .map_err(|e| r.err(format!("/time: cannot read its data ({e})")))?
+        (shape[0], r.f64_rows(&d, l::TIME, 0, 2)?)
     };
-    let n = time.len() as u64;
-    if let Some(bad) = time.iter().position(|t| !t.is_finite()) {
-        return Err(r.err(format!("/time[{bad}] is not finite")));
-    }
-    if let Some(i) = (1..time.len()).find(|&i| time[i] <= time[i - 1]) {
-        return Err(r.err(format!(
-            "/time is not strictly increasing at row {i} ({} s after {} s)",
-            time[i],
-            time[i - 1]
-        )));
-    }
+    let incomplete = |expected: u64| {
+        if n < expected && attrs.contains_key("format") {
+            " (an incomplete recording: its writer stopped before the end)"
+        } else {
+            ""
+        }
+    };
+    let has_tick = check_increasing(r, n)?;
     if let Some(v) = attrs.get("format_version") {
         let v =
             num_attr(v).ok_or_else(|| r.err("root attribute `format_version` is not a number"))?;
@@ -183,7 +272,7 @@ fn read(r: &Reader) -> Result<Recording, String> {
             let fs = match attrs.get("sample_rate_hz") {
                 Some(v) => num_attr(v)
                     .ok_or_else(|| r.err("root attribute `sample_rate_hz` is not a number"))?,
-                None if n >= 2 => 1.0 / (time[1] - time[0]),
+                None if n >= 2 => 1.0 / (t01[1] - t01[0]),
                 None => return Err(r.err("one sample and no `sample_rate_hz` attribute")),
             };
             let mut s = Scenario {
@@ -201,10 +290,11 @@ fn read(r: &Reader) -> Result<Recording, String> {
     };
     if scenario.n_samples() != n {
         return Err(r.err(format!(
-            "/time has {n} rows, but the scenario ({} s at {} Hz) has {} samples",
+            "/time has {n} rows, but the scenario ({} s at {} Hz) has {} samples{}",
             scenario.duration_s,
             scenario.sample_rate_hz,
-            scenario.n_samples()
+            scenario.n_samples(),
+            incomplete(scenario.n_samples())
         )));
     }
     let n_is = scenario.inertial_sensor.len();
@@ -221,63 +311,130 @@ fn read(r: &Reader) -> Result<Recording, String> {
         None => scenario.seed,
     };
     let method = attrs.get("method").and_then(text_attr);
-
-    let ticks = if r.has(l::TICK) {
-        r.ints(l::TICK, n)?
-    } else {
-        (0..n).collect()
-    };
-    if let Some(i) = (1..ticks.len()).find(|&i| ticks[i] <= ticks[i - 1]) {
-        return Err(r.err(format!(
-            "/tick is not strictly increasing at row {i} ({} after {})",
-            ticks[i],
-            ticks[i - 1]
-        )));
-    }
-    let star_q = r.f64s(l::STAR_Q, &[n, 4])?;
-    let star_valid = r.ints(l::STAR_VALID, n)?;
-    let mut volts = Vec::new();
-    let mut flags = Vec::new();
+    r.shaped(l::STAR_Q, &[n, 4])?;
+    r.shaped(l::STAR_VALID, &[n])?;
     for i in 0..n_is {
-        volts.push(r.f64s(l::IS_VOLTAGE[i], &[n, 3, 2])?);
-        flags.push(r.ints(l::IS_FLAGS[i], n)?);
+        r.shaped(l::IS_VOLTAGE[i], &[n, 3, 2])?;
+        r.shaped(l::IS_FLAGS[i], &[n])?;
     }
-    let fs = scenario.sample_rate_hz;
-    let samples = (0..n as usize)
-        .map(|k| {
-            let mut s = SensorSample {
-                header: Header::at(k as u64, ticks[k], fs),
-                star: StarSample {
-                    q_bn: std::array::from_fn(|j| star_q[4 * k + j]),
-                    valid: u8::from(star_valid[k] != 0),
-                    _pad: [0; 7],
-                },
-                ..Default::default()
-            };
-            for i in 0..2 {
-                if i >= n_is {
-                    s.is[i].flags = FLAG_ABSENT;
-                    continue;
-                }
-                s.is[i] = IsSample {
-                    volts: std::array::from_fn(|j| {
-                        [volts[i][6 * k + 2 * j], volts[i][6 * k + 2 * j + 1]]
-                    }),
-                    flags: flags[i][k].min(255) as u8,
-                    _pad: [0; 7],
-                };
-            }
-            s
-        })
-        .collect();
     let faults = read_faults(r)?;
-    Ok(Recording {
+    Ok(Checked {
         scenario,
         seed,
         method,
-        samples,
         faults,
+        n,
+        has_tick,
     })
+}
+
+impl Recording {
+    /// The sensor stream, in tick order, read a window at a time.
+    pub fn samples(&self) -> Samples<'_> {
+        Samples {
+            rec: self,
+            next: 0,
+            window: Vec::new().into_iter(),
+            failed: false,
+        }
+    }
+
+    /// Samples `[start, start + count)`.
+    fn window(&self, start: u64, count: u64) -> Result<Vec<SensorSample>, String> {
+        guarded(&self.r, |r| {
+            let n_is = self.scenario.inertial_sensor.len();
+            let ds = |p: &str| {
+                r.file
+                    .dataset(p)
+                    .map_err(|_| r.err(format!("missing dataset /{p}")))
+            };
+            let ticks = if self.has_tick {
+                r.int_rows(&ds(l::TICK)?, l::TICK, start, count)?
+            } else {
+                (start..start + count).collect()
+            };
+            let star_q = r.f64_rows(&ds(l::STAR_Q)?, l::STAR_Q, start, count)?;
+            let star_valid = r.int_rows(&ds(l::STAR_VALID)?, l::STAR_VALID, start, count)?;
+            let mut volts = Vec::new();
+            let mut flags = Vec::new();
+            for i in 0..n_is {
+                volts.push(r.f64_rows(&ds(l::IS_VOLTAGE[i])?, l::IS_VOLTAGE[i], start, count)?);
+                flags.push(r.int_rows(&ds(l::IS_FLAGS[i])?, l::IS_FLAGS[i], start, count)?);
+            }
+            let m = ticks.len();
+            if star_q.len() != 4 * m
+                || star_valid.len() != m
+                || volts.iter().any(|v| v.len() != 6 * m)
+                || flags.iter().any(|f| f.len() != m)
+            {
+                return Err(r.err(format!(
+                    "rows {start}..{} could not all be read",
+                    start + count
+                )));
+            }
+            let fs = self.scenario.sample_rate_hz;
+            Ok((0..m)
+                .map(|k| {
+                    let mut s = SensorSample {
+                        header: Header::at(start + k as u64, ticks[k], fs),
+                        star: StarSample {
+                            q_bn: std::array::from_fn(|j| star_q[4 * k + j]),
+                            valid: u8::from(star_valid[k] != 0),
+                            _pad: [0; 7],
+                        },
+                        ..Default::default()
+                    };
+                    for i in 0..2 {
+                        if i >= n_is {
+                            s.is[i].flags = FLAG_ABSENT;
+                            continue;
+                        }
+                        s.is[i] = IsSample {
+                            volts: std::array::from_fn(|j| {
+                                [volts[i][6 * k + 2 * j], volts[i][6 * k + 2 * j + 1]]
+                            }),
+                            flags: flags[i][k].min(255) as u8,
+                            _pad: [0; 7],
+                        };
+                    }
+                    s
+                })
+                .collect())
+        })
+    }
+}
+
+/// The samples of a [`Recording`], a window at a time; a read error ends them.
+pub struct Samples<'a> {
+    rec: &'a Recording,
+    next: u64,
+    window: std::vec::IntoIter<SensorSample>,
+    failed: bool,
+}
+
+impl Iterator for Samples<'_> {
+    type Item = Result<SensorSample, String>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if let Some(s) = self.window.next() {
+            return Some(Ok(s));
+        }
+        if self.failed || self.next >= self.rec.n {
+            return None;
+        }
+        let count = self.rec.chunk_rows.max(1).min(self.rec.n - self.next);
+        match self.rec.window(self.next, count) {
+            Ok(w) => {
+                self.next += w.len() as u64;
+                self.window = w.into_iter();
+                self.window.next().map(Ok)
+            }
+            Err(e) => {
+                self.failed = true;
+                Some(Err(e))
+            }
+        }
+    }
 }
 
 /// The fault log of a recording and how many samples of each fault were rejected.
@@ -329,17 +486,15 @@ fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, String> {
         .collect())
 }
 
-/// Every stream of a complete recording (truth included): for figures, not replay.
+/// Every stream of a complete recording (truth included), in memory: for figures and
+/// tests, not replay.
 pub fn full(path: &Path) -> Result<(Telemetry, Scenario), String> {
-    let r = load(path)?;
-    guarded(&r, |r| {
-        let rec = read(r)?;
-        with_truth(r, rec)
-    })
+    let rec = open(path)?;
+    guarded(&rec.r, |r| with_truth(r, &rec))
 }
 
-fn with_truth(r: &Reader, rec: Recording) -> Result<(Telemetry, Scenario), String> {
-    let s = rec.scenario;
+fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), String> {
+    let s = rec.scenario.clone();
     let n = s.n_samples();
     let ni = s.inertial_sensor.len() as u64;
     let m = r
@@ -351,8 +506,6 @@ fn with_truth(r: &Reader, rec: Recording) -> Result<(Telemetry, Scenario), Strin
         .copied()
         .unwrap_or(0);
     let mut t = Telemetry::new(ni as usize, s.sample_rate_hz, 0);
-    t.truth_tick = rec.samples.iter().map(|x| x.header.tick).collect();
-    t.sensor_tick = t.truth_tick.clone();
     t.torque_cmd = r.f64s(l::TORQUE_CMD, &[n, 3])?;
     t.torque = r.f64s(l::TORQUE, &[n, 3])?;
     t.attitude = r.f64s(l::ATTITUDE, &[n, 4])?;
@@ -360,7 +513,9 @@ fn with_truth(r: &Reader, rec: Recording) -> Result<(Telemetry, Scenario), Strin
     t.omega_dot = r.f64s(l::OMEGA_DOT, &[n, 3])?;
     t.tm_acc = r.f64s(l::TM_ACC, &[n, ni, 3])?;
     t.srp_acc = r.f64s(l::SRP_ACC, &[n, 3])?;
-    for x in &rec.samples {
+    for x in rec.samples() {
+        let x = x?;
+        t.truth_tick.push(x.header.tick);
         t.star_q.extend_from_slice(&x.star.q_bn);
         t.star_valid.push(x.star.valid);
         for i in 0..ni as usize {
@@ -368,11 +523,23 @@ fn with_truth(r: &Reader, rec: Recording) -> Result<(Telemetry, Scenario), Strin
             t.is_flags[i].push(x.is[i].flags);
         }
     }
+    t.sensor_tick = t.truth_tick.clone();
+    t.faults = rec.faults.clone();
+    if !t.faults.is_empty() {
+        t.faults_detected = r.ints(l::FAULT_DETECTED, t.faults.len() as u64)?;
+    }
     let e_tick = r.ints(l::EST_TICK, m)?;
     let e_time = r.f64s(l::EST_TIME, &[m])?;
     let used = r.ints(l::EST_N_USED, m)?;
     let rejected = r.ints(l::EST_N_REJECTED, m)?;
     let fin = r.ints(l::EST_FINAL, m)?;
+    let status = r.ints(l::EST_STATUS, m)?;
+    let nc = crate::msg::N_CAUSES;
+    let by_cause = r
+        .shaped(l::EST_REJECTED_BY_CAUSE, &[m, nc as u64])?
+        .read_u64()
+        .map_err(|e| r.err(format!("/{}: {e}", l::EST_REJECTED_BY_CAUSE)))?;
+    let chi2 = r.f64s(l::EST_CHI2, &[m, crate::msg::N_GROUPS as u64])?;
     let block = |p: &str| r.f64s(p, &[m, ni, 3]);
     let (beta, beta_s, k, k_s, rr, rr_s) = (
         block(l::EST_BETA)?,
@@ -393,6 +560,7 @@ fn with_truth(r: &Reader, rec: Recording) -> Result<(Telemetry, Scenario), Strin
             solved_tick: e_tick[row],
             n_used: used[row],
             n_rejected: rejected[row],
+            status: status[row],
             flags: if fin[row] != 0 {
                 crate::msg::EST_FINAL
             } else {
@@ -400,6 +568,9 @@ fn with_truth(r: &Reader, rec: Recording) -> Result<(Telemetry, Scenario), Strin
             },
             ..Default::default()
         };
+        e.rejected_by_cause = std::array::from_fn(|c| by_cause[row * nc + c]);
+        let ng = crate::msg::N_GROUPS;
+        e.chi2_per_dof = std::array::from_fn(|g| chi2[row * ng + g]);
         for i in 0..ni as usize {
             let at = |v: &[f64], a: usize| v[(row * ni as usize + i) * 3 + a];
             for a in 0..3 {
