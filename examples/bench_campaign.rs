@@ -1,33 +1,157 @@
-//! Times the default campaign in one process and through the process set (accelerated),
-//! then measures real-time latency of the set and the machine's own timing floor; run
-//! it through `tools/bench`.
+//! Times the default campaign in one process (whole process, in-process, and its
+//! stages), a 100-seed Monte Carlo, then the campaign through the process set
+//! (accelerated), real-time latency of the set and the machine's own timing floor; run
+//! it through `tools/bench` (`--in-process`: the first part only).
 use std::time::Instant;
-use taiji::campaign;
+use taiji::campaign::{self, Stages, Threads};
 use taiji::estimate::Method;
+use taiji::msg::SensorSample;
 use taiji::scenario::Scenario;
 
-fn main() {
-    let s = Scenario::default();
-    let n = s.n_samples();
-    let mut times: Vec<f64> = (0..5)
+/// Sorted times of `runs` calls of `f` [s].
+fn times(runs: usize, mut f: impl FnMut(u64)) -> Vec<f64> {
+    let mut t: Vec<f64> = (0..runs)
         .map(|i| {
             let t0 = Instant::now();
-            let r = campaign::run(&s, 1 + i, Method::Joint, |_| {});
-            std::hint::black_box(r.estimate);
+            f(1 + i as u64);
             t0.elapsed().as_secs_f64()
         })
         .collect();
-    times.sort_by(f64::total_cmp);
-    let med = times[2];
+    t.sort_by(f64::total_cmp);
+    t
+}
+
+/// "median M s (min, max, N runs)" of sorted times.
+fn spread(t: &[f64]) -> String {
+    format!(
+        "median {:.3} s   (min {:.3} s, max {:.3} s, {} runs)",
+        t[t.len() / 2],
+        t[0],
+        t[t.len() - 1],
+        t.len()
+    )
+}
+
+/// CPU time used so far by the waited-for children (user + system) [s].
+fn children_cpu_s() -> f64 {
+    // SAFETY: getrusage fills the struct it is given.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut u) };
+    let s = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    s(u.ru_utime) + s(u.ru_stime)
+}
+
+fn main() {
+    let in_process_only = std::env::args().any(|a| a == "--in-process");
+    let s = Scenario::default();
+    let n = s.n_samples();
+    let bin = std::env::current_exe()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("../taiji-calib");
+    let dir = std::env::temp_dir().join(format!("taiji-bench-{}", std::process::id()));
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
-        "default campaign, in-process: {n} samples ({} s simulated)",
+        "{} cores; load average before the bench (1, 5, 15 min): {}",
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+
+    // The whole process, as a user runs it: CRLB, campaign, report.json/md/html.
+    let mut cpu = Vec::new();
+    let whole = times(5, |_| {
+        let c0 = children_cpu_s();
+        let st = std::process::Command::new(&bin)
+            .args(["run", "--out"])
+            .arg(dir.join("run"))
+            .stdout(std::process::Stdio::null())
+            .status()
+            .expect("run taiji-calib (build it with --bins)");
+        assert!(
+            st.code().is_some_and(|c| c <= 1),
+            "taiji-calib failed: {st}"
+        );
+        cpu.push(children_cpu_s() - c0);
+    });
+    cpu.sort_by(f64::total_cmp);
+    println!(
+        "default campaign, whole process (`taiji-calib run`: CRLB beside the campaign, reports): {n} samples ({} s simulated)",
         s.duration_s
     );
+    println!("  wall time   {}", spread(&whole));
     println!(
-        "  wall time   median {:.3} s   (min {:.3} s, max {:.3} s, 5 runs)",
-        med, times[0], times[4]
+        "  CPU time    median {:.3} s (user + system, both cores)   ×{:.0} real time",
+        cpu[2],
+        s.duration_s / whole[2]
     );
-    println!("  throughput  {:.0} samples/s", n as f64 / med);
+
+    let report = |what: &str, t: &[f64]| {
+        println!("{what}");
+        println!("  wall time   {}", spread(t));
+        println!("  throughput  {:.0} samples/s", n as f64 / t[t.len() / 2]);
+    };
+    let two = times(5, |seed| {
+        let r = campaign::run_on(&s, seed, Method::Joint, Threads::Two, |_| {});
+        std::hint::black_box(r.estimate);
+    });
+    report(
+        "default campaign, in-process, simulation and estimator on two threads:",
+        &two,
+    );
+    let one = times(5, |seed| {
+        let r = campaign::run_on(&s, seed, Method::Joint, Threads::One, |_| {});
+        std::hint::black_box(r.estimate);
+    });
+    report("default campaign, in-process, one thread:", &one);
+
+    // Its stages alone, one thread each.
+    let mut samples: Vec<SensorSample> = Vec::with_capacity(n as usize);
+    let sim = times(3, |seed| {
+        let mut st = Stages::new(&s, seed, Method::Joint);
+        samples.clear();
+        for tick in 0..n {
+            let cmd = st.commander.step(tick);
+            let truth = st.plant.step(tick, &cmd.torque_cmd_b);
+            samples.push(st.fee.step(&truth));
+        }
+    });
+    let est = times(3, |_| {
+        let mut st = Stages::new(&s, 1, Method::Joint);
+        for m in &samples {
+            std::hint::black_box(st.estimator.step(m));
+        }
+        std::hint::black_box(st.estimator.finish());
+    });
+    let bound = times(3, |_| {
+        std::hint::black_box(taiji::crlb::crlb(&s));
+    });
+    println!("stages, one thread each (median of 3):");
+    println!(
+        "  simulation (commander, plant, front-end)  {:.3} s   estimator  {:.3} s   CRLB (noise-free campaign)  {:.3} s",
+        sim[1], est[1], bound[1]
+    );
+
+    // 100 seeds, one campaign per core.
+    let mc = times(1, |_| {
+        let st = std::process::Command::new(&bin)
+            .args(["montecarlo", "--runs", "100"])
+            .stdout(std::process::Stdio::null())
+            .status()
+            .expect("run taiji-calib");
+        assert!(st.success(), "montecarlo failed: {st}");
+    });
+    println!(
+        "Monte Carlo, 100 seeds (`taiji-calib montecarlo --runs 100`): {:.1} s",
+        mc[0]
+    );
+    let _ = std::fs::remove_dir_all(dir.join("run"));
+    if in_process_only {
+        return;
+    }
 
     // The same campaign through the process set, accelerated lock-step.
     let sup = std::env::current_exe()
@@ -35,7 +159,6 @@ fn main() {
         .parent()
         .unwrap()
         .join("../taiji-supervisor");
-    let dir = std::env::temp_dir().join(format!("taiji-bench-{}", std::process::id()));
     let prefix = format!("tjbench{}_", std::process::id());
     let run_set = |extra: &[&str], scenario: Option<&std::path::Path>| -> serde_json::Value {
         let mut c = std::process::Command::new(&sup);

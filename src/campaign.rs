@@ -1,14 +1,16 @@
 //! The whole campaign in one process: commander → plant → front-end → estimator,
-//! the same stage types the process set wires over shared memory.
+//! the same stage types the process set wires over shared memory. On two cores the
+//! simulation runs a few batches ahead of the estimator on a thread of its own.
 
 use crate::commander::Commander;
 use crate::estimate::{Estimator, Method};
-use crate::faults::{Delivery, FaultScore, Injector};
+use crate::faults::{Delivery, FaultRecord, FaultScore, Injector};
 use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
-use crate::msg::EstimateMsg;
+use crate::msg::{EstimateMsg, SensorSample, TruthState};
 use crate::scenario::Scenario;
 use crate::telemetry::{Sink, Telemetry};
+use std::sync::mpsc;
 
 /// The stages of one campaign, built from a scenario and seed.
 pub struct Stages {
@@ -37,9 +39,49 @@ pub struct CampaignResult {
     pub faults: Option<FaultScore>,
 }
 
+/// How a campaign uses the machine's cores. Both give the same results, bit for bit:
+/// the estimator takes the same messages in the same order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Threads {
+    /// Simulation and estimator take turns on the calling thread (for campaigns that
+    /// already run side by side, one per core: the Monte Carlo).
+    One,
+    /// The simulation (commander, plant, front-end, fault injection) on a thread of its
+    /// own, up to [`POOL`] batches of [`BATCH`] ticks ahead of the estimator, which runs
+    /// on the calling thread.
+    Two,
+}
+
+impl Threads {
+    /// `Two` when the machine has a second core, else `One`.
+    pub fn available() -> Self {
+        match std::thread::available_parallelism() {
+            Ok(n) if n.get() >= 2 => Threads::Two,
+            _ => Threads::One,
+        }
+    }
+}
+
+/// Ticks per batch the simulation hands to the estimator: enough that the hand-over
+/// costs nothing per tick (~0.5 ms of work per batch), few enough to stay in cache.
+pub const BATCH: usize = 256;
+/// Batches in flight: how far the simulation may run ahead of the estimator.
+pub const POOL: usize = 4;
+
 /// Run the campaign; `progress` is called with the fraction done now and then.
 pub fn run(s: &Scenario, seed: u64, method: Method, progress: impl FnMut(f64)) -> CampaignResult {
-    match run_with(s, seed, method, progress, None) {
+    run_on(s, seed, method, Threads::available(), progress)
+}
+
+/// [`run`] on the given threads.
+pub fn run_on(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    threads: Threads,
+    progress: impl FnMut(f64),
+) -> CampaignResult {
+    match run_with(s, seed, method, threads, progress, None) {
         Ok(r) => r,
         Err(e) => unreachable!("a campaign that records nothing cannot fail: {e}"),
     }
@@ -54,7 +96,8 @@ pub fn run_recorded(
     progress: impl FnMut(f64),
 ) -> (CampaignResult, Telemetry) {
     let mut tel = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, s.n_samples());
-    let res = match run_with(s, seed, method, progress, Some(&mut tel)) {
+    let threads = Threads::available();
+    let res = match run_with(s, seed, method, threads, progress, Some(&mut tel)) {
         Ok(r) => r,
         Err(e) => unreachable!("recording to memory cannot fail: {e}"),
     };
@@ -75,53 +118,249 @@ pub fn run_into(
     progress: impl FnMut(f64),
     sink: &mut dyn Sink,
 ) -> Result<CampaignResult, String> {
-    run_with(s, seed, method, progress, Some(sink))
+    run_with(s, seed, method, Threads::available(), progress, Some(sink))
+}
+
+/// A run of consecutive ticks as the estimator's side takes them.
+#[derive(Default)]
+struct Batch {
+    /// The first tick.
+    first: u64,
+    /// Per tick: messages the bus delivers, and fault records logged.
+    counts: Vec<(usize, usize)>,
+    /// The delivered messages, in order: message, tick it carries, delivery, second copy.
+    delivered: Vec<(SensorSample, u64, Delivery, bool)>,
+    records: Vec<FaultRecord>,
+    /// Per tick, only when recording: the truth and the sample.
+    truth: Vec<TruthState>,
+    sample: Vec<SensorSample>,
+}
+
+impl Batch {
+    fn with_capacity() -> Self {
+        Batch {
+            first: 0,
+            counts: Vec::with_capacity(BATCH),
+            delivered: Vec::with_capacity(BATCH + 8),
+            records: Vec::new(),
+            truth: Vec::new(),
+            sample: Vec::new(),
+        }
+    }
+}
+
+/// The simulating side: commander, plant, front-end and the fault injector (none:
+/// every tick delivers its sample once).
+struct Sim {
+    commander: Commander,
+    plant: Plant,
+    fee: FrontEnd,
+    inj: Option<Injector>,
+    faults: bool,
+    record: bool,
+    prev: Option<SensorSample>,
+    next: u64,
+    n: u64,
+}
+
+impl Sim {
+    /// Simulate the next [`BATCH`] ticks into `b`; false when none are left.
+    fn fill(&mut self, b: &mut Batch) -> bool {
+        b.first = self.next;
+        b.counts.clear();
+        b.delivered.clear();
+        b.records.clear();
+        b.truth.clear();
+        b.sample.clear();
+        let end = (self.next + BATCH as u64).min(self.n);
+        for tick in self.next..end {
+            let cmd = self.commander.step(tick);
+            let truth = self.plant.step(tick, &cmd.torque_cmd_b);
+            let mut sample = self.fee.step(&truth);
+            let (d0, r0) = (b.delivered.len(), b.records.len());
+            if let Some(inj) = self.inj.as_mut() {
+                if self.faults {
+                    inj.corrupt(&mut sample, &mut |r| b.records.push(r));
+                    inj.bus_records(tick, &mut |r| b.records.push(r));
+                }
+                // What the bus delivers this tick (just the sample without bus faults).
+                for (d, of, second) in inj.annotated_deliveries(tick) {
+                    let m = match d {
+                        Delivery::This => sample,
+                        Delivery::Previous => self.prev.unwrap_or(sample),
+                        Delivery::Garbage => inj.garbage(&sample),
+                    };
+                    b.delivered.push((m, of, d, second));
+                }
+            } else {
+                b.delivered.push((sample, tick, Delivery::This, false));
+            }
+            b.counts
+                .push((b.delivered.len() - d0, b.records.len() - r0));
+            if self.record {
+                b.truth.push(truth);
+                b.sample.push(sample);
+            }
+            self.prev = Some(sample);
+        }
+        self.next = end;
+        !b.counts.is_empty()
+    }
+}
+
+/// The estimating side: the estimator, the fault score, the recording and progress.
+struct Est<'a, P> {
+    estimator: Estimator,
+    score: Option<FaultScore>,
+    rec: Option<&'a mut dyn Sink>,
+    progress: P,
+    n: u64,
+}
+
+impl<P: FnMut(f64)> Est<'_, P> {
+    /// Take a batch's ticks in order; a recording error stops the campaign.
+    fn take(&mut self, b: &Batch) -> Result<(), String> {
+        let (mut di, mut ri) = (0, 0);
+        for (i, &(nd, nr)) in b.counts.iter().enumerate() {
+            let tick = b.first + i as u64;
+            if let Some(sc) = self.score.as_mut() {
+                for r in &b.records[ri..ri + nr] {
+                    sc.push(*r);
+                }
+            }
+            ri += nr;
+            for (m, of, d, second) in &b.delivered[di..di + nd] {
+                let est = self.estimator.step(m);
+                if let Some(sc) = self.score.as_mut() {
+                    sc.observe(*of, *d, *second, est.tick_rejections);
+                }
+                if let Some(t) = self.rec.as_deref_mut() {
+                    t.record_estimate(&est)?;
+                }
+            }
+            di += nd;
+            if let Some(t) = self.rec.as_deref_mut() {
+                t.record(&b.truth[i], &b.sample[i])?;
+            }
+            if tick % 10_000 == 0 {
+                (self.progress)(tick as f64 / self.n as f64);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The sensor samples of a campaign without faults from these stages, handed to `take`
+/// in tick order (the Cramér–Rao bound's noise-free stream).
+pub fn samples(
+    s: &Scenario,
+    commander: Commander,
+    plant: Plant,
+    fee: FrontEnd,
+    threads: Threads,
+    mut take: impl FnMut(&SensorSample),
+) {
+    let sim = Sim {
+        commander,
+        plant,
+        fee,
+        inj: None,
+        faults: false,
+        record: false,
+        prev: None,
+        next: 0,
+        n: s.n_samples(),
+    };
+    let all: Result<(), String> = drive(threads, sim, |b| {
+        b.delivered.iter().for_each(|(m, ..)| take(m));
+        Ok(())
+    });
+    debug_assert!(all.is_ok());
+}
+
+/// Simulate batch after batch and hand each to `take`, on the calling thread, until
+/// the end or `take`'s first error.
+fn drive(
+    threads: Threads,
+    mut sim: Sim,
+    mut take: impl FnMut(&Batch) -> Result<(), String>,
+) -> Result<(), String> {
+    match threads {
+        Threads::One => {
+            let mut b = Batch::with_capacity();
+            while sim.fill(&mut b) {
+                take(&b)?;
+            }
+            Ok(())
+        }
+        Threads::Two => {
+            // Full batches to `take`, emptied ones back: a fixed pool, no allocation
+            // once warm, and the simulation never more than POOL batches ahead.
+            let (full_tx, full_rx) = mpsc::sync_channel::<Batch>(POOL);
+            let (free_tx, free_rx) = mpsc::sync_channel::<Batch>(POOL);
+            for _ in 0..POOL {
+                let _ = free_tx.send(Batch::with_capacity());
+            }
+            std::thread::scope(|sc| {
+                sc.spawn(move || {
+                    while let Ok(mut b) = free_rx.recv() {
+                        if !sim.fill(&mut b) || full_tx.send(b).is_err() {
+                            break;
+                        }
+                    }
+                });
+                // Owned here, so that an error or a panic in `take` drops them and the
+                // simulation, its channels closed, stops instead of waiting forever.
+                let (full_rx, free_tx) = (full_rx, free_tx);
+                // Ends when the simulation is done (or failed) and dropped its sender.
+                while let Ok(b) = full_rx.recv() {
+                    take(&b)?;
+                    let _ = free_tx.send(b);
+                }
+                Ok(())
+            })
+        }
+    }
 }
 
 fn run_with(
     s: &Scenario,
     seed: u64,
     method: Method,
-    mut progress: impl FnMut(f64),
-    mut rec: Option<&mut dyn Sink>,
+    threads: Threads,
+    progress: impl FnMut(f64),
+    rec: Option<&mut dyn Sink>,
 ) -> Result<CampaignResult, String> {
-    let mut st = Stages::new(s, seed, method);
-    let mut inj = Injector::new(s, seed);
-    let mut score = inj.enabled().then(|| FaultScore::new(s));
+    let st = Stages::new(s, seed, method);
+    let inj = Injector::new(s, seed);
     let n = s.n_samples();
-    let mut prev = None;
-    for tick in 0..n {
-        let cmd = st.commander.step(tick);
-        let truth = st.plant.step(tick, &cmd.torque_cmd_b);
-        let mut sample = st.fee.step(&truth);
-        if let Some(sc) = score.as_mut() {
-            inj.corrupt(&mut sample, &mut |r| sc.push(r));
-            inj.bus_records(tick, &mut |r| sc.push(r));
-        }
-        // What the bus delivers this tick (just the sample without bus faults).
-        for (d, of, second) in inj.annotated_deliveries(tick) {
-            let m = match d {
-                Delivery::This => sample,
-                Delivery::Previous => prev.unwrap_or(sample),
-                Delivery::Garbage => inj.garbage(&sample),
-            };
-            let est = st.estimator.step(&m);
-            if let Some(sc) = score.as_mut() {
-                sc.observe(of, d, second, est.tick_rejections);
-            }
-            if let Some(t) = rec.as_deref_mut() {
-                t.record_estimate(&est)?;
-            }
-        }
-        if let Some(t) = rec.as_deref_mut() {
-            t.record(&truth, &sample)?;
-        }
-        prev = Some(sample);
-        if tick % 10_000 == 0 {
-            progress(tick as f64 / n as f64);
-        }
-    }
-    let estimate = st.estimator.finish();
+    let sim = Sim {
+        commander: st.commander,
+        plant: st.plant,
+        fee: st.fee,
+        faults: inj.enabled(),
+        inj: Some(inj),
+        record: rec.is_some(),
+        prev: None,
+        next: 0,
+        n,
+    };
+    let mut est = Est {
+        estimator: st.estimator,
+        score: sim.faults.then(|| FaultScore::new(s)),
+        rec,
+        progress,
+        n,
+    };
+    drive(threads, sim, |b| est.take(b))?;
+    let Est {
+        mut estimator,
+        score,
+        rec,
+        mut progress,
+        ..
+    } = est;
+    let estimate = estimator.finish();
     if let Some(t) = rec {
         t.record_estimate(&estimate)?;
     }
@@ -130,4 +369,151 @@ fn run_with(
         estimate,
         faults: score,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// FNV-1a over 64-bit words.
+    fn fnv(h: &mut u64, words: impl IntoIterator<Item = f64>) {
+        for w in words {
+            *h = (*h ^ w.to_bits()).wrapping_mul(0x100_0000_01b3);
+        }
+    }
+
+    #[test]
+    fn the_simulated_streams_are_those_of_the_reference_bit_for_bit() {
+        // Default scenario, seed 7: truth attitude, rate, TM accelerations, both IS's
+        // voltages and the star tracker, every tick, hashed in that order. The value is
+        // that of the recording made before the simulation was sped up (the same words
+        // of its telemetry.h5): a faster plant must not move a single bit.
+        let s = Scenario::default();
+        let mut st = Stages::new(&s, 7, Method::Joint);
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        for tick in 0..s.n_samples() {
+            let cmd = st.commander.step(tick);
+            let t = st.plant.step(tick, &cmd.torque_cmd_b);
+            let m = st.fee.step(&t);
+            fnv(&mut h, t.q_bn);
+            fnv(&mut h, t.omega_b);
+            fnv(&mut h, t.a_tm_b.into_iter().flatten());
+            for is in &m.is {
+                fnv(&mut h, is.volts.into_iter().flatten());
+            }
+            fnv(&mut h, m.star.q_bn);
+        }
+        assert_eq!(h, 0x321e_6d81_c5ff_50dc, "{h:#x}");
+    }
+
+    #[test]
+    fn a_failing_estimator_side_stops_the_simulation_thread() {
+        let s = Scenario::default();
+        let (done_tx, done_rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            let st = Stages::new(&s, 1, Method::Joint);
+            let sim = Sim {
+                commander: st.commander,
+                plant: st.plant,
+                fee: st.fee,
+                inj: None,
+                faults: false,
+                record: false,
+                prev: None,
+                next: 0,
+                n: s.n_samples(),
+            };
+            let mut taken = 0;
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                drive(Threads::Two, sim, |_| {
+                    taken += 1;
+                    assert!(taken < 3, "the estimator side fails");
+                    Ok(())
+                })
+            }));
+            let _ = done_tx.send((r.is_err(), taken));
+        });
+        let got = done_rx.recv_timeout(std::time::Duration::from_secs(60));
+        assert_eq!(got, Ok((true, 3)), "the campaign hung or did not fail");
+    }
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn one_thread_and_two_give_the_same_records_and_estimates() {
+        // Faults of every kind, so batches carry duplicates, reorders, garbage and logs.
+        let s = Scenario::from_toml_str(
+            "duration_s = 2000.0\n[maneuver]\nfrequency_hz = 0.003\n[faults]\n\
+             upset_rate = 1e-4\nstar_jumps = 3\noutliers = 1\nstuck_channels = 1\n\
+             is_dropout_rate = 0.05\nduplicate_rate = 1e-3\nreorder_rate = 1e-3\n\
+             missing_rate = 2e-4\ngarbage_headers = 5\n",
+        )
+        .unwrap();
+        let n = s.n_samples();
+        let run = |threads| {
+            let mut tel = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n);
+            let mut calls = 0;
+            let r = run_with(
+                &s,
+                3,
+                Method::Joint,
+                threads,
+                |_| calls += 1,
+                Some(&mut tel),
+            );
+            (r.unwrap(), tel, calls)
+        };
+        let (r1, t1, c1) = run(Threads::One);
+        let (r2, t2, c2) = run(Threads::Two);
+        assert_eq!(r1.estimate, r2.estimate);
+        let (f1, f2) = (r1.faults.unwrap(), r2.faults.unwrap());
+        assert!(f1.records.len() > 20, "{} faults", f1.records.len());
+        assert_eq!(f1.records.len(), f2.records.len());
+        for (a, b) in f1.records.iter().zip(&f2.records) {
+            assert_eq!((a.tick, a.kind, a.field), (b.tick, b.kind, b.field));
+            assert_eq!(bits(&[a.before, a.after]), bits(&[b.before, b.after]));
+        }
+        assert_eq!(f1.detected, f2.detected);
+        assert_eq!((c1, t1.estimates.len()), (c2, t2.estimates.len()));
+        assert_eq!(t1.estimates, t2.estimates);
+        assert_eq!(t1.truth_tick.len() as u64, n);
+        for (a, b) in [
+            (&t1.attitude, &t2.attitude),
+            (&t1.tm_acc, &t2.tm_acc),
+            (&t1.star_q, &t2.star_q),
+            (&t1.is_volts[0], &t2.is_volts[0]),
+            (&t1.is_volts[1], &t2.is_volts[1]),
+        ] {
+            assert_eq!(bits(a), bits(b));
+        }
+    }
+
+    /// Takes `left` ticks, then fails like a full disk.
+    struct Failing {
+        left: u32,
+    }
+
+    impl Sink for Failing {
+        fn record(&mut self, _: &TruthState, _: &SensorSample) -> Result<(), String> {
+            self.left = self.left.checked_sub(1).ok_or("disk full")?;
+            Ok(())
+        }
+        fn record_estimate(&mut self, _: &EstimateMsg) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_recording_error_ends_the_campaign_with_it_on_either_threads() {
+        let s = Scenario::default();
+        for threads in [Threads::One, Threads::Two] {
+            let mut sink = Failing { left: 3000 };
+            let mut last = 0.0;
+            let r = run_with(&s, 1, Method::Joint, threads, |f| last = f, Some(&mut sink));
+            assert_eq!(r.err().as_deref(), Some("disk full"), "{threads:?}");
+            assert!(last < 0.1, "{threads:?}: ran on to {last}");
+        }
+    }
 }

@@ -2,6 +2,7 @@
 //! problem (every unknown, SRP as coloured noise whitened), from noise-free signals of
 //! the scenario's maneuver and the estimator's own noise model.
 
+use crate::campaign::Threads;
 use crate::commander::Commander;
 use crate::estimate::joint::{P_BETA, P_R};
 use crate::estimate::JointEstimator;
@@ -22,14 +23,13 @@ pub fn crlb(s: &Scenario) -> Option<Crlb> {
     let mut cfg = s.estimator_config(&priors);
     cfg.solve_every = u64::MAX;
     let mut est = JointEstimator::new(cfg);
-    let mut cmd = Commander::new(s);
-    let mut plant = Plant::new(s, s.seed, PlantNoise::NONE);
-    let mut fee = FrontEnd::new(s, s.seed, false);
-    for tick in 0..s.n_samples() {
-        let c = cmd.step(tick);
-        let truth = plant.step(tick, &c.torque_cmd_b);
-        est.step(&fee.step(&truth));
-    }
+    let cmd = Commander::new(s);
+    let plant = Plant::new(s, s.seed, PlantNoise::NONE);
+    let fee = FrontEnd::new(s, s.seed, false);
+    // The simulation on a second core, ahead of the estimator.
+    crate::campaign::samples(s, cmd, plant, fee, Threads::available(), |m| {
+        est.step(m);
+    });
     let mut beta = [[0.0; 3]; 2];
     let mut r = [[0.0; 3]; 2];
     for (i, is) in s.inertial_sensor.iter().enumerate() {

@@ -1,6 +1,6 @@
 //! Monte Carlo over seeds: accuracy, honesty of σ (χ²) and efficiency (ratio to CRLB).
 
-use crate::campaign;
+use crate::campaign::{self, Threads};
 use crate::crlb::crlb;
 use crate::estimate::Method;
 use crate::report::{Report, REQ_COM_M, REQ_SCALE_FACTOR_REL};
@@ -60,25 +60,43 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
         .min(seeds.len().max(1));
     let mut reports: Vec<Option<Report>> = vec![None; seeds.len()];
     let bar = crate::progress::Bar::new(seeds.len() as u64, "montecarlo");
+    // One campaign per core at a time, each on one thread; a worker takes the next seed
+    // when it is done, so a slow core or a busy machine does not leave the other idle.
+    let next = std::sync::atomic::AtomicUsize::new(0);
     std::thread::scope(|sc| {
-        let chunks: Vec<_> = reports
-            .chunks_mut(seeds.len().div_ceil(workers))
-            .zip(seeds.chunks(seeds.len().div_ceil(workers)))
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                let (bar, next, seeds) = (bar.clone(), &next, &seeds);
+                sc.spawn(move || {
+                    let mut done = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&seed) = seeds.get(i) else {
+                            return done;
+                        };
+                        let mut sc = s.clone();
+                        sc.seed = seed;
+                        let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
+                        let mut rep = Report::new(
+                            &sc,
+                            seed,
+                            "in-process",
+                            method.name(),
+                            &r.estimate,
+                            &bound,
+                        );
+                        rep.faults = r.faults.map(|f| f.summary());
+                        done.push((i, rep));
+                        bar.inc(1);
+                    }
+                })
+            })
             .collect();
-        for (out, seeds) in chunks {
-            let bar = bar.clone();
-            sc.spawn(move || {
-                for (o, &seed) in out.iter_mut().zip(seeds) {
-                    let mut sc = s.clone();
-                    sc.seed = seed;
-                    let r = campaign::run(&sc, seed, method, |_| {});
-                    let mut rep =
-                        Report::new(&sc, seed, "in-process", method.name(), &r.estimate, &bound);
-                    rep.faults = r.faults.map(|f| f.summary());
-                    *o = Some(rep);
-                    bar.inc(1);
-                }
-            });
+        for h in handles {
+            let done = h.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+            for (i, rep) in done {
+                reports[i] = Some(rep);
+            }
         }
     });
     bar.finish();
