@@ -93,16 +93,26 @@ def main() -> int:
     config = iox.config.default()
     config.global_cfg.prefix = iox.FileName.new(args.bus_prefix)
     node = iox.NodeBuilder.new().config(config).create(iox.ServiceType.Ipc)
-    service = (
-        node.service_builder(iox.ServiceName.new(SERVICE))
-        .publish_subscribe(EstimateMsg)
-        .max_publishers(MAX_PUBLISHERS)
-        .max_subscribers(MAX_SUBSCRIBERS)
-        .max_nodes(MAX_NODES)
-        .subscriber_max_buffer_size(RECORDER_QUEUE)
-        .history_size(0)
-        .open()
-    )
+    try:
+        service = (
+            node.service_builder(iox.ServiceName.new(SERVICE))
+            .publish_subscribe(EstimateMsg)
+            .max_publishers(MAX_PUBLISHERS)
+            .max_subscribers(MAX_SUBSCRIBERS)
+            .max_nodes(MAX_NODES)
+            .subscriber_max_buffer_size(RECORDER_QUEUE)
+            .history_size(0)
+            .open()
+        )
+    except Exception as e:  # the bindings raise their own error types
+        why = str(e) or type(e).__name__
+        if "IncompatibleTypes" in why or "Incompatible" in type(e).__name__:
+            why = (
+                f"the run's estimate type is not {EstimateMsg.type_name()} "
+                f"(this client speaks message layout version {LAYOUT_VERSION})"
+            )
+        print(f"follow_estimates: cannot open {SERVICE} on prefix {args.bus_prefix!r}: {why}", file=sys.stderr)
+        return 2
     subscriber = service.subscriber_builder().create()
     print(f"follow_estimates: attached to {SERVICE} on prefix {args.bus_prefix!r}", flush=True)
     if args.never_read > 0:
