@@ -164,6 +164,21 @@ struct Sim {
 }
 
 impl Sim {
+    /// The stages alone: no faults, nothing recorded.
+    fn clean(commander: Commander, plant: Plant, fee: FrontEnd, n: u64) -> Self {
+        Sim {
+            commander,
+            plant,
+            fee,
+            inj: None,
+            faults: false,
+            record: false,
+            prev: None,
+            next: 0,
+            n,
+        }
+    }
+
     /// Simulate the next [`BATCH`] ticks into `b`; false when none are left.
     fn fill(&mut self, b: &mut Batch) -> bool {
         b.first = self.next;
@@ -260,17 +275,7 @@ pub fn samples(
     threads: Threads,
     mut take: impl FnMut(&SensorSample),
 ) {
-    let sim = Sim {
-        commander,
-        plant,
-        fee,
-        inj: None,
-        faults: false,
-        record: false,
-        prev: None,
-        next: 0,
-        n: s.n_samples(),
-    };
+    let sim = Sim::clean(commander, plant, fee, s.n_samples());
     let all: Result<(), String> = drive(threads, sim, |b| {
         b.delivered.iter().for_each(|(m, ..)| take(m));
         Ok(())
@@ -412,17 +417,7 @@ mod tests {
         let (done_tx, done_rx) = mpsc::channel();
         std::thread::spawn(move || {
             let st = Stages::new(&s, 1, Method::Joint);
-            let sim = Sim {
-                commander: st.commander,
-                plant: st.plant,
-                fee: st.fee,
-                inj: None,
-                faults: false,
-                record: false,
-                prev: None,
-                next: 0,
-                n: s.n_samples(),
-            };
+            let sim = Sim::clean(st.commander, st.plant, st.fee, s.n_samples());
             let mut taken = 0;
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 drive(Threads::Two, sim, |_| {

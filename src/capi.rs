@@ -285,27 +285,27 @@ pub unsafe extern "C" fn taiji_estimator_restore(
 }
 
 /// Panics cannot happen on any input (fuzzed); should one, a flight host gets an
-/// abort, never an unwind into C. Only the C static library defines it (the `c-lib`
+/// abort, never an unwind into C. Only the C static library defines these (the `c-lib`
 /// feature without `std`): an embedding Rust firmware brings its own.
 #[cfg(all(feature = "c-lib", not(feature = "std"), not(test)))]
-#[panic_handler]
-fn panic(_: &core::panic::PanicInfo) -> ! {
+mod c_lib {
     extern "C" {
+        /// The C library's abort, always present in a C host.
         fn abort() -> !;
     }
-    // SAFETY: the C library's abort, always present in a C host.
-    unsafe { abort() }
-}
 
-/// The precompiled `core` carries unwind tables that name this personality routine;
-/// with `panic = "abort"` nothing ever unwinds, so it is never called (and aborts if
-/// it were).
-#[cfg(all(feature = "c-lib", not(feature = "std"), not(test)))]
-#[no_mangle]
-pub extern "C" fn rust_eh_personality() {
-    extern "C" {
-        fn abort() -> !;
+    #[panic_handler]
+    fn panic(_: &core::panic::PanicInfo) -> ! {
+        // SAFETY: a plain C function without arguments.
+        unsafe { abort() }
     }
-    // SAFETY: the C library's abort.
-    unsafe { abort() }
+
+    /// The precompiled `core` carries unwind tables that name this personality
+    /// routine; with `panic = "abort"` nothing ever unwinds, so it is never called
+    /// (and aborts if it were).
+    #[no_mangle]
+    pub extern "C" fn rust_eh_personality() {
+        // SAFETY: as above.
+        unsafe { abort() }
+    }
 }

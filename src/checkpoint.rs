@@ -4,6 +4,7 @@
 //! checkpoint, never a torn one. Layout: magic (8 B) | next tick (u64 LE) | payload
 //! length (u64 LE) | FNV-1a 64 of the payload (u64 LE) | payload.
 
+use crate::estimate::snapshot::fnv1a;
 use crate::estimate::Estimator;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -14,15 +15,6 @@ use std::time::Duration;
 
 const MAGIC: [u8; 8] = *b"TJCKPT01";
 const HEADER: usize = 32;
-
-fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    h
-}
 
 /// Hand-off between the filter loop and the writer thread: one slot, newest wins.
 struct Slot {
