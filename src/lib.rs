@@ -36,7 +36,11 @@ pub mod fee;
 #[cfg(feature = "std")]
 pub mod launch;
 #[cfg(feature = "std")]
+pub mod maneuver;
+#[cfg(feature = "std")]
 pub mod montecarlo;
+#[cfg(feature = "std")]
+pub mod plan;
 #[cfg(feature = "std")]
 pub mod plots;
 #[cfg(feature = "std")]

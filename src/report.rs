@@ -85,6 +85,9 @@ pub struct Report {
     /// Heap allocations the estimator process made in its filter loop (multi-process).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimator_loop_allocations: Option<u64>,
+    /// The maneuver flown: waveform, schedule, whether planned, envelope, bound.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maneuver: Option<crate::plan::ManeuverReport>,
 }
 
 impl Report {
@@ -161,6 +164,7 @@ impl Report {
             timing: None,
             restarts: None,
             estimator_loop_allocations: None,
+            maneuver: Some(crate::plan::describe(s, Some(crlb), None)),
         }
     }
 
@@ -246,6 +250,9 @@ impl Report {
             );
         }
         let _ = writeln!(o, "(β, k: 1σ, error and CRLB relative; r: absolute)");
+        if let Some(m) = &self.maneuver {
+            let _ = writeln!(o, "{}", m.line());
+        }
         if let [a, b] = &self.inertial_sensors[..] {
             // Common-mode errors (e.g. thruster force noise) cancel in the difference.
             let d: Vec<String> = (0..3)

@@ -54,6 +54,10 @@ pub struct Scenario {
     pub inertial_sensor: Vec<InertialSensor>,
     /// Injected faults (none by default).
     pub faults: crate::faults::FaultsConfig,
+    /// The maneuver is still to be planned (no waveform key was given); `plan::resolve`
+    /// fills it in. Not a key: a written scenario carries its maneuver.
+    #[serde(skip)]
+    pub plan_pending: bool,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -70,15 +74,59 @@ pub struct Spacecraft {
     pub attitude_hold_hz: f64,
 }
 
+/// How the three axes share the window.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Schedule {
+    /// One axis after the other, each for a third of the rocking time.
+    Sequential,
+    /// All axes at once, each at its own frequency (`frequency_ratio`), for the whole
+    /// window: ratios 1, 2, 4 make the three square waves orthogonal.
+    Simultaneous,
+}
+
+impl Schedule {
+    pub fn name(self) -> &'static str {
+        match self {
+            Schedule::Sequential => "sequential",
+            Schedule::Simultaneous => "simultaneous",
+        }
+    }
+}
+
+/// The calibration maneuver: square-wave torques, whole periods per axis. A scenario
+/// that sets none of the waveform keys (`frequency_hz`, `torque_amplitude_nm`,
+/// `axis_order`, `schedule`, `frequency_ratio`, `start_phase`, `start_s`,
+/// `pause_in_outages`) gets the maneuver the planner chooses for its window
+/// (`taiji-calib plan`, docs/planning.md); the limits below bind the planner too.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct Maneuver {
-    /// Square-wave frequency [Hz].
+    /// Square-wave frequency [Hz] (simultaneous: of the axis whose ratio is 1).
     pub frequency_hz: f64,
     /// Torque amplitude per body axis [N m].
     pub torque_amplitude_nm: [f64; 3],
     /// Order in which the axes are rocked, one after the other (e.g. "xyz").
     pub axis_order: String,
+    /// "sequential" or "simultaneous".
+    pub schedule: Schedule,
+    /// Simultaneous: each axis's frequency over `frequency_hz`.
+    pub frequency_ratio: [f64; 3],
+    /// Phase of the square wave at the start of every stretch, in periods [0, 1):
+    /// 0 is the cosine phase (+A for T/4, −A for T/2, +A for T/4), which brings rate
+    /// and angle back to zero every period; other phases let the angle drift.
+    pub start_phase: f64,
+    /// Quiet time before the rocking starts [s].
+    pub start_s: f64,
+    /// Rock only between star-tracker outages (`star_tracker.outages_s`): whole periods
+    /// that would overlap one wait until it ends.
+    pub pause_in_outages: bool,
+    /// Largest attitude excursion allowed [rad]; 0: no limit.
+    pub max_attitude_rad: f64,
+    /// Largest body rate allowed [rad/s]; 0: no limit.
+    pub max_rate_rad_s: f64,
+    /// Set by the planner: this maneuver was planned, not written by hand.
+    pub planned: bool,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -98,6 +146,8 @@ pub struct Thruster {
     pub overshoot_decay_s: f64,
     /// Net force noise on the spacecraft [N Hz^-1/2] per axis; 0 = off (the paper's case).
     pub force_noise_n_rthz: f64,
+    /// Largest torque the thrusters can apply per body axis [N m] (10⁻⁷–10⁻⁴, §3.1).
+    pub max_torque_nm: f64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -183,6 +233,7 @@ impl Default for Scenario {
             ground_calibration: GroundCalibration::default(),
             inertial_sensor: vec![is1, is2],
             faults: crate::faults::FaultsConfig::default(),
+            plan_pending: false,
         }
     }
 }
@@ -199,14 +250,35 @@ impl Default for Spacecraft {
 
 impl Default for Maneuver {
     fn default() -> Self {
-        // Chosen with the CRLB (README, "Choosing the maneuver").
+        // The hand-made maneuver of the first CRLB study (docs/planning.md); a scenario
+        // without waveform keys gets the planner's instead.
         Maneuver {
             frequency_hz: 1.0e-3,
             torque_amplitude_nm: [2.5e-6; 3],
             axis_order: "xyz".into(),
+            schedule: Schedule::Sequential,
+            frequency_ratio: [1.0, 2.0, 4.0],
+            start_phase: 0.0,
+            start_s: 0.0,
+            pause_in_outages: false,
+            max_attitude_rad: 0.0,
+            max_rate_rad_s: 0.0,
+            planned: false,
         }
     }
 }
+
+/// The waveform keys of `[maneuver]`: a file that sets none of them is planned.
+pub const WAVEFORM_KEYS: [&str; 8] = [
+    "maneuver.frequency_hz",
+    "maneuver.torque_amplitude_nm",
+    "maneuver.axis_order",
+    "maneuver.schedule",
+    "maneuver.frequency_ratio",
+    "maneuver.start_phase",
+    "maneuver.start_s",
+    "maneuver.pause_in_outages",
+];
 
 impl Default for Thruster {
     fn default() -> Self {
@@ -218,6 +290,7 @@ impl Default for Thruster {
             overshoot_rel: 0.05,
             overshoot_decay_s: 0.5,
             force_noise_n_rthz: 0.0,
+            max_torque_nm: 1.0e-4,
         }
     }
 }
@@ -295,13 +368,14 @@ pub struct Priors {
 impl Scenario {
     /// Parse and validate a TOML text.
     pub fn from_toml_str(text: &str) -> Result<Self, ScenarioError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| {
+        let mut s: Scenario = toml::from_str(text).map_err(|e| {
             ScenarioError(format!(
                 "scenario is not valid: {}",
                 e.to_string().trim_end()
             ))
         })?;
         let given = keys_set(text);
+        s.plan_pending = !WAVEFORM_KEYS.iter().any(|k| given.iter().any(|g| g == k));
         s.validate(&|k| given.iter().any(|g| g == k))?;
         Ok(s)
     }
@@ -314,11 +388,16 @@ impl Scenario {
             .map_err(|e| ScenarioError(format!("{}: {}", path.display(), e.0)))
     }
 
-    /// Load `path` if given, else the built-in default (the paper's case).
+    /// Load `path` if given, else the built-in default (the paper's case; its maneuver
+    /// is planned, as for any scenario without one).
     pub fn load_or_default(path: Option<&Path>) -> Result<Self, ScenarioError> {
         match path {
             Some(p) => Self::load(p),
-            None => Scenario::default().validated(),
+            None => Scenario {
+                plan_pending: true,
+                ..Scenario::default()
+            }
+            .validated(),
         }
     }
 
@@ -445,71 +524,6 @@ impl Scenario {
             "spacecraft.attitude_hold_hz",
             self.spacecraft.attitude_hold_hz,
         )?;
-
-        let mv = &self.maneuver;
-        pos("maneuver.frequency_hz", mv.frequency_hz)?;
-        let hold = self.spacecraft.attitude_hold_hz;
-        if hold * 10.0 > mv.frequency_hz {
-            return if blame_second("spacecraft.attitude_hold_hz", "maneuver.frequency_hz") {
-                err(
-                    "maneuver.frequency_hz",
-                    &format!(
-                        "{} Hz must be at least 10 × spacecraft.attitude_hold_hz = {} Hz (the attitude hold would fight the rocking)",
-                        mv.frequency_hz,
-                        sig4(10.0 * hold, true)
-                    ),
-                )
-            } else {
-                err(
-                    "spacecraft.attitude_hold_hz",
-                    &format!(
-                        "{hold} Hz must stay below a tenth of maneuver.frequency_hz, {} Hz (the hold would fight the rocking)",
-                        sig4(mv.frequency_hz / 10.0, false)
-                    ),
-                )
-            };
-        }
-        for (a, v) in mv.torque_amplitude_nm.iter().enumerate() {
-            if !v.is_finite() || *v < 0.0 {
-                return err(
-                    "maneuver.torque_amplitude_nm",
-                    &format!("axis {a}: must be ≥ 0, got {v}"),
-                );
-            }
-        }
-        let order: Vec<char> = mv.axis_order.chars().collect();
-        let mut sorted = order.clone();
-        sorted.sort_unstable();
-        if sorted != ['x', 'y', 'z'] {
-            return err(
-                "maneuver.axis_order",
-                "must name each of x, y, z once, e.g. \"xyz\"",
-            );
-        }
-        if self.periods_per_axis() == 0 {
-            // Each axis is rocked for whole periods, one axis after the other.
-            return if blame_second("maneuver.frequency_hz", "duration_s") {
-                err(
-                    "duration_s",
-                    &format!(
-                        "{} s does not hold three periods of maneuver.frequency_hz ({} s each): it must be at least {} s",
-                        self.duration_s,
-                        1.0 / mv.frequency_hz,
-                        sig4(3.0 / mv.frequency_hz, true)
-                    ),
-                )
-            } else {
-                err(
-                    "maneuver.frequency_hz",
-                    &format!(
-                        "a period ({} s) does not fit three times into duration_s = {} s: the frequency must be at least {} Hz",
-                        1.0 / mv.frequency_hz,
-                        self.duration_s,
-                        sig4(3.0 / self.duration_s, true)
-                    ),
-                )
-            };
-        }
 
         if let Err((k, m)) = self.faults.validate() {
             return err(&k, &m);
@@ -654,17 +668,203 @@ impl Scenario {
                 }
             }
         }
-        let peak = self.peak_maneuver_acceleration();
+        nonneg("maneuver.max_attitude_rad", self.maneuver.max_attitude_rad)?;
+        nonneg("maneuver.max_rate_rad_s", self.maneuver.max_rate_rad_s)?;
+        pos("thruster.max_torque_nm", self.thruster.max_torque_nm)?;
+        if self.plan_pending {
+            // The planner picks the waveform; its result is checked here again.
+            return Ok(());
+        }
+        self.validate_maneuver(given)
+    }
+
+    /// The maneuver's own checks: its keys, its fit in the window, the thrusters' torque,
+    /// the attitude and rate limits and the IS design limit on |A r| at the true offsets.
+    fn validate_maneuver(&self, given: &dyn Fn(&str) -> bool) -> Result<(), ScenarioError> {
+        use crate::maneuver::{axis_frequencies, torque_boost, Timeline};
+        let err = |k: &str, m: &str| Err(ScenarioError(format!("`{k}`: {m}")));
+        let blame_second = |first: &str, second: &str| given(second) && !given(first);
+        let mv = &self.maneuver;
+        if !mv.frequency_hz.is_finite() || mv.frequency_hz <= 0.0 {
+            return err(
+                "maneuver.frequency_hz",
+                &format!("must be positive, got {}", mv.frequency_hz),
+            );
+        }
+        for (a, r) in mv.frequency_ratio.iter().enumerate() {
+            if !r.is_finite() || *r <= 0.0 {
+                return err(
+                    "maneuver.frequency_ratio",
+                    &format!("axis {a}: must be positive, got {r}"),
+                );
+            }
+        }
+        if !(0.0..1.0).contains(&mv.start_phase) {
+            return err(
+                "maneuver.start_phase",
+                &format!("must be in [0, 1) periods, got {}", mv.start_phase),
+            );
+        }
+        if !mv.start_s.is_finite() || mv.start_s < 0.0 || mv.start_s >= self.duration_s {
+            return err(
+                "maneuver.start_s",
+                &format!(
+                    "must be ≥ 0 and before the end of duration_s = {} s, got {}",
+                    self.duration_s, mv.start_s
+                ),
+            );
+        }
+        let lowest = axis_frequencies(self)
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
+        let hold = self.spacecraft.attitude_hold_hz;
+        if hold * 10.0 > lowest {
+            return if blame_second("spacecraft.attitude_hold_hz", "maneuver.frequency_hz") {
+                err(
+                    "maneuver.frequency_hz",
+                    &format!(
+                        "{} Hz must be at least 10 × spacecraft.attitude_hold_hz = {} Hz on every axis (the attitude hold would fight the rocking)",
+                        mv.frequency_hz,
+                        sig4(10.0 * hold, true)
+                    ),
+                )
+            } else {
+                err(
+                    "spacecraft.attitude_hold_hz",
+                    &format!(
+                        "{hold} Hz must stay below a tenth of the slowest maneuver frequency, {} Hz (the hold would fight the rocking)",
+                        sig4(lowest / 10.0, false)
+                    ),
+                )
+            };
+        }
+        for (a, v) in mv.torque_amplitude_nm.iter().enumerate() {
+            if !v.is_finite() || *v < 0.0 {
+                return err(
+                    "maneuver.torque_amplitude_nm",
+                    &format!("axis {a}: must be ≥ 0, got {v}"),
+                );
+            }
+        }
+        let order: Vec<char> = mv.axis_order.chars().collect();
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        if sorted != ['x', 'y', 'z'] {
+            return err(
+                "maneuver.axis_order",
+                "must name each of x, y, z once, e.g. \"xyz\"",
+            );
+        }
+        let timeline = match Timeline::new(self) {
+            Ok(t) => t,
+            Err(no) => {
+                let what = match mv.schedule {
+                    Schedule::Sequential => "three periods (one per axis, one after the other)",
+                    Schedule::Simultaneous => "one period of every axis",
+                };
+                let quiet = if mv.start_s > 0.0 || mv.pause_in_outages {
+                    " after maneuver.start_s and outside the paused outages"
+                } else {
+                    ""
+                };
+                return if blame_second("maneuver.frequency_hz", "duration_s") {
+                    err(
+                        "duration_s",
+                        &format!(
+                            "{} s does not hold {what}{quiet}: axis {} has a period of {} s",
+                            self.duration_s,
+                            ["x", "y", "z"][no.axis],
+                            sig4(no.period_s, true)
+                        ),
+                    )
+                } else {
+                    err(
+                        "maneuver.frequency_hz",
+                        &format!(
+                            "a period ({} s on axis {}) does not fit: duration_s = {} s must hold {what}{quiet}; raise the frequency, or leave [maneuver] out to have it planned",
+                            sig4(no.period_s, true),
+                            ["x", "y", "z"][no.axis],
+                            self.duration_s,
+                        ),
+                    )
+                };
+            }
+        };
+        let boost = torque_boost(self);
+        let peak_cmd = mv.torque_amplitude_nm.iter().fold(0.0f64, |m, v| m.max(*v));
+        if peak_cmd * boost > self.thruster.max_torque_nm {
+            return err(
+                if given("thruster.max_torque_nm") && !given("maneuver.torque_amplitude_nm") {
+                    "thruster.max_torque_nm"
+                } else {
+                    "maneuver.torque_amplitude_nm"
+                },
+                &format!(
+                    "{peak_cmd:.3e} N m, with overshoot and 3σ amplitude jitter {:.3e} N m, exceeds the thrusters' maximum thruster.max_torque_nm = {:.3e} N m",
+                    peak_cmd * boost,
+                    self.thruster.max_torque_nm
+                ),
+            );
+        }
+        let inertia = nalgebra::Matrix3::from_fn(|i, j| self.spacecraft.inertia_kg_m2[i][j]);
+        let env = timeline.envelope(&inertia);
+        if mv.max_attitude_rad > 0.0 && env.peak_attitude_rad * boost > mv.max_attitude_rad {
+            return err(
+                "maneuver.max_attitude_rad",
+                &format!(
+                    "the maneuver turns the spacecraft by up to {:.3e} rad (with 3σ jitter and overshoot), beyond this limit of {:.3e} rad; lower maneuver.torque_amplitude_nm or raise maneuver.frequency_hz",
+                    env.peak_attitude_rad * boost,
+                    mv.max_attitude_rad
+                ),
+            );
+        }
+        if mv.max_rate_rad_s > 0.0 && env.peak_rate_rad_s * boost > mv.max_rate_rad_s {
+            return err(
+                "maneuver.max_rate_rad_s",
+                &format!(
+                    "the maneuver turns the spacecraft at up to {:.3e} rad/s (with 3σ jitter and overshoot), beyond this limit of {:.3e} rad/s",
+                    env.peak_rate_rad_s * boost,
+                    mv.max_rate_rad_s
+                ),
+            );
+        }
+        let fe = &self.front_end;
+        let truths: Vec<nalgebra::Vector3<f64>> = self
+            .inertial_sensor
+            .iter()
+            .map(|is| nalgebra::Vector3::from(is.com_offset_m))
+            .collect();
+        let peak = env.peak_acceleration(&truths, boost);
         if peak.1 > fe.maneuver_limit_m_s2 {
             let limit = fe.maneuver_limit_m_s2;
-            // The torque that would fit on each axis that overshoots.
-            let fits: Vec<String> = (0..3)
-                .filter(|&a| self.peak_for_axis(a, mv.torque_amplitude_nm[a]).1 > limit)
-                .map(|a| {
-                    let t = self.largest_torque_within(a, limit);
-                    format!("on axis {} at most {t:.3e} N m", ["x", "y", "z"][a])
-                })
-                .collect();
+            let within = match mv.schedule {
+                // The axes take turns: each axis's own largest torque, where it overshoots.
+                Schedule::Sequential => (0..3)
+                    .filter_map(|a| {
+                        let mut one = self.clone();
+                        one.maneuver.torque_amplitude_nm = [0.0; 3];
+                        one.maneuver.torque_amplitude_nm[a] = mv.torque_amplitude_nm[a];
+                        let env = Timeline::new(&one).ok()?.envelope(&inertia);
+                        (env.peak_acceleration(&truths, boost).1 > limit).then(|| {
+                            let t = crate::maneuver::round_down_4(
+                                env.largest_scale(&truths, limit, boost) / boost
+                                    * mv.torque_amplitude_nm[a],
+                            );
+                            format!("on axis {} at most {t:.3e} N m", ["x", "y", "z"][a])
+                        })
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                Schedule::Simultaneous => {
+                    let fits = env.largest_scale(&truths, limit, boost) / boost;
+                    let t: Vec<String> = mv
+                        .torque_amplitude_nm
+                        .iter()
+                        .map(|t| format!("{:.3e}", crate::maneuver::round_down_4(t * fits)))
+                        .collect();
+                    format!("at most [{}] N m", t.join(", "))
+                }
+            };
             let offset = format!("inertial_sensor[{}].com_offset_m", peak.0);
             // Whichever of the keys behind |A r| the file sets, the torque first.
             let key = [
@@ -680,11 +880,10 @@ impl Scenario {
             return err(
                 key,
                 &format!(
-                    "the maneuver would drive |A r| of inertial_sensor[{}] to {:.3e} m/s², above the IS design limit front_end.maneuver_limit_m_s2 = {:.1e}; with this inertia, frequency and {offset}, maneuver.torque_amplitude_nm must be {}",
+                    "the maneuver would drive |A r| of inertial_sensor[{}] to {:.3e} m/s², above the IS design limit front_end.maneuver_limit_m_s2 = {:.1e}; with this inertia, frequency and {offset}, maneuver.torque_amplitude_nm must be {within} (or leave the waveform keys out to have the maneuver planned)",
                     peak.0,
                     peak.1,
                     limit,
-                    fits.join(", ")
                 ),
             );
         }
@@ -751,7 +950,14 @@ impl Scenario {
     /// Every bound the other settings put on `sample_rate_hz`, in the order checked.
     fn rate_bounds(&self) -> Vec<RateBound> {
         let (fs, d) = (self.sample_rate_hz, self.duration_s);
-        let f = self.maneuver.frequency_hz;
+        // The fastest axis; a maneuver still to be planned keeps to this bound itself.
+        let f = if self.plan_pending {
+            0.0
+        } else {
+            crate::maneuver::axis_frequencies(self)
+                .into_iter()
+                .fold(0.0, f64::max)
+        };
         let st = self.star_tracker.rate_hz;
         let jitter = self.thruster.edge_jitter_s;
         let n = self.n_samples();
@@ -816,60 +1022,6 @@ impl Scenario {
                 ),
             },
         ]
-    }
-
-    /// Whole square-wave periods per maneuver axis (the rest of the run is quiet).
-    pub fn periods_per_axis(&self) -> u64 {
-        (self.duration_s * self.maneuver.frequency_hz / 3.0).floor() as u64
-    }
-
-    /// Worst maneuver-induced TM acceleration |A(ω, ω̇) r| over the IS: (index, m/s²).
-    /// Uses the peak torque with overshoot and 3σ amplitude jitter.
-    pub fn peak_maneuver_acceleration(&self) -> (usize, f64) {
-        (0..3)
-            .map(|axis| self.peak_for_axis(axis, self.maneuver.torque_amplitude_nm[axis]))
-            .fold((0, 0.0), |w, x| if x.1 > w.1 { x } else { w })
-    }
-
-    /// Worst |A(ω, ω̇) r| over the IS while `axis` is rocked with `amplitude` [N m]:
-    /// (IS index, m/s²).
-    fn peak_for_axis(&self, axis: usize, amplitude: f64) -> (usize, f64) {
-        use nalgebra::{Matrix3, Vector3};
-        let inertia = Matrix3::from_fn(|i, j| self.spacecraft.inertia_kg_m2[i][j]);
-        let Some(inv) = inertia.try_inverse() else {
-            return (0, f64::INFINITY);
-        };
-        let th = &self.thruster;
-        let boost = 1.0 + 3.0 * th.amplitude_jitter_rel + 2.0 * th.overshoot_rel;
-        let quarter = 0.25 / self.maneuver.frequency_hz;
-        let mut tau = Vector3::zeros();
-        tau[axis] = amplitude * boost;
-        let wdot = inv * tau;
-        let w = wdot * quarter;
-        let mut worst = (0, 0.0);
-        for (i, is) in self.inertial_sensor.iter().enumerate() {
-            let r = Vector3::from(is.com_offset_m);
-            let a = wdot.cross(&r).norm() + w.cross(&w.cross(&r)).norm();
-            if a > worst.1 {
-                worst = (i, a);
-            }
-        }
-        worst
-    }
-
-    /// Largest torque amplitude [N m] on `axis` that keeps |A r| within `limit` [m/s²]
-    /// (|A r| grows monotonically with the torque: bisection).
-    fn largest_torque_within(&self, axis: usize, limit: f64) -> f64 {
-        let (mut lo, mut hi) = (0.0, self.maneuver.torque_amplitude_nm[axis]);
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if self.peak_for_axis(axis, mid).1 > limit {
-                hi = mid;
-            } else {
-                lo = mid;
-            }
-        }
-        lo
     }
 }
 

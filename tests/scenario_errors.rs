@@ -11,7 +11,15 @@ fn err(text: &str) -> String {
 #[test]
 fn the_default_scenario_is_the_papers_case_and_valid() {
     let s = Scenario::from_toml_str("").unwrap();
-    assert_eq!(s, Scenario::default());
+    // No waveform key: the maneuver is to be planned, as without a file.
+    assert_eq!(
+        s,
+        Scenario {
+            plan_pending: true,
+            ..Scenario::default()
+        }
+    );
+    assert_eq!(s, Scenario::load_or_default(None).unwrap());
     assert_eq!(s.inertial_sensor.len(), 2);
     assert_eq!(s.inertial_sensor[0].com_offset_m, [0.2164, -0.1251, 0.0002]);
     assert_eq!(s.duration_s, 10_000.0);
@@ -82,7 +90,8 @@ fn the_default_maneuver_respects_the_range_for_any_offset_up_to_0_3_m() {
         [0.0, 0.0, 0.3],
         [0.173, 0.173, 0.173],
     ] {
-        let text = format!("[[inertial_sensor]]\ncom_offset_m = {r:?}\n");
+        let text =
+            format!("[maneuver]\nfrequency_hz = 1e-3\n[[inertial_sensor]]\ncom_offset_m = {r:?}\n");
         Scenario::from_toml_str(&text).unwrap_or_else(|e| panic!("{r:?}: {e}"));
     }
 }
@@ -113,6 +122,9 @@ fn every_shipped_scenario_loads_and_says_what_it_shows() {
             );
             let s = taiji::scenario::Scenario::load(&p)
                 .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            // Every shipped scenario leaves its maneuver to the planner.
+            assert!(s.plan_pending, "{}", p.display());
+            let (s, _) = taiji::plan::resolve(s).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             assert!(taiji::crlb::crlb(&s).is_some(), "{}", p.display());
             names.push(s.name);
         }
@@ -178,11 +190,13 @@ fn a_cross_field_check_blames_the_key_the_file_sets() {
     let e = err("[maneuver]\nfrequency_hz = 2e-4");
     assert_eq!(blamed(&e), "maneuver.frequency_hz", "{e}");
     assert!(e.contains("spacecraft.attitude_hold_hz"), "{e}");
-    let e = err("[spacecraft]\nattitude_hold_hz = 1e-3");
+    let e = err("[spacecraft]\nattitude_hold_hz = 1e-3\n[maneuver]\naxis_order = \"xyz\"");
     assert_eq!(blamed(&e), "spacecraft.attitude_hold_hz", "{e}");
-    let e = err("duration_s = 2000.0");
+    let e = err("duration_s = 2000.0\n[maneuver]\ntorque_amplitude_nm = [2e-6, 2e-6, 2e-6]");
     assert_eq!(blamed(&e), "duration_s", "{e}");
-    assert!(e.contains("maneuver.frequency_hz"), "{e}");
+    assert!(e.contains("three periods"), "{e}");
+    // Without a waveform key the maneuver is planned for the window instead.
+    assert!(Scenario::from_toml_str("duration_s = 2000.0").is_ok_and(|s| s.plan_pending));
     let e = err("[srp]\nasd_at_3mhz = 1e-8");
     assert_eq!(blamed(&e), "srp.asd_at_3mhz", "{e}");
     let e = err("[front_end]\nfull_scale_m_s2 = 1e-8");
@@ -201,7 +215,10 @@ fn when_both_keys_of_a_check_are_set_the_error_names_both() {
 
 #[test]
 fn a_com_offset_beyond_the_maneuver_range_names_the_offset_and_the_torque_that_fits() {
-    let e = err("[[inertial_sensor]]\ncom_offset_m = [1.5, 0.0, 0.0]");
+    // A hand-written maneuver (a planned one would fit the offset by itself).
+    let e = err(
+        "[maneuver]\naxis_order = \"xyz\"\n[[inertial_sensor]]\ncom_offset_m = [1.5, 0.0, 0.0]",
+    );
     assert_eq!(blamed(&e), "inertial_sensor[0].com_offset_m", "{e}");
     // An offset along x: rocking about y and z swings it, rocking about x barely.
     assert!(!e.contains("on axis x") && e.contains("on axis y"), "{e}");

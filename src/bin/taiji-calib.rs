@@ -105,6 +105,29 @@ enum Cmd {
         #[arg(long)]
         scenario: Option<PathBuf>,
     },
+    /// Plan the calibration maneuver for a window from the Cramér–Rao bound: print the
+    /// best candidates, write DIR/maneuver.toml, DIR/plan.json and the figure
+    /// DIR/plan_bound.png/.svg.
+    Plan {
+        /// Scenario file (TOML); its `[maneuver]` limits bind the plan, its waveform is
+        /// replaced. The paper's case when absent.
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// The window [s] (default: the scenario's duration_s).
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Find the shortest window whose plan meets every requirement with --margin.
+        #[arg(long)]
+        min_duration: bool,
+        /// Margin on the bound for --min-duration: worst CRLB / requirement ≤ 1 / M.
+        #[arg(long, default_value_t = 3.0)]
+        margin: f64,
+        /// Candidates to print.
+        #[arg(long, default_value_t = 8)]
+        top: usize,
+        #[arg(long, default_value = "out/plan")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -123,6 +146,23 @@ fn main() -> ExitCode {
 fn out_dir(out: &std::path::Path) -> Result<(), String> {
     std::fs::create_dir_all(out)
         .map_err(|e| format!("--out {}: cannot create this folder ({e})", out.display()))
+}
+
+/// Load the scenario and plan its maneuver when it has none (printing the choice).
+fn load_planned(
+    path: Option<&std::path::Path>,
+) -> Result<(Scenario, Option<taiji::plan::Plan>), String> {
+    let s = Scenario::load_or_default(path).map_err(|e| e.to_string())?;
+    let (s, plan) = taiji::plan::resolve(s)?;
+    if let Some(p) = &plan {
+        eprintln!(
+            "planned the maneuver ({} candidates, {:.2} s): {}",
+            p.candidates.len(),
+            p.elapsed_s,
+            taiji::plan::describe(&s, p.chosen.crlb.as_ref(), Some(p)).line()
+        );
+    }
+    Ok((s, plan))
 }
 
 fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, String> {
@@ -155,8 +195,8 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             record,
             plots,
         } => {
-            let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
             out_dir(&out)?;
+            let (s, plan) = load_planned(scenario.as_deref())?;
             let seed = seed.unwrap_or(s.seed);
             let method: Method = method.into();
             let t0 = std::time::Instant::now();
@@ -209,6 +249,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 .join()
                 .unwrap_or_else(|e| std::panic::resume_unwind(e))?;
             let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
+            report.maneuver = Some(taiji::plan::describe(&s, Some(&crlb), plan.as_ref()));
             report.faults = faults.map(|f| f.summary());
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
             if let (true, Some(tel)) = (plots, &tel) {
@@ -263,11 +304,11 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             seed,
             out,
         } => {
-            let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
-            let first = seed.unwrap_or(s.seed);
             if let Some(out) = &out {
                 out_dir(out)?;
             }
+            let (s, _) = load_planned(scenario.as_deref())?;
+            let first = seed.unwrap_or(s.seed);
             let mc = montecarlo::run(&s, first, runs, method.into())?;
             print!("{}", mc.table());
             if let Some(out) = out {
@@ -281,7 +322,7 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         Cmd::Crlb { scenario } => {
-            let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
+            let (s, _) = load_planned(scenario.as_deref())?;
             let c = taiji::crlb::crlb(&s)
                 .ok_or("the Fisher information of this scenario is singular")?;
             println!(
@@ -302,6 +343,43 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                     r.join(", ")
                 );
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Cmd::Plan {
+            scenario,
+            duration,
+            min_duration,
+            margin,
+            top,
+            out,
+        } => {
+            if let Some(d) = duration {
+                if !(d.is_finite() && d > 0.0 && d <= taiji::scenario::MAX_DURATION_S) {
+                    return Err(format!(
+                        "--duration: must be a window in seconds, up to {} s, got {d}",
+                        taiji::scenario::MAX_DURATION_S
+                    ));
+                }
+            }
+            out_dir(&out)?;
+            let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
+            let plan = if min_duration {
+                taiji::plan::min_duration(&s, margin)
+            } else {
+                taiji::plan::plan(
+                    &s,
+                    &taiji::plan::PlanOptions {
+                        duration_s: duration,
+                        amplitude_sweep: true,
+                        exact: true,
+                    },
+                )
+            }
+            .map_err(|e| e.to_string())?;
+            if let Some(why) = &plan.shortfall {
+                return Err(why.clone());
+            }
+            taiji::plan::write(&s, &plan, &out, top, min_duration.then_some(margin))?;
             Ok(ExitCode::SUCCESS)
         }
     }

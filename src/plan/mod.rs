@@ -1,0 +1,783 @@
+//! Maneuver planner: the square-wave maneuver that minimises the worst ratio of
+//! Cramér–Rao bound to requirement over every calibrated parameter (β, k and r of
+//! every IS) for a given window, under the IS range, thruster, attitude, rate and
+//! star-tracker-outage constraints (docs/planning.md).
+//!
+//! The search: for each schedule (sequential axes; simultaneous axes at frequency
+//! ratios 1 : 2 : 4, each axis taking the slow wave in turn) and a grid of frequencies
+//! that fill the window with whole periods, the torque amplitude is the largest every
+//! constraint allows (more torque is always more information); each candidate's bound
+//! is computed from its noise-free campaign at a reduced sample rate, the best is
+//! refined (start phase, axis order, pausing in outages), and the winner's bound is
+//! computed again at the scenario's own rate.
+
+use crate::campaign::Threads;
+use crate::crlb::{crlb_at_rate, crlb_on, Crlb};
+use crate::maneuver::{axis_frequencies, torque_boost, Envelope, Timeline};
+use crate::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use crate::scenario::{k_from_beta, Maneuver, Scenario, Schedule};
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Samples per candidate in the search: its sample rate is this over the window.
+const SEARCH_SAMPLES: f64 = 10_000.0;
+/// Least samples per period of the fastest axis in the search.
+const SEARCH_SAMPLES_PER_PERIOD: f64 = 32.0;
+/// Highest maneuver frequency searched [Hz]: above it the angles are too small to
+/// calibrate β, and the IS noise rises.
+const MAX_FREQUENCY_HZ: f64 = 0.02;
+/// Most samples of the final bound (a longer campaign's is computed at a lower rate).
+const FINAL_SAMPLES: f64 = 2.0e6;
+/// Largest attitude excursion [rad] of a planned maneuver at the default SRP noise
+/// (scaled by 1.1×10⁻¹¹ over `srp.asd_at_3mhz`): the estimator models the turn of the
+/// DC SRP with the attitude but not that of its fluctuation, whose product with the
+/// angle biases r beyond the bound at larger angles (30-seed Monte Carlo: RMS/CRLB of
+/// rz 0.9 at 6×10⁻⁴ rad, 1.9 at 1.4×10⁻³, 9 at 5×10⁻³; docs/planning.md).
+pub const MODEL_ATTITUDE_RAD: f64 = 6.0e-4;
+
+/// The attitude limit of the plan: the scenario's, within the estimator's model.
+pub fn attitude_limit(s: &Scenario) -> (f64, &'static str) {
+    let model = MODEL_ATTITUDE_RAD * (1.1e-11 / s.srp.asd_at_3mhz).min(1.0);
+    let user = s.maneuver.max_attitude_rad;
+    if user > 0.0 && user <= model {
+        (user, "maneuver.max_attitude_rad")
+    } else {
+        (model, "estimator model (attitude limit)")
+    }
+}
+
+/// Periods per axis (sequential) or of the slow axis (simultaneous) of the coarse
+/// grid; the best of each schedule is then refined with the counts between its
+/// neighbours.
+const PERIODS: [u64; 9] = [1, 2, 4, 8, 16, 32, 64, 128, 256];
+
+/// What to plan.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanOptions {
+    /// The window [s]; the scenario's `duration_s` when `None`.
+    pub duration_s: Option<f64>,
+    /// Also draw the bound at half and a quarter of the largest torque (the figure).
+    pub amplitude_sweep: bool,
+    /// Bound the winner again at the scenario's own rate (else its search bound
+    /// stands: a few per cent looser, used while bisecting the window).
+    pub exact: bool,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions {
+            duration_s: None,
+            amplitude_sweep: false,
+            exact: true,
+        }
+    }
+}
+
+/// One maneuver the planner weighed.
+#[derive(Debug, Clone, Serialize)]
+pub struct Candidate {
+    pub maneuver: Maneuver,
+    /// Each axis's frequency [Hz] and whole periods.
+    pub frequencies_hz: [f64; 3],
+    pub periods: [u64; 3],
+    /// The constraint that set the torque amplitude (its scenario key).
+    pub binding: String,
+    /// Peak |A(ω, ω̇) r| over every CoM offset within the priors' uncertainty, with
+    /// overshoot and 3σ amplitude jitter [m/s²].
+    pub peak_acceleration_m_s2: f64,
+    pub peak_attitude_rad: f64,
+    pub peak_rate_rad_s: f64,
+    /// The bound (at `rate_hz`).
+    #[serde(skip)]
+    pub crlb: Option<Crlb>,
+    pub rate_hz: f64,
+    /// Worst CRLB / requirement and the parameter it belongs to.
+    pub worst_ratio: f64,
+    pub worst_parameter: String,
+    /// Fraction of the largest allowed torque (1 but in the figure's sweep).
+    #[serde(skip)]
+    pub amplitude_fraction: f64,
+}
+
+/// The planner's answer.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The chosen maneuver, its bound at the scenario's rate (or `final_rate_hz`).
+    pub chosen: Candidate,
+    /// Every candidate of the search (bounds at `search_rate_hz`), best first.
+    pub candidates: Vec<Candidate>,
+    pub search_rate_hz: f64,
+    pub duration_s: f64,
+    pub elapsed_s: f64,
+    /// Best worst-ratio of each schedule (at the search rate).
+    pub best_by_schedule: Vec<(Schedule, f64)>,
+    /// Why even the chosen maneuver's bound misses a requirement, naming the binding
+    /// constraint (`plan` refuses such a window; `run` flies the best and says so).
+    pub shortfall: Option<String>,
+}
+
+/// The planner could not find a maneuver; the message names the binding constraint.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanError(pub String);
+
+impl std::fmt::Display for PlanError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// The CoM offsets the planner must keep within the IS range: every corner of the
+/// box the priors' uncertainty allows. A given prior ± the ground-calibration error;
+/// a drawn prior is itself ± that error around the scenario's offset, so ± twice it.
+pub fn offset_corners(s: &Scenario) -> Vec<Vector3<f64>> {
+    let e = s.ground_calibration.com_offset_error_m;
+    let mut out = Vec::new();
+    for is in &s.inertial_sensor {
+        let (c, h) = match is.com_offset_prior_m {
+            Some(p) => (p, e),
+            None => (is.com_offset_m, 2.0 * e),
+        };
+        for k in 0..8 {
+            out.push(Vector3::from_fn(|a, _| {
+                c[a] + if k >> a & 1 == 1 { h } else { -h }
+            }));
+        }
+    }
+    out
+}
+
+fn inertia(s: &Scenario) -> Matrix3<f64> {
+    Matrix3::from_fn(|i, j| s.spacecraft.inertia_kg_m2[i][j])
+}
+
+/// Worst CRLB / requirement over every parameter, and its name.
+pub fn worst_ratio(s: &Scenario, c: &Crlb) -> (f64, String) {
+    let priors = s.priors();
+    let mut worst = (0.0, String::new());
+    let ax = ["x", "y", "z"];
+    for (i, (is, p)) in s.inertial_sensor.iter().zip(&priors).enumerate() {
+        let k = k_from_beta(&is.geometry_m, &p.beta);
+        for a in 0..3 {
+            let cands = [
+                (
+                    c.beta[i][a] / p.beta[a] / REQ_SCALE_FACTOR_REL,
+                    format!("β{} of IS{}", ax[a], i + 1),
+                ),
+                (
+                    c.k[i][a] / k[a] / REQ_SCALE_FACTOR_REL,
+                    format!("k{} of IS{}", ax[a], i + 1),
+                ),
+                (
+                    c.com_offset_m[i][a] / REQ_COM_M,
+                    format!("r{} of IS{}", ax[a], i + 1),
+                ),
+            ];
+            for (v, name) in cands {
+                if !(v <= worst.0) {
+                    worst = (v, name);
+                }
+            }
+        }
+    }
+    worst
+}
+
+/// The scenario with `m` as its maneuver.
+fn with_maneuver(base: &Scenario, m: &Maneuver) -> Scenario {
+    let mut s = base.clone();
+    s.maneuver = m.clone();
+    s.plan_pending = false;
+    s
+}
+
+/// Give `m` the largest torque every constraint allows: per axis when the axes take
+/// turns, one common scale of torques ∝ the inertia's diagonal (equal angular
+/// acceleration) when they rock together. `None` when no torque fits.
+fn size(base: &Scenario, mut m: Maneuver) -> Option<Candidate> {
+    let corners = offset_corners(base);
+    let boost = torque_boost(base);
+    let inertia = inertia(base);
+    let limit = base.front_end.maneuver_limit_m_s2;
+    let shape: [f64; 3] = match m.schedule {
+        Schedule::Sequential => [1e-6; 3],
+        Schedule::Simultaneous => core::array::from_fn(|a| 1e-9 * inertia[(a, a)]),
+    };
+    // The largest scale of one shape, and the constraint that set it.
+    let largest = |m: &Maneuver, unit: [f64; 3]| -> Option<(f64, &'static str)> {
+        let mut mm = m.clone();
+        mm.torque_amplitude_nm = unit;
+        let s = with_maneuver(base, &mm);
+        let env = Timeline::new(&s).ok()?.envelope(&inertia);
+        let peak_unit = unit.iter().fold(0.0f64, |a, b| a.max(*b));
+        let mut bounds: Vec<(f64, &'static str)> = vec![(
+            base.thruster.max_torque_nm / (peak_unit * boost),
+            "thruster.max_torque_nm",
+        )];
+        let (att, att_key) = attitude_limit(base);
+        if env.peak_attitude_rad > 0.0 {
+            bounds.push((att / (env.peak_attitude_rad * boost), att_key));
+        }
+        if m.max_rate_rad_s > 0.0 && env.peak_rate_rad_s > 0.0 {
+            bounds.push((
+                m.max_rate_rad_s / (env.peak_rate_rad_s * boost),
+                "maneuver.max_rate_rad_s",
+            ));
+        }
+        let (cap, mut why) =
+            bounds
+                .into_iter()
+                .fold((f64::INFINITY, ""), |w, b| if b.0 < w.0 { b } else { w });
+        let scale = env.largest_scale(&corners, limit, cap * boost) / boost;
+        if scale < cap * (1.0 - 1e-9) {
+            why = "front_end.maneuver_limit_m_s2";
+        }
+        Some((scale, why))
+    };
+    let mut binding = "";
+    match m.schedule {
+        Schedule::Sequential => {
+            // The axes take turns and come to rest between: each its own largest torque.
+            for a in 0..3 {
+                let mut unit = [0.0; 3];
+                unit[a] = shape[a];
+                let (scale, why) = largest(&m, unit)?;
+                m.torque_amplitude_nm[a] = scale * shape[a];
+                if binding.is_empty() {
+                    binding = why;
+                }
+            }
+        }
+        Schedule::Simultaneous => {
+            let (scale, why) = largest(&m, shape)?;
+            m.torque_amplitude_nm = shape.map(|v| v * scale);
+            binding = why;
+        }
+    }
+    if m.torque_amplitude_nm.iter().any(|v| !(*v > 0.0)) {
+        return None;
+    }
+    // Round down to 4 significant digits: a plan written as TOML reads back the same.
+    m.torque_amplitude_nm = m.torque_amplitude_nm.map(round_down_4);
+    let s = with_maneuver(base, &m);
+    let tl = Timeline::new(&s).ok()?;
+    let env: Envelope = tl.envelope(&inertia);
+    Some(Candidate {
+        frequencies_hz: axis_frequencies(&s),
+        periods: tl.periods(),
+        binding: binding.to_string(),
+        peak_acceleration_m_s2: env.peak_acceleration(&corners, boost).1,
+        peak_attitude_rad: env.peak_attitude_rad * boost,
+        peak_rate_rad_s: env.peak_rate_rad_s * boost,
+        maneuver: m,
+        crlb: None,
+        rate_hz: 0.0,
+        worst_ratio: f64::INFINITY,
+        worst_parameter: String::new(),
+        amplitude_fraction: 1.0,
+    })
+}
+
+use crate::maneuver::round_down_4;
+
+/// The maneuver shapes for `base`'s window with `counts` whole periods per axis
+/// (sequential) or of the slow axis (simultaneous, the slow axis each of `slow`).
+fn shapes(base: &Scenario, counts: &[u64], sched: &[Schedule], slow: &[usize]) -> Vec<Maneuver> {
+    let fs = base.sample_rate_hz;
+    let n_ticks = base.n_samples() as f64;
+    let hold = base.spacecraft.attitude_hold_hz;
+    let f_hi = MAX_FREQUENCY_HZ.min(fs / 8.0);
+    let mut out = Vec::new();
+    let template = Maneuver {
+        planned: true,
+        start_s: 0.0,
+        start_phase: 0.0,
+        pause_in_outages: false,
+        ..base.maneuver.clone()
+    };
+    for &n in counts {
+        // Sequential: n periods per axis fill the window (whole ticks per period).
+        let tpp = (n_ticks / (3.0 * n as f64)).floor();
+        let f = fs / tpp;
+        if sched.contains(&Schedule::Sequential) && tpp >= 8.0 && f <= f_hi && f >= 10.0 * hold {
+            out.push(Maneuver {
+                schedule: Schedule::Sequential,
+                frequency_hz: f,
+                axis_order: "xyz".into(),
+                ..template.clone()
+            });
+        }
+        // Simultaneous: n periods of the slow axis, 2n and 4n of the others.
+        let tpp = 4.0 * (n_ticks / (4.0 * n as f64)).floor();
+        let f = fs / tpp;
+        if sched.contains(&Schedule::Simultaneous)
+            && tpp >= 32.0
+            && 4.0 * f <= f_hi
+            && f >= 10.0 * hold
+        {
+            for &slow in slow {
+                let mut ratio = [2.0, 4.0, 2.0];
+                ratio[slow] = 1.0;
+                ratio[(slow + 1) % 3] = 2.0;
+                ratio[(slow + 2) % 3] = 4.0;
+                out.push(Maneuver {
+                    schedule: Schedule::Simultaneous,
+                    frequency_hz: f,
+                    frequency_ratio: ratio,
+                    ..template.clone()
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Bound every candidate at `rate` (in parallel on the machine's cores).
+fn evaluate(base: &Scenario, cands: &mut [Candidate], rate: f64) {
+    let workers = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .clamp(1, 8);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<std::sync::Mutex<Option<Crlb>>> =
+        cands.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|sc| {
+        for _ in 0..workers {
+            sc.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(c) = cands.get(i) else { break };
+                let s = with_maneuver(base, &c.maneuver);
+                let b = crlb_at_rate(&s, rate);
+                if let Ok(mut slot) = results[i].lock() {
+                    *slot = b;
+                }
+            });
+        }
+    });
+    for (c, r) in cands.iter_mut().zip(results) {
+        c.crlb = r.into_inner().ok().flatten();
+        c.rate_hz = rate;
+        let s = with_maneuver(base, &c.maneuver);
+        (c.worst_ratio, c.worst_parameter) = match &c.crlb {
+            Some(b) => worst_ratio(&s, b),
+            None => (f64::INFINITY, "singular Fisher information".into()),
+        };
+    }
+}
+
+/// A refinement (another start phase than the cosine, another axis order than xyz,
+/// pausing) must beat the plain maneuver by more than the search bound's own
+/// uncertainty to be chosen: the plain one is simpler to fly and keeps the attitude
+/// closest to the start.
+const REFINEMENT_GAIN: f64 = 1.05;
+
+fn rank(c: &Candidate) -> f64 {
+    let m = &c.maneuver;
+    let plain = m.start_phase == 0.0 && m.axis_order == "xyz" && !m.pause_in_outages;
+    if plain {
+        c.worst_ratio
+    } else {
+        c.worst_ratio * REFINEMENT_GAIN
+    }
+}
+
+fn best_first(c: &mut [Candidate]) {
+    c.sort_by(|a, b| rank(a).total_cmp(&rank(b)));
+}
+
+/// Plan the maneuver for `s`'s window (or `opts.duration_s`).
+pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
+    let t0 = Instant::now();
+    let mut base = s.clone();
+    if let Some(d) = opts.duration_s {
+        base.duration_s = d;
+    }
+    base.plan_pending = false;
+    base.faults = Default::default();
+    let d = base.duration_s;
+    let hold = base.spacecraft.attitude_hold_hz;
+    let both = [Schedule::Sequential, Schedule::Simultaneous];
+    let coarse = shapes(&base, &PERIODS, &both, &[0]);
+    if coarse.is_empty() {
+        let f_lo = (3.0 / d).max(10.0 * hold);
+        return Err(PlanError(if 10.0 * hold > 3.0 / d {
+            format!(
+                "`duration_s`: {d} s is too short for any maneuver: the slowest frequency spacecraft.attitude_hold_hz = {hold} Hz allows is {} Hz, and three whole periods (one per axis) of it need {:.0} s",
+                10.0 * hold,
+                3.0 / f_lo
+            )
+        } else {
+            format!(
+                "`duration_s`: {d} s is too short for any maneuver: three whole periods (one per axis) need at least {:.0} s at the fastest frequency searched ({MAX_FREQUENCY_HZ} Hz, or sample_rate_hz / 8)",
+                3.0 / MAX_FREQUENCY_HZ.min(base.sample_rate_hz / 8.0)
+            )
+        }));
+    }
+    let mut cands: Vec<Candidate> = coarse.into_iter().filter_map(|m| size(&base, m)).collect();
+    if cands.is_empty() {
+        return Err(PlanError(format!(
+            "no torque fits: thruster.max_torque_nm = {:.3e} N m, front_end.maneuver_limit_m_s2 = {:.1e} m/s² and the maneuver limits leave no room",
+            base.thruster.max_torque_nm, base.front_end.maneuver_limit_m_s2
+        )));
+    }
+    // One search rate for every candidate (the bound's coarseness then ranks fairly),
+    // fine enough for the fastest wave of the grid.
+    let f_fast = cands
+        .iter()
+        .flat_map(|c| c.frequencies_hz)
+        .fold(0.0, f64::max);
+    let rate = base
+        .sample_rate_hz
+        .min((SEARCH_SAMPLES / d).max(SEARCH_SAMPLES_PER_PERIOD * f_fast));
+    evaluate(&base, &mut cands, rate);
+    best_first(&mut cands);
+    // Refine each schedule's best count with the counts between its neighbours, and
+    // the simultaneous schedule's slow axis.
+    let mut finer = Vec::new();
+    for sch in both {
+        let Some(best) = cands.iter().find(|c| c.maneuver.schedule == sch) else {
+            continue;
+        };
+        let n = match sch {
+            Schedule::Sequential => best.periods[0],
+            Schedule::Simultaneous => *best.periods.iter().min().unwrap_or(&1),
+        };
+        let between: Vec<u64> = ((n / 2 + 1)..(2 * n))
+            .filter(|k| !PERIODS.contains(k))
+            .collect();
+        let between: Vec<u64> = if between.len() > 4 {
+            // At most four counts, spread geometrically.
+            (1..=4)
+                .map(|i| ((n as f64) * 2f64.powf(i as f64 / 5.0 * 2.0 - 1.0)).round() as u64)
+                .filter(|k| !PERIODS.contains(k))
+                .collect()
+        } else {
+            between
+        };
+        finer.extend(shapes(&base, &between, &[sch], &[0]));
+        if sch == Schedule::Simultaneous {
+            finer.extend(shapes(&base, &[n], &[sch], &[1, 2]));
+        }
+    }
+    let mut finer: Vec<Candidate> = finer.into_iter().filter_map(|m| size(&base, m)).collect();
+    evaluate(&base, &mut finer, rate);
+    cands.extend(finer);
+    best_first(&mut cands);
+    let mut best_by_schedule = Vec::new();
+    for sch in [Schedule::Sequential, Schedule::Simultaneous] {
+        if let Some(c) = cands.iter().find(|c| c.maneuver.schedule == sch) {
+            best_by_schedule.push((sch, c.worst_ratio));
+        }
+    }
+    // Refine the best: the other start phase, axis orders, pausing in outages.
+    let top = cands[0].clone();
+    let mut variants = Vec::new();
+    let mut m = top.maneuver.clone();
+    m.start_phase = 0.25;
+    variants.push(m);
+    if top.maneuver.schedule == Schedule::Sequential {
+        for order in ["xzy", "yxz", "yzx", "zxy", "zyx"] {
+            let mut m = top.maneuver.clone();
+            m.axis_order = order.into();
+            variants.push(m);
+        }
+    }
+    if !base.star_tracker.outages_s.is_empty() {
+        let mut m = top.maneuver.clone();
+        m.pause_in_outages = true;
+        variants.push(m);
+    }
+    let mut refined: Vec<Candidate> = variants
+        .into_iter()
+        .filter_map(|m| size(&base, m))
+        .collect();
+    evaluate(&base, &mut refined, rate);
+    cands.extend(refined);
+    best_first(&mut cands);
+    if opts.amplitude_sweep {
+        let mut sweep = Vec::new();
+        for c in cands.iter().filter(|c| {
+            c.maneuver.start_phase == 0.0
+                && (c.maneuver.schedule == Schedule::Sequential && c.maneuver.axis_order == "xyz"
+                    || c.maneuver.schedule == Schedule::Simultaneous)
+                && !c.maneuver.pause_in_outages
+        }) {
+            for frac in [0.5, 0.25] {
+                let mut x = c.clone();
+                x.maneuver.torque_amplitude_nm = x.maneuver.torque_amplitude_nm.map(|v| v * frac);
+                x.amplitude_fraction = frac;
+                sweep.push(x);
+            }
+        }
+        evaluate(&base, &mut sweep, rate);
+        cands.extend(sweep);
+    }
+    // The winner among full-torque candidates, its bound at the scenario's own rate.
+    let mut chosen = cands
+        .iter()
+        .find(|c| c.amplitude_fraction == 1.0)
+        .cloned()
+        .ok_or_else(|| PlanError("no candidate could be bounded".into()))?;
+    let final_rate = if opts.exact {
+        base.sample_rate_hz.min((FINAL_SAMPLES / d).max(rate))
+    } else {
+        rate
+    };
+    let cs = with_maneuver(&base, &chosen.maneuver);
+    chosen.crlb = if final_rate == rate {
+        chosen.crlb
+    } else if final_rate >= base.sample_rate_hz {
+        crlb_on(&cs, Threads::available())
+    } else {
+        crlb_at_rate(&cs, final_rate)
+    };
+    chosen.rate_hz = final_rate;
+    (chosen.worst_ratio, chosen.worst_parameter) = match &chosen.crlb {
+        Some(b) => worst_ratio(&cs, b),
+        None => (f64::INFINITY, "singular Fisher information".into()),
+    };
+    let shortfall = (!(chosen.worst_ratio <= 1.0)).then(|| infeasible(&base, &chosen));
+    Ok(Plan {
+        shortfall,
+        chosen,
+        candidates: cands,
+        search_rate_hz: rate,
+        duration_s: d,
+        elapsed_s: t0.elapsed().as_secs_f64(),
+        best_by_schedule,
+    })
+}
+
+/// Why the best maneuver still misses a requirement, naming what binds it.
+fn infeasible(base: &Scenario, c: &Candidate) -> String {
+    let why = match c.binding.as_str() {
+        "thruster.max_torque_nm" => format!(
+            "the torque is bound by `thruster.max_torque_nm` = {:.3e} N m",
+            base.thruster.max_torque_nm
+        ),
+        "maneuver.max_attitude_rad" => format!(
+            "the torque is bound by `maneuver.max_attitude_rad` = {:.3e} rad",
+            base.maneuver.max_attitude_rad
+        ),
+        k if k.starts_with("estimator model") => format!(
+            "the torque is bound by the attitude the estimator's model allows ({:.1e} rad, docs/planning.md), so the binding constraint is the window, `duration_s` = {} s (`taiji-calib plan --min-duration` finds the shortest window that works)",
+            attitude_limit(base).0,
+            base.duration_s
+        ),
+        "maneuver.max_rate_rad_s" => format!(
+            "the torque is bound by `maneuver.max_rate_rad_s` = {:.3e} rad/s",
+            base.maneuver.max_rate_rad_s
+        ),
+        _ => format!(
+            "the torque is already at the IS range (`front_end.maneuver_limit_m_s2` = {:.1e} m/s²), so the binding constraint is the window, `duration_s` = {} s (`taiji-calib plan --min-duration` finds the shortest window that works)",
+            base.front_end.maneuver_limit_m_s2, base.duration_s
+        ),
+    };
+    format!(
+        "no maneuver meets every requirement in this window: the best ({}, {:.3e} Hz, torque [{:.3e}, {:.3e}, {:.3e}] N m) has a Cramér–Rao bound {:.2}× the requirement on {}; {why}",
+        c.maneuver.schedule.name(),
+        c.maneuver.frequency_hz,
+        c.maneuver.torque_amplitude_nm[0],
+        c.maneuver.torque_amplitude_nm[1],
+        c.maneuver.torque_amplitude_nm[2],
+        c.worst_ratio,
+        c.worst_parameter
+    )
+}
+
+/// The shortest window [s] whose plan meets every requirement with `margin` on the
+/// bound (worst CRLB / requirement ≤ 1 / margin), to 2 %: a scan up in factors of 2,
+/// then bisection in log duration on the search bound, then the exact bound checked
+/// (stepping up 5 % while it misses).
+pub fn min_duration(s: &Scenario, margin: f64) -> Result<Plan, PlanError> {
+    if !(margin.is_finite() && margin >= 1.0) {
+        return Err(PlanError(format!(
+            "`--margin`: must be a number ≥ 1, got {margin}"
+        )));
+    }
+    let max = crate::scenario::MAX_DURATION_S;
+    let meets = |d: f64, exact: bool| -> Option<Plan> {
+        let p = plan(
+            s,
+            &PlanOptions {
+                duration_s: Some(d),
+                amplitude_sweep: false,
+                exact,
+            },
+        )
+        .ok()?;
+        (p.shortfall.is_none() && p.chosen.worst_ratio * margin <= 1.0).then_some(p)
+    };
+    let mut lo = 100.0f64;
+    let mut hi = lo;
+    while meets(hi, false).is_none() {
+        lo = hi;
+        hi *= 2.0;
+        if hi > max {
+            return Err(PlanError(format!(
+                "no window up to the longest verified campaign ({max} s) meets every requirement with margin {margin} on the bound"
+            )));
+        }
+    }
+    while hi / lo > 1.02 {
+        let mid = (lo * hi).sqrt();
+        if meets(mid, false).is_some() {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    // Whole tens of seconds, then the exact bound.
+    let mut d = (hi / 10.0).ceil() * 10.0;
+    loop {
+        if let Some(p) = meets(d, true) {
+            return Ok(p);
+        }
+        d = ((d * 1.05) / 10.0).ceil() * 10.0;
+        if d > max {
+            return Err(PlanError(format!(
+                "no window up to {max} s meets every requirement with margin {margin} on the exact bound"
+            )));
+        }
+    }
+}
+
+/// The maneuver a run used, for the report: its waveform and schedule, whether it was
+/// planned, its envelope over the priors' CoM box and the bound it predicts.
+#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
+pub struct ManeuverReport {
+    pub planned: bool,
+    pub waveform: String,
+    pub schedule: String,
+    pub axis_order: String,
+    pub frequencies_hz: [f64; 3],
+    pub periods: [u64; 3],
+    pub torque_amplitude_nm: [f64; 3],
+    pub start_phase: f64,
+    pub start_s: f64,
+    pub pause_in_outages: bool,
+    pub peak_acceleration_m_s2: f64,
+    pub peak_attitude_rad: f64,
+    pub peak_rate_rad_s: f64,
+    /// Worst Cramér–Rao bound / requirement, and its parameter.
+    pub predicted_worst_ratio: f64,
+    pub predicted_worst_parameter: String,
+    /// The planner's search: candidates weighed, its time [s], the binding constraint.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub search: Option<serde_json::Value>,
+}
+
+impl ManeuverReport {
+    /// One line for the result table.
+    pub fn line(&self) -> String {
+        let f: Vec<String> = if self.schedule == "sequential" {
+            vec![format!("{:.3e} Hz", self.frequencies_hz[0])]
+        } else {
+            self.frequencies_hz
+                .iter()
+                .map(|f| format!("{f:.3e}"))
+                .collect()
+        };
+        let f = if f.len() == 1 {
+            f[0].clone()
+        } else {
+            format!("[{}] Hz", f.join(", "))
+        };
+        format!(
+            "Maneuver ({}): {} {}{}, {f}, {:?} periods, torque [{:.3e}, {:.3e}, {:.3e}] N m; peak |A r| {:.2e} m/s², attitude {:.2e} rad; CRLB/requirement ≤ {:.3} ({})",
+            if self.planned { "planned" } else { "as given" },
+            self.schedule,
+            if self.schedule == "sequential" { self.axis_order.as_str() } else { "axes" },
+            if self.start_phase == 0.0 { String::new() } else { format!(", start phase {}", self.start_phase) },
+            self.periods,
+            self.torque_amplitude_nm[0],
+            self.torque_amplitude_nm[1],
+            self.torque_amplitude_nm[2],
+            self.peak_acceleration_m_s2,
+            self.peak_attitude_rad,
+            self.predicted_worst_ratio,
+            self.predicted_worst_parameter
+        )
+    }
+}
+
+/// Describe `s`'s maneuver with the bound `crlb` (and the plan that chose it).
+pub fn describe(s: &Scenario, crlb: Option<&Crlb>, plan: Option<&Plan>) -> ManeuverReport {
+    let mv = &s.maneuver;
+    let boost = torque_boost(s);
+    let (periods, env) = match Timeline::new(s) {
+        Ok(t) => (t.periods(), Some(t.envelope(&inertia(s)))),
+        Err(_) => ([0; 3], None),
+    };
+    let (ratio, param) = crlb
+        .map(|c| worst_ratio(s, c))
+        .unwrap_or((f64::NAN, String::new()));
+    ManeuverReport {
+        planned: mv.planned,
+        waveform: if mv.start_phase == 0.0 {
+            "square, cosine phase".into()
+        } else {
+            format!("square, start phase {} period", mv.start_phase)
+        },
+        schedule: mv.schedule.name().into(),
+        axis_order: mv.axis_order.clone(),
+        frequencies_hz: axis_frequencies(s),
+        periods,
+        torque_amplitude_nm: mv.torque_amplitude_nm,
+        start_phase: mv.start_phase,
+        start_s: mv.start_s,
+        pause_in_outages: mv.pause_in_outages,
+        peak_acceleration_m_s2: env
+            .as_ref()
+            .map_or(f64::NAN, |e| e.peak_acceleration(&offset_corners(s), boost).1),
+        peak_attitude_rad: env.as_ref().map_or(f64::NAN, |e| e.peak_attitude_rad * boost),
+        peak_rate_rad_s: env.as_ref().map_or(f64::NAN, |e| e.peak_rate_rad_s * boost),
+        predicted_worst_ratio: ratio,
+        predicted_worst_parameter: param,
+        search: plan.map(|p| {
+            serde_json::json!({
+                "candidates": p.candidates.len(),
+                "search_rate_hz": p.search_rate_hz,
+                "elapsed_s": p.elapsed_s,
+                "binding": p.chosen.binding,
+                "best_by_schedule": p.best_by_schedule.iter().map(|(s, r)| serde_json::json!({"schedule": s.name(), "worst_ratio": r})).collect::<Vec<_>>(),
+            })
+        }),
+    }
+}
+
+/// `s` with its maneuver planned if it has none; the plan when one was made.
+pub fn resolve(s: Scenario) -> Result<(Scenario, Option<Plan>), String> {
+    if !s.plan_pending {
+        return Ok((s, None));
+    }
+    // The run computes the exact bound itself: the search's ranks the plan.
+    let opts = PlanOptions {
+        exact: false,
+        ..PlanOptions::default()
+    };
+    let p = plan(&s, &opts).map_err(|e| format!("planning the maneuver: {e}"))?;
+    if let Some(why) = &p.shortfall {
+        log::warn!("flying the best maneuver found, but {why}");
+        eprintln!("warning: flying the best maneuver found, but {why}");
+    }
+    let mut out = s;
+    out.maneuver = p.chosen.maneuver.clone();
+    out.plan_pending = false;
+    let out = out
+        .validated()
+        .map_err(|e| format!("the planned maneuver does not pass the scenario's checks: {e}"))?;
+    Ok((out, Some(p)))
+}
+
+/// The chosen maneuver as a `[maneuver]` TOML table.
+pub fn maneuver_toml(m: &Maneuver) -> String {
+    #[derive(Serialize)]
+    struct Wrap<'a> {
+        maneuver: &'a Maneuver,
+    }
+    toml::to_string(&Wrap { maneuver: m }).unwrap_or_default()
+}
+
+mod output;
+pub use output::write;
