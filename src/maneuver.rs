@@ -492,8 +492,10 @@ mod tests {
 
     #[test]
     fn pauses_keep_the_rocking_out_of_outages() {
-        let mut s = Scenario::default();
-        s.duration_s = 12_000.0;
+        let mut s = Scenario {
+            duration_s: 12_000.0,
+            ..Scenario::default()
+        };
         s.star_tracker.outages_s = vec![[2500.0, 3200.0]];
         s.maneuver.pause_in_outages = true;
         let tl = Timeline::new(&s).unwrap();
@@ -514,8 +516,10 @@ mod tests {
 
     #[test]
     fn a_window_too_short_names_the_axis() {
-        let mut s = Scenario::default();
-        s.duration_s = 2500.0;
+        let s = Scenario {
+            duration_s: 2500.0,
+            ..Scenario::default()
+        };
         let e = Timeline::new(&s).unwrap_err();
         assert_eq!(e.period_s, 1000.0);
     }

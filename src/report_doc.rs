@@ -53,6 +53,20 @@ fn notes(r: &Report) -> Vec<String> {
         r.requirements.com_offset_m * 1e6,
         if r.requirements.met { "met" } else { "NOT met" }
     )];
+    if let Some(st) = &r.estimator_status {
+        v.push(format!(
+            "Estimator status: {}{}",
+            st.text,
+            if r.requirements.verified {
+                ""
+            } else {
+                " (result NOT verified by the estimator)"
+            }
+        ));
+    }
+    if let Some(m) = &r.maneuver {
+        v.push(m.line());
+    }
     v.push(format!(
         "Samples used {}, rejected {}",
         r.samples_used, r.samples_rejected

@@ -174,7 +174,7 @@ pub fn worst_ratio(s: &Scenario, c: &Crlb) -> (f64, String) {
                 ),
             ];
             for (v, name) in cands {
-                if !(v <= worst.0) {
+                if v.is_nan() || v > worst.0 {
                     worst = (v, name);
                 }
             }
@@ -254,7 +254,10 @@ fn size(base: &Scenario, mut m: Maneuver) -> Option<Candidate> {
             binding = why;
         }
     }
-    if m.torque_amplitude_nm.iter().any(|v| !(*v > 0.0)) {
+    if m.torque_amplitude_nm
+        .iter()
+        .any(|v| v.is_nan() || *v <= 0.0)
+    {
         return None;
     }
     // Round down to 4 significant digits: a plan written as TOML reads back the same.
@@ -284,7 +287,14 @@ use crate::maneuver::round_down_4;
 /// (sequential) or of the slow axis (simultaneous, the slow axis each of `slow`).
 fn shapes(base: &Scenario, counts: &[u64], sched: &[Schedule], slow: &[usize]) -> Vec<Maneuver> {
     let fs = base.sample_rate_hz;
-    let n_ticks = base.n_samples() as f64;
+    // Rocking time: the window less the star-tracker outages it waits out.
+    let blind: f64 = base
+        .star_tracker
+        .outages_s
+        .iter()
+        .map(|o| (o[1].min(base.duration_s) - o[0].max(0.0)).max(0.0))
+        .sum();
+    let n_ticks = ((base.duration_s - blind) * fs).floor().max(0.0);
     let hold = base.spacecraft.attitude_hold_hz;
     let f_hi = MAX_FREQUENCY_HZ.min(fs / 8.0);
     let mut out = Vec::new();
@@ -292,7 +302,8 @@ fn shapes(base: &Scenario, counts: &[u64], sched: &[Schedule], slow: &[usize]) -
         planned: true,
         start_s: 0.0,
         start_phase: 0.0,
-        pause_in_outages: false,
+        // Known star-tracker outages are a constraint: no rocking while blind.
+        pause_in_outages: !base.star_tracker.outages_s.is_empty(),
         ..base.maneuver.clone()
     };
     for &n in counts {
@@ -365,15 +376,15 @@ fn evaluate(base: &Scenario, cands: &mut [Candidate], rate: f64) {
     }
 }
 
-/// A refinement (another start phase than the cosine, another axis order than xyz,
-/// pausing) must beat the plain maneuver by more than the search bound's own
+/// A refinement (another start phase than the cosine, another axis order than xyz)
+/// must beat the plain maneuver by more than the search bound's own
 /// uncertainty to be chosen: the plain one is simpler to fly and keeps the attitude
 /// closest to the start.
 const REFINEMENT_GAIN: f64 = 1.05;
 
 fn rank(c: &Candidate) -> f64 {
     let m = &c.maneuver;
-    let plain = m.start_phase == 0.0 && m.axis_order == "xyz" && !m.pause_in_outages;
+    let plain = m.start_phase == 0.0 && m.axis_order == "xyz";
     if plain {
         c.worst_ratio
     } else {
@@ -482,11 +493,6 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
             variants.push(m);
         }
     }
-    if !base.star_tracker.outages_s.is_empty() {
-        let mut m = top.maneuver.clone();
-        m.pause_in_outages = true;
-        variants.push(m);
-    }
     let mut refined: Vec<Candidate> = variants
         .into_iter()
         .filter_map(|m| size(&base, m))
@@ -500,7 +506,6 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
             c.maneuver.start_phase == 0.0
                 && (c.maneuver.schedule == Schedule::Sequential && c.maneuver.axis_order == "xyz"
                     || c.maneuver.schedule == Schedule::Simultaneous)
-                && !c.maneuver.pause_in_outages
         }) {
             for frac in [0.5, 0.25] {
                 let mut x = c.clone();
@@ -536,7 +541,8 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
         Some(b) => worst_ratio(&cs, b),
         None => (f64::INFINITY, "singular Fisher information".into()),
     };
-    let shortfall = (!(chosen.worst_ratio <= 1.0)).then(|| infeasible(&base, &chosen));
+    let shortfall = (chosen.worst_ratio.is_nan() || chosen.worst_ratio > 1.0)
+        .then(|| infeasible(&base, &chosen));
     Ok(Plan {
         shortfall,
         chosen,

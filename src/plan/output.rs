@@ -149,7 +149,6 @@ fn figure(p: &Plan) -> Figure {
                     c.maneuver.schedule == sch
                         && c.amplitude_fraction == frac
                         && c.maneuver.start_phase == 0.0
-                        && !c.maneuver.pause_in_outages
                         && (sch == Schedule::Simultaneous || c.maneuver.axis_order == "xyz")
                         && (sch == Schedule::Sequential || c.maneuver.frequency_ratio[0] == 1.0)
                         && c.worst_ratio.is_finite()
@@ -167,9 +166,10 @@ fn figure(p: &Plan) -> Figure {
             let label = format!(
                 "{}, {} torque",
                 sch.name(),
-                match frac {
-                    f if f == 1.0 => "largest".to_string(),
-                    f => format!("{f}×"),
+                if frac == 1.0 {
+                    "largest".to_string()
+                } else {
+                    format!("{frac}×")
                 }
             );
             let mut s = Series::line(label, xy, color).width(2);

@@ -76,8 +76,12 @@ pub struct BusArgs {
 }
 
 impl StageArgs {
+    /// The stage's scenario. The supervisor hands every stage the scenario with its
+    /// maneuver planned (`PLANNED_SCENARIO_FILE`); a stage started by hand on a
+    /// scenario without one plans it itself (deterministic: the same plan).
     pub fn scenario(&self) -> Result<Scenario, String> {
-        Scenario::load_or_default(self.scenario.as_deref()).map_err(|e| e.to_string())
+        let s = Scenario::load_or_default(self.scenario.as_deref()).map_err(|e| e.to_string())?;
+        crate::plan::resolve(s).map(|(s, _)| s)
     }
 
     pub fn seed(&self, s: &Scenario) -> u64 {

@@ -194,11 +194,19 @@ fn interrupted(status: std::process::ExitStatus) -> bool {
     status.code() == Some(130) || matches!(status.signal(), Some(libc::SIGINT | libc::SIGTERM))
 }
 
+/// The scenario every stage is given, in the run folder: the user's, with its
+/// maneuver planned when it had none.
+pub const PLANNED_SCENARIO_FILE: &str = "scenario.toml";
+
 /// Run the campaign through the process set.
 pub fn run(args: &SupervisorArgs) -> Outcome {
     let s = match Scenario::load_or_default(args.scenario.as_deref()) {
         Ok(s) => s,
         Err(e) => return Outcome::UserError(e.to_string()),
+    };
+    let (s, plan) = match crate::plan::resolve(s) {
+        Ok(x) => x,
+        Err(e) => return Outcome::UserError(e),
     };
     let launch = match LaunchDescription::load_or_default(args.launch.as_deref()) {
         Ok(l) => l,
@@ -223,6 +231,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
             let seed = args.seed.unwrap_or(s.seed);
             let mut report =
                 Report::new(&s, seed, "multi-process", &args.method, &final_est, &crlb);
+            report.maneuver = Some(crate::plan::describe(&s, Some(&crlb), plan.as_ref()));
             report.wall_time_s = Some(wall);
             report.timing = Some(timing_json(args, &s, &members));
             let restarts: BTreeMap<String, u32> = members
@@ -502,10 +511,13 @@ fn supervise(
         "--method".into(),
         args.method.clone(),
     ];
-    let mut scenario_args: Vec<String> = Vec::new();
-    if let Some(sc) = &args.scenario {
-        scenario_args.extend(["--scenario".into(), sc.display().to_string()]);
-    }
+    // Every stage flies the same maneuver: the scenario as resolved here (its
+    // maneuver planned when the file gave none), written into the run folder.
+    let resolved = args.out.join(PLANNED_SCENARIO_FILE);
+    let text = toml::to_string(s).map_err(|e| user(format!("cannot write the scenario: {e}")))?;
+    std::fs::write(&resolved, text)
+        .map_err(|e| user(format!("cannot write {}: {e}", resolved.display())))?;
+    let mut scenario_args: Vec<String> = vec!["--scenario".into(), resolved.display().to_string()];
     if let Some(seed) = args.seed {
         scenario_args.extend(["--seed".into(), seed.to_string()]);
     }

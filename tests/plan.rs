@@ -1,0 +1,208 @@
+//! The maneuver planner: it plans any window a scenario leaves open, its constraints
+//! hold, an impossible request names what binds it, and its bound predicts reality.
+
+use nalgebra::{Matrix3, Vector3};
+use taiji::maneuver::{torque_boost, Timeline};
+use taiji::plan::{self, PlanOptions};
+use taiji::scenario::Scenario;
+
+fn load(text: &str) -> Scenario {
+    Scenario::from_toml_str(text).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn planned(text: &str) -> (Scenario, plan::Plan) {
+    let (s, p) = plan::resolve(load(text)).unwrap_or_else(|e| panic!("{e}"));
+    (s, p.expect("a scenario without waveform keys is planned"))
+}
+
+fn inertia(s: &Scenario) -> Matrix3<f64> {
+    Matrix3::from_fn(|i, j| s.spacecraft.inertia_kg_m2[i][j])
+}
+
+#[test]
+fn a_2000_s_window_without_a_maneuver_is_planned_and_meets_every_requirement() {
+    let (s, p) = planned("duration_s = 2000.0");
+    assert!(s.maneuver.planned && !s.plan_pending);
+    assert!(p.shortfall.is_none());
+    let tl = Timeline::new(&s).unwrap();
+    assert!(tl.periods().iter().all(|&n| n >= 1));
+    let (_, end) = tl.span_ticks();
+    assert!(end <= s.n_samples());
+    // A Monte Carlo of the planned maneuver: requirements met, σ honest, at the bound.
+    let mc = taiji::montecarlo::run(&s, 1, 12, taiji::estimate::Method::Joint).unwrap();
+    assert_eq!(mc.runs_meeting_requirements, 12, "{}", mc.table());
+    for (g, v) in mc.chi2_by_group.iter().enumerate() {
+        assert!(
+            (0.3..3.0).contains(v),
+            "group {g}: mean (err/σ)² {v}\n{}",
+            mc.table()
+        );
+    }
+    // The report records the plan.
+    let res = taiji::campaign::run(&s, 3, taiji::estimate::Method::Joint, |_| {});
+    let crlb = taiji::crlb::crlb(&s).unwrap();
+    let mut report = taiji::report::Report::new(&s, 3, "in-process", "joint", &res.estimate, &crlb);
+    report.maneuver = Some(plan::describe(&s, Some(&crlb), Some(&p)));
+    let json = serde_json::to_value(&report).unwrap();
+    assert_eq!(json["maneuver"]["planned"], true);
+    assert!(json["maneuver"]["search"]["candidates"].as_u64().unwrap() > 5);
+    assert!(report.table().contains("Maneuver (planned)"));
+    assert!(report.requirements.met);
+}
+
+#[test]
+fn the_planned_default_is_at_least_as_good_as_the_hand_made_maneuver() {
+    let s = Scenario::load_or_default(None).unwrap();
+    let p = plan::plan(&s, &PlanOptions::default()).unwrap();
+    let b = p.chosen.crlb.unwrap();
+    let today = [1.14e-6, 0.63e-6, 0.020e-6];
+    for i in 0..2 {
+        for a in 0..3 {
+            let rel = b.beta[i][a] / s.inertial_sensor[i].beta[a];
+            assert!(rel <= 1.3e-5, "β IS{} axis {a}: {rel:e}", i + 1);
+            assert!(
+                b.com_offset_m[i][a] <= today[a],
+                "r IS{} axis {a}: {:e}",
+                i + 1,
+                b.com_offset_m[i][a]
+            );
+        }
+    }
+    // The plan is deterministic and its TOML reads back as the same maneuver.
+    let again = plan::plan(&s, &PlanOptions::default()).unwrap();
+    assert_eq!(again.chosen.maneuver, p.chosen.maneuver);
+    let back = load(&plan::maneuver_toml(&p.chosen.maneuver));
+    assert!(!back.plan_pending);
+    assert_eq!(back.maneuver, p.chosen.maneuver);
+}
+
+#[test]
+fn offsets_up_to_0_3_m_stay_within_the_is_range() {
+    for r in [
+        [0.3, 0.0, 0.0],
+        [0.0, 0.3, 0.0],
+        [0.0, 0.0, 0.3],
+        [0.173, 0.173, 0.173],
+    ] {
+        let text = format!("[[inertial_sensor]]\ncom_offset_m = {r:?}\n");
+        let (s, p) = planned(&text);
+        let env = Timeline::new(&s).unwrap().envelope(&inertia(&s));
+        // Every corner of the priors' box, and the truth, with overshoot and jitter.
+        let mut points = plan::offset_corners(&s);
+        points.push(Vector3::from(r));
+        let peak = env.peak_acceleration(&points, torque_boost(&s)).1;
+        assert!(
+            peak <= s.front_end.maneuver_limit_m_s2 * (1.0 + 1e-9),
+            "{r:?}: {peak:e}"
+        );
+        assert!(p.chosen.peak_acceleration_m_s2 <= 1e-9 * (1.0 + 1e-9));
+    }
+}
+
+#[test]
+fn a_tight_attitude_limit_binds_the_torque() {
+    let (s, p) = planned("[maneuver]\nmax_attitude_rad = 1e-4");
+    assert_eq!(p.chosen.binding, "maneuver.max_attitude_rad");
+    let env = Timeline::new(&s).unwrap().envelope(&inertia(&s));
+    assert!(env.peak_attitude_rad * torque_boost(&s) <= 1e-4 * (1.0 + 1e-9));
+    // The rate limit likewise.
+    let (s, _) = planned("[maneuver]\nmax_rate_rad_s = 2e-7");
+    let env = Timeline::new(&s).unwrap().envelope(&inertia(&s));
+    assert!(env.peak_rate_rad_s * torque_boost(&s) <= 2e-7 * (1.0 + 1e-9));
+}
+
+#[test]
+fn no_rocking_during_a_known_star_tracker_outage() {
+    let (s, p) = planned("[star_tracker]\noutages_s = [[4000.0, 5000.0]]");
+    assert!(s.maneuver.pause_in_outages);
+    assert!(p.shortfall.is_none());
+    let tl = Timeline::new(&s).unwrap();
+    let fs = s.sample_rate_hz;
+    for t in (4000.0 * fs) as u64..=(5000.0 * fs) as u64 {
+        assert_eq!(tl.torque(t), [0.0; 3], "tick {t}");
+    }
+    assert!(tl.periods().iter().all(|&n| n >= 1));
+}
+
+#[test]
+fn an_impossible_request_names_the_binding_constraint() {
+    // A 100 s window holds no useful maneuver: the window binds.
+    let e = plan::plan(
+        &load(""),
+        &PlanOptions {
+            duration_s: Some(100.0),
+            ..PlanOptions::default()
+        },
+    )
+    .map(|p| p.shortfall.unwrap_or_default())
+    .unwrap_or_else(|e| e.to_string());
+    assert!(e.contains("duration_s"), "{e}");
+    // Thrusters too weak: their maximum torque binds.
+    let p = plan::plan(
+        &load("[thruster]\nmax_torque_nm = 2e-9"),
+        &PlanOptions::default(),
+    );
+    let e = p
+        .map(|p| p.shortfall.unwrap_or_default())
+        .unwrap_or_else(|e| e.to_string());
+    assert!(e.contains("thruster.max_torque_nm"), "{e}");
+    // `run` flies the best maneuver and says so; `plan` refuses (see the CLI test).
+}
+
+#[test]
+fn the_shortest_window_meets_every_requirement_with_the_margin() {
+    let s = load("");
+    let p = plan::min_duration(&s, 3.0).unwrap();
+    assert!(p.chosen.worst_ratio * 3.0 <= 1.0);
+    assert!(p.duration_s < s.duration_s, "{}", p.duration_s);
+    // 10 % shorter no longer does.
+    let shorter = plan::plan(
+        &s,
+        &PlanOptions {
+            duration_s: Some(p.duration_s * 0.9),
+            exact: false,
+            ..PlanOptions::default()
+        },
+    );
+    assert!(shorter.map_or(true, |q| q.chosen.worst_ratio * 3.0 > 1.0
+        || q.shortfall.is_some()));
+}
+
+#[test]
+fn the_plan_command_writes_the_maneuver_and_refuses_an_impossible_window() {
+    let dir = std::env::temp_dir().join(format!("taiji-plan-{}", std::process::id()));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+        .args(["plan", "--duration", "5000", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("Chosen") && text.contains("best sequential"),
+        "{text}"
+    );
+    let toml_text = std::fs::read_to_string(dir.join("maneuver.toml")).unwrap();
+    let s = load(&format!("duration_s = 5000.0\n{toml_text}"));
+    assert!(s.maneuver.planned && !s.plan_pending);
+    for f in ["plan.json", "plan_bound.png", "plan_bound.svg"] {
+        assert!(dir.join(f).is_file(), "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+        .args(["plan", "--duration", "100", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("duration_s") && !err.contains("panicked"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
