@@ -77,7 +77,8 @@ fn estimates(r: &Value) -> Vec<Value> {
 
 /// In-process estimates of the same scenario and seed, serialised the same way.
 fn in_process(scenario: &Path, seed: u64) -> Vec<Value> {
-    let s = Scenario::load(scenario).unwrap();
+    // Planned as the supervisor plans it, when the file gives no maneuver.
+    let (s, _) = taiji::plan::resolve(Scenario::load(scenario).unwrap()).unwrap();
     let res = taiji::campaign::run(&s, seed, Method::Joint, |_| {});
     let crlb = taiji::crlb::crlb(&s).unwrap();
     let r = taiji::report::Report::new(&s, seed, "in-process", "joint", &res.estimate, &crlb);
@@ -329,7 +330,7 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
     assert_eq!(r["requirements"]["met"], true);
     assert_eq!(r["samples_used"], 100000);
     // And so is its recording, stream by stream.
-    let s = Scenario::load(&sc).unwrap();
+    let (s, _) = taiji::plan::resolve(Scenario::load(&sc).unwrap()).unwrap();
     let (_, tel) = taiji::campaign::run_recorded(&s, 5, Method::Joint, |_| {});
     let reference = dir.join("in-process.h5");
     tel.write(
@@ -612,7 +613,7 @@ fn injected_faults_are_the_same_in_the_process_set_and_a_killed_estimator_change
     );
     let r = report(&out);
     assert_eq!(estimates(&r), in_process(&sc, 13));
-    let s = Scenario::load(&sc).unwrap();
+    let (s, _) = taiji::plan::resolve(Scenario::load(&sc).unwrap()).unwrap();
     let res = taiji::campaign::run(&s, 13, Method::Joint, |_| {});
     let by_cause: Vec<u64> = res.estimate.rejected_by_cause.to_vec();
     let got: Vec<u64> = taiji::msg::CAUSE_NAMES

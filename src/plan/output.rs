@@ -173,8 +173,11 @@ fn figure(p: &Plan) -> Figure {
                 }
             );
             let mut s = Series::line(label, xy, color).width(2);
-            if frac != 1.0 {
+            // Half the torque dashed, a quarter dashed and thin.
+            if frac == 0.5 {
                 s = s.dashed();
+            } else if frac < 0.5 {
+                s = s.dashed().width(1);
             }
             panel.series.push(s);
         }
