@@ -218,15 +218,19 @@ fn nan_or_above(x: f64, limit: f64) -> bool {
     x.is_nan() || x > limit
 }
 
-/// Symmetric rank-one update of the upper triangle: m += w v vᵀ.
+/// Symmetric rank-one update of the upper triangle: m += w v vᵀ. The hot loop of
+/// every sample: columns as slices (column-major, no index checks) so that the
+/// compiler vectorises it; each element gets the same one product and sum as before.
+#[inline]
 fn rank1_upper<const N: usize>(m: &mut SMatrix<f64, N, N>, v: &SVector<f64, N>, w: f64) {
-    for j in 0..N {
+    let v = v.as_slice();
+    for (j, col) in m.as_mut_slice().chunks_exact_mut(N).enumerate() {
         let vj = v[j] * w;
         if vj == 0.0 {
             continue;
         }
-        for i in 0..=j {
-            m[(i, j)] += v[i] * vj;
+        for (mij, vi) in col[..=j].iter_mut().zip(&v[..=j]) {
+            *mij += vi * vj;
         }
     }
 }
@@ -1022,31 +1026,62 @@ impl JointEstimator {
         // Innovations filter of the common-mode SRP channel, applied to every signal.
         let nb = self.bank.n;
         let hn = self.hn;
+        // Row sums of wp, summed column by column (each row's terms in the same order
+        // as `Iterator::sum`, from −0): contiguous, so it vectorises.
         let mut pg = [0.0; MAX_POLES];
+        pg[..nb].fill(-0.0);
+        for col in self.wp.as_slice().chunks_exact(MAX_POLES).take(nb) {
+            for (p, w) in pg[..nb].iter_mut().zip(&col[..nb]) {
+                *p += w;
+            }
+        }
         let mut ptot = 0.0;
-        for (i, pgi) in pg.iter_mut().enumerate().take(nb) {
-            *pgi = (0..nb).map(|j| self.wp[(i, j)]).sum();
+        for pgi in &pg[..nb] {
             ptot += *pgi;
         }
         let sv = hn * hn * ptot + 1.0;
         let inv_sqrt = 1.0 / sv.sqrt();
         let mut sf = Sig::zeros();
-        for (m, x) in self.wx.iter_mut().enumerate() {
-            let pred: f64 = x[..nb].iter().sum::<f64>() * hn;
+        // Slices of the `nb` poles in use: the loops below vectorise (element by
+        // element the same operations in the same order as the plain loops).
+        let a = &self.bank.a[..nb];
+        let pg = &pg[..nb];
+        // Each signal's sum over its poles, in pole order from −0 (`Iterator::sum`),
+        // all signals side by side: 32 independent chains instead of one at a time.
+        let mut sums = [-0.0; NS];
+        for k in 0..nb {
+            for (sm, x) in sums.iter_mut().zip(&self.wx) {
+                *sm += x[k];
+            }
+        }
+        for ((m, x), sum) in self.wx.iter_mut().enumerate().zip(sums) {
+            let x = &mut x[..nb];
+            let pred = sum * hn;
             let innov = s[m] - pred;
             sf[m] = innov * inv_sqrt;
             let g = hn * innov / sv;
-            for k in 0..nb {
-                x[k] = self.bank.a[k] * (x[k] + pg[k] * g);
+            for ((xk, ak), pk) in x.iter_mut().zip(a).zip(pg) {
+                *xk = ak * (*xk + pk * g);
             }
         }
         rank1_upper(&mut self.m_filt, &sf, 1.0);
         let c = hn * hn / sv;
-        for i in 0..nb {
-            for j in 0..nb {
-                let v = (self.wp[(i, j)] - c * pg[i] * pg[j]) * self.bank.a[i] * self.bank.a[j];
-                self.wp[(i, j)] = v;
+        // Column by column (wp is column-major); row i of column j as before:
+        // (wp_ij − c pg_i pg_j) a_i a_j.
+        let cpg: [f64; MAX_POLES] = core::array::from_fn(|i| c * pg.get(i).unwrap_or(&0.0));
+        for (j, col) in self
+            .wp
+            .as_mut_slice()
+            .chunks_exact_mut(MAX_POLES)
+            .take(nb)
+            .enumerate()
+        {
+            let (pj, aj) = (pg[j], a[j]);
+            for ((w, ci), ai) in col[..nb].iter_mut().zip(&cpg).zip(a) {
+                *w = (*w - ci * pj) * ai * aj;
             }
+        }
+        for i in 0..nb {
             self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
         }
     }
