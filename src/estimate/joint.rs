@@ -221,7 +221,7 @@ fn nan_or_above(x: f64, limit: f64) -> bool {
 /// Symmetric rank-one update of the upper triangle: m += w v vᵀ. The hot loop of
 /// every sample: columns as slices (column-major, no index checks) so that the
 /// compiler vectorises it; each element gets the same one product and sum as before.
-#[inline]
+#[inline(always)]
 fn rank1_upper<const N: usize>(m: &mut SMatrix<f64, N, N>, v: &SVector<f64, N>, w: f64) {
     let v = v.as_slice();
     for (j, col) in m.as_mut_slice().chunks_exact_mut(N).enumerate() {
@@ -1012,7 +1012,29 @@ impl JointEstimator {
         s
     }
 
+    /// The linear group's statistics take one sample: the Gram matrix of its regime,
+    /// the SRP whitening filter and the whitened Gram matrix (most of a sample's work).
+    /// Where the CPU has AVX2 the same code runs compiled for it: 4 lanes instead of 2,
+    /// the same operations on every element, so the same bits (no fused multiply-add:
+    /// Rust never contracts `a * b + c`).
     fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just now.
+            unsafe { self.update_linear_avx2(s, dv) };
+            return;
+        }
+        self.update_linear_portable(s, dv);
+    }
+
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[target_feature(enable = "avx2")]
+    unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+        self.update_linear_portable(s, dv);
+    }
+
+    #[inline(always)]
+    fn update_linear_portable(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
         let s = *s;
         let bp = self.cfg.beta_prior[0];
         let mut reg = 0;
