@@ -1340,39 +1340,49 @@ impl JointEstimator {
         (cnt, msq, wsq)
     }
 
-    /// Gauss–Newton normal equations (H, g) at `p`, and each residual group's χ²; with
-    /// `priors`, the weak ground priors are included (they only matter before every
-    /// axis has been excited). Each group enters with its weight (1, or 1/(χ²/dof)
-    /// when its noise proved larger than modelled).
-    fn normal_equations(
-        &self,
-        p: &Par,
-        priors: bool,
-    ) -> (SMatrix<f64, NP, NP>, Par, [f64; N_GROUPS]) {
-        #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, checked just now.
-            return unsafe { self.normal_equations_avx2(p, priors) };
-        }
-        self.normal_equations_portable(p, priors)
-    }
-
-    /// [`Self::normal_equations`] compiled for AVX2, like [`Self::update_linear`]: its
-    /// matrix products (~10⁶ multiply-adds a solve) take 4 lanes instead of 2.
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    #[target_feature(enable = "avx2")]
-    unsafe fn normal_equations_avx2(
-        &self,
-        p: &Par,
-        priors: bool,
-    ) -> (SMatrix<f64, NP, NP>, Par, [f64; N_GROUPS]) {
-        self.normal_equations_portable(p, priors)
-    }
-
     /// One residual group's row: its Gauss–Newton terms into (H, g) and its cost.
+    /// Where the CPU has AVX2 its matrix products (most of a solve's ~10⁶
+    /// multiply-adds) run compiled for it, like [`Self::update_linear`]: the same bits.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn add_group(
+        row: &SVector<f64, 6>,
+        m: &Gram,
+        weight: f64,
+        c0: &Coeffs,
+        dc: &[Coeffs; NP],
+        hm: &mut SMatrix<f64, NP, NP>,
+        g: &mut Par,
+        cost: &mut f64,
+    ) {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just now.
+            unsafe { Self::add_group_avx2(row, m, weight, c0, dc, hm, g, cost) };
+            return;
+        }
+        Self::add_group_portable(row, m, weight, c0, dc, hm, g, cost);
+    }
+
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_group_avx2(
+        row: &SVector<f64, 6>,
+        m: &Gram,
+        weight: f64,
+        c0: &Coeffs,
+        dc: &[Coeffs; NP],
+        hm: &mut SMatrix<f64, NP, NP>,
+        g: &mut Par,
+        cost: &mut f64,
+    ) {
+        Self::add_group_portable(row, m, weight, c0, dc, hm, g, cost);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn add_group_portable(
         row: &SVector<f64, 6>,
         m: &Gram,
         weight: f64,
@@ -1395,8 +1405,11 @@ impl JointEstimator {
         *cost += c.dot(&(m * c));
     }
 
-    #[inline(always)]
-    fn normal_equations_portable(
+    /// Gauss–Newton normal equations (H, g) at `p`, and each residual group's χ²; with
+    /// `priors`, the weak ground priors are included (they only matter before every
+    /// axis has been excited). Each group enters with its weight (1, or 1/(χ²/dof)
+    /// when its noise proved larger than modelled).
+    fn normal_equations(
         &self,
         p: &Par,
         priors: bool,
@@ -1451,20 +1464,22 @@ impl JointEstimator {
         }
         let gw = self.group_weight;
         let mut cost = [0.0; N_GROUPS];
+        // A closure, out of line: its matrix products (tens of kB) take the stack only
+        // while it runs (the solve's stack is a flight figure).
+        let mut add = |row: &SVector<f64, 6>, m: &Gram, grp: usize| {
+            let (hm, g, cost) = (&mut hm, &mut g, &mut cost[grp]);
+            Self::add_group(row, m, gw[grp], &c0, &dc, hm, g, cost);
+        };
         let h = self.srp_direction(p);
         for reg in 0..N_REG {
             let Some((rows, m)) = self.regime_rows(p, reg, &h) else {
                 continue;
             };
             for t in 0..5 {
-                let (row, w) = (rows.row(t).transpose(), gw[GROUP_LINEAR]);
-                let cost = &mut cost[GROUP_LINEAR];
-                Self::add_group(&row, &m, w, &c0, &dc, &mut hm, &mut g, cost);
+                add(&rows.row(t).transpose(), &m, GROUP_LINEAR);
             }
         }
-        let (m, w) = (symmetric(&self.m_filt), gw[GROUP_COMMON_MODE]);
-        let cost_cm = &mut cost[GROUP_COMMON_MODE];
-        Self::add_group(&self.t_u, &m, w, &c0, &dc, &mut hm, &mut g, cost_cm);
+        add(&self.t_u, &symmetric(&self.m_filt), GROUP_COMMON_MODE);
         for a in 0..3 {
             let m = symmetric(&self.m_star[a]);
             let d = SMatrix::<f64, 5, NP>::from_fn(|s, k| dc[k].star[a][s]);
