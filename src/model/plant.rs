@@ -128,9 +128,9 @@ impl Plant {
         } else {
             Vector3::zeros()
         };
-        // The torques of every sub-step first: they do not depend on the attitude, and
-        // apart from the integration's long chain of dependent steps the CPU overlaps
-        // them with nothing (the same draws, in the same order).
+        // The thrusters' mean torques of every sub-step first: they do not depend on
+        // the attitude, so the CPU overlaps them with the integration's long chain of
+        // dependent steps (the same values; the torque noise is drawn below, as before).
         let mut taus = [Vector3::zeros(); SUBSTEPS];
         for (k, tau) in taus.iter_mut().enumerate() {
             *tau = Vector3::from(self.thrusters.mean_over(t0 + k as f64 * h, h)) + hold;
