@@ -26,11 +26,18 @@ pub struct FrontEnd {
     full_ang: f64,
     rng_is: [Rng; 2],
     rng_star: Rng,
+    /// False for the noise-free sensors: no draws at all (see [`FrontEnd::new`]).
+    noisy: bool,
     seq: u64,
 }
 
 impl FrontEnd {
     /// `noisy = false` gives noise-free sensors (for the Cramér–Rao bound's signals).
+    /// They draw no noise at all: a draw times a zero σ is ±0, which leaves every
+    /// voltage as it is (x + ±0 = x, x × (1 ± 0) = x) and the star tracker's noise
+    /// rotation the identity. The one exception is the sign of an exact zero (an input
+    /// of exactly −0 plus +0), which no estimate can see; the draws were a quarter of
+    /// the noise-free simulation's time.
     pub fn new(s: &Scenario, seed: u64, noisy: bool) -> Self {
         let fs = s.sample_rate_hz;
         let fe = &s.front_end;
@@ -63,6 +70,7 @@ impl FrontEnd {
                 stream_n(seed, Stream::InertialSensor, 1),
             ],
             rng_star: stream(seed, Stream::StarTracker),
+            noisy,
             seq: 0,
         }
     }
@@ -92,7 +100,10 @@ impl FrontEnd {
             out.is[i] = self.inertial_sensor(i, &truth.omega_dot_b, &truth.a_tm_b[i]);
         }
         // Always draw the star noise, so outages do not shift the stream.
-        let noise = Vector3::from_fn(|_, _| self.sigma_star * gauss(&mut self.rng_star));
+        let noise = match self.noisy {
+            true => Vector3::from_fn(|_, _| self.sigma_star * gauss(&mut self.rng_star)),
+            false => Vector3::zeros(),
+        };
         if self.star_due(tick) && !self.in_outage(t_end) {
             let q_true = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
                 truth.q_bn[0],
@@ -112,24 +123,38 @@ impl FrontEnd {
     }
 
     fn inertial_sensor(&mut self, i: usize, omega_dot: &[f64; 3], a: &[f64; 3]) -> IsSample {
+        let noisy = self.noisy;
         let rng = &mut self.rng_is[i];
         let mut flags = 0u8;
         let mut volts = [[0.0; 2]; 3];
         for p in 0..3 {
             let axis = ANGULAR_OF_PAIR[p];
-            let mut wd = omega_dot[axis] + self.sigma_ang * gauss(rng);
+            let mut wd = omega_dot[axis];
+            if noisy {
+                wd += self.sigma_ang * gauss(rng);
+            }
             if wd.abs() > self.full_ang {
                 wd = wd.signum() * self.full_ang;
                 flags |= 1 << (3 + axis);
             }
-            let mut lin = a[p] + self.sigma_lin * gauss(rng);
+            let mut lin = a[p];
+            if noisy {
+                lin += self.sigma_lin * gauss(rng);
+            }
             if lin.abs() > self.full_lin {
                 lin = lin.signum() * self.full_lin;
                 flags |= 1 << p;
             }
             // Ripple multiplies each degree of freedom's drive (sum and difference).
-            let diff = wd / self.beta[i][axis] * (1.0 + self.sigma_ripple * gauss(rng));
-            let sum = lin / self.k[i][p] * (1.0 + self.sigma_ripple * gauss(rng));
+            let (ripple_diff, ripple_sum) = match noisy {
+                true => (
+                    1.0 + self.sigma_ripple * gauss(rng),
+                    1.0 + self.sigma_ripple * gauss(rng),
+                ),
+                false => (1.0, 1.0),
+            };
+            let diff = wd / self.beta[i][axis] * ripple_diff;
+            let sum = lin / self.k[i][p] * ripple_sum;
             volts[p] = [0.5 * (sum + diff), 0.5 * (sum - diff)];
         }
         IsSample {
@@ -167,6 +192,40 @@ mod tests {
         }
         assert_eq!(out.is[0].flags, 0);
         assert_eq!(out.star.valid, 1);
+    }
+
+    #[test]
+    fn noise_free_sensors_without_draws_equal_zero_noise_drawn_bit_for_bit() {
+        // The noise-free front-end draws nothing; one that draws every noise with
+        // σ = 0 must give the same samples, on the noise-free plant of the bound.
+        let mut s = Scenario::default();
+        let mut free = FrontEnd::new(&s, 4, false);
+        s.front_end.ripple_rthz = 0.0;
+        s.front_end.linear_noise_rthz = 0.0;
+        s.front_end.angular_noise_rthz = 0.0;
+        s.star_tracker.noise_3sigma_arcsec = 0.0;
+        let mut drawn = FrontEnd::new(&s, 4, true);
+        let mut cmd = crate::commander::Commander::new(&s);
+        let noise = crate::model::plant::PlantNoise::NONE;
+        let mut plant = crate::model::plant::Plant::new(&s, 4, noise);
+        let mut stars = 0;
+        for tick in 0..5_000 {
+            let truth = plant.step(tick, &cmd.step(tick).torque_cmd_b);
+            let (a, b) = (free.step(&truth), drawn.step(&truth));
+            let bits = |m: &SensorSample| {
+                let mut w: Vec<u64> = m.star.q_bn.iter().map(|x| x.to_bits()).collect();
+                w.push(m.star.valid as u64);
+                for is in &m.is {
+                    w.extend(is.volts.iter().flatten().map(|x| x.to_bits()));
+                    w.push(is.flags as u64);
+                }
+                w
+            };
+            assert_eq!(bits(&a), bits(&b), "tick {tick}");
+            assert_eq!(a.header, b.header);
+            stars += a.star.valid as u32;
+        }
+        assert!(stars > 100, "{stars} star-tracker samples");
     }
 
     #[test]

@@ -128,11 +128,17 @@ impl Plant {
         } else {
             Vector3::zeros()
         };
+        // The thrusters' mean torques of every sub-step first: they do not depend on
+        // the attitude, so the CPU overlaps them with the integration's long chain of
+        // dependent steps (the same values; the torque noise is drawn below, as before).
+        let mut taus = [Vector3::zeros(); SUBSTEPS];
+        for (k, tau) in taus.iter_mut().enumerate() {
+            *tau = Vector3::from(self.thrusters.mean_over(t0 + k as f64 * h, h)) + hold;
+        }
         let mut a_couple = [Vector3::zeros(); 2];
         let mut sun_b = Vector3::zeros();
         let mut torque_sum = Vector3::zeros();
-        for k in 0..SUBSTEPS {
-            let mut tau = Vector3::from(self.thrusters.mean_over(t0 + k as f64 * h, h)) + hold;
+        for mut tau in taus {
             if self.torque_sigma > 0.0 {
                 for a in 0..3 {
                     tau[a] += self.torque_sigma * gauss(&mut self.rng_torque);
