@@ -10,7 +10,7 @@ fn load(text: &str) -> Scenario {
     Scenario::from_toml_str(text).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn planned(text: &str) -> (Scenario, plan::Plan) {
+fn planned(text: &str) -> (Scenario, plan::PlanInfo) {
     let (s, p) = plan::resolve(load(text)).unwrap_or_else(|e| panic!("{e}"));
     (s, p.expect("a scenario without waveform keys is planned"))
 }
@@ -95,14 +95,14 @@ fn offsets_up_to_0_3_m_stay_within_the_is_range() {
             peak <= s.front_end.maneuver_limit_m_s2 * (1.0 + 1e-9),
             "{r:?}: {peak:e}"
         );
-        assert!(p.chosen.peak_acceleration_m_s2 <= 1e-9 * (1.0 + 1e-9));
+        assert!(p.peak_acceleration_m_s2 <= 1e-9 * (1.0 + 1e-9));
     }
 }
 
 #[test]
 fn a_tight_attitude_limit_binds_the_torque() {
     let (s, p) = planned("[maneuver]\nmax_attitude_rad = 1e-4");
-    assert_eq!(p.chosen.binding, "maneuver.max_attitude_rad");
+    assert_eq!(p.binding, "maneuver.max_attitude_rad");
     let env = Timeline::new(&s).unwrap().envelope(&inertia(&s));
     assert!(env.peak_attitude_rad * torque_boost(&s) <= 1e-4 * (1.0 + 1e-9));
     // The rate limit likewise.
@@ -204,5 +204,51 @@ fn the_plan_command_writes_the_maneuver_and_refuses_an_impossible_window() {
         err.contains("duration_s") && !err.contains("panicked"),
         "{err}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_second_run_of_a_scenario_reuses_its_plan_from_the_cache() {
+    let dir = std::env::temp_dir().join(format!("taiji-plan-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let sc = dir.join("s.toml");
+    std::fs::write(&sc, "name = \"cache\"\nduration_s = 3000.0\n").unwrap();
+    let crlb = |cache: &str| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+            .args(["crlb", "--scenario"])
+            .arg(&sc)
+            .env("TAIJI_PLAN_CACHE", cache)
+            .env("RUST_LOG", "info")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        (
+            String::from_utf8_lossy(&o.stdout).to_string(),
+            String::from_utf8_lossy(&o.stderr).to_string(),
+        )
+    };
+    let cache = dir.join("plans");
+    let cache = cache.to_str().unwrap();
+    let (first, log1) = crlb(cache);
+    assert!(
+        log1.contains("candidates") && !log1.contains("plan cache"),
+        "{log1}"
+    );
+    let entries = std::fs::read_dir(dir.join("plans")).unwrap().count();
+    assert_eq!(entries, 1);
+    let (second, log2) = crlb(cache);
+    assert!(log2.contains("from the plan cache"), "{log2}");
+    assert_eq!(first, second);
+    // A corrupt entry is a miss, not an error; `off` disables the cache.
+    for e in std::fs::read_dir(dir.join("plans")).unwrap() {
+        std::fs::write(e.unwrap().path(), "{ not json").unwrap();
+    }
+    let (third, log3) = crlb(cache);
+    assert!(!log3.contains("from the plan cache"), "{log3}");
+    assert_eq!(first, third);
+    let (fourth, log4) = crlb("off");
+    assert!(!log4.contains("from the plan cache"));
+    assert_eq!(first, fourth);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -151,15 +151,18 @@ fn out_dir(out: &std::path::Path) -> Result<(), String> {
 /// Load the scenario and plan its maneuver when it has none (printing the choice).
 fn load_planned(
     path: Option<&std::path::Path>,
-) -> Result<(Scenario, Option<taiji::plan::Plan>), String> {
+) -> Result<(Scenario, Option<taiji::plan::PlanInfo>), String> {
     let s = Scenario::load_or_default(path).map_err(|e| e.to_string())?;
     let (s, plan) = taiji::plan::resolve(s)?;
     if let Some(p) = &plan {
-        eprintln!(
-            "planned the maneuver ({} candidates, {:.2} s): {}",
-            p.candidates.len(),
-            p.elapsed_s,
-            taiji::plan::describe(&s, p.chosen.crlb.as_ref(), Some(p)).line()
+        let how = if p.cached {
+            "from the plan cache".to_string()
+        } else {
+            format!("{} candidates, {:.2} s", p.candidates, p.elapsed_s)
+        };
+        log::info!(
+            "planned the maneuver ({how}): {}",
+            taiji::plan::describe(&s, None, Some(p)).line()
         );
     }
     Ok((s, plan))

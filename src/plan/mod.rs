@@ -117,6 +117,46 @@ pub struct Plan {
     pub shortfall: Option<String>,
 }
 
+/// What a run keeps of the plan that chose its maneuver (also what the plan cache
+/// stores): the search's size and time, the binding constraint, the search bound.
+#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
+pub struct PlanInfo {
+    pub candidates: usize,
+    pub search_rate_hz: f64,
+    pub elapsed_s: f64,
+    pub binding: String,
+    /// Best worst-ratio of each schedule (search bound).
+    pub best_by_schedule: Vec<(String, f64)>,
+    /// The chosen maneuver's worst CRLB / requirement and its parameter (search bound).
+    pub worst_ratio: f64,
+    pub worst_parameter: String,
+    pub peak_acceleration_m_s2: f64,
+    pub shortfall: Option<String>,
+    /// Taken from the plan cache (`cache.rs`) rather than searched now.
+    pub cached: bool,
+}
+
+impl From<&Plan> for PlanInfo {
+    fn from(p: &Plan) -> Self {
+        PlanInfo {
+            candidates: p.candidates.len(),
+            search_rate_hz: p.search_rate_hz,
+            elapsed_s: p.elapsed_s,
+            binding: p.chosen.binding.clone(),
+            best_by_schedule: p
+                .best_by_schedule
+                .iter()
+                .map(|(s, r)| (s.name().to_string(), *r))
+                .collect(),
+            worst_ratio: p.chosen.worst_ratio,
+            worst_parameter: p.chosen.worst_parameter.clone(),
+            peak_acceleration_m_s2: p.chosen.peak_acceleration_m_s2,
+            shortfall: p.shortfall.clone(),
+            cached: false,
+        }
+    }
+}
+
 /// The planner could not find a maneuver; the message names the binding constraint.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanError(pub String);
@@ -708,16 +748,18 @@ impl ManeuverReport {
 }
 
 /// Describe `s`'s maneuver with the bound `crlb` (and the plan that chose it).
-pub fn describe(s: &Scenario, crlb: Option<&Crlb>, plan: Option<&Plan>) -> ManeuverReport {
+pub fn describe(s: &Scenario, crlb: Option<&Crlb>, plan: Option<&PlanInfo>) -> ManeuverReport {
     let mv = &s.maneuver;
     let boost = torque_boost(s);
     let (periods, env) = match Timeline::new(s) {
         Ok(t) => (t.periods(), Some(t.envelope(&inertia(s)))),
         Err(_) => ([0; 3], None),
     };
-    let (ratio, param) = crlb
-        .map(|c| worst_ratio(s, c))
-        .unwrap_or((f64::NAN, String::new()));
+    let (ratio, param) = match (crlb, plan) {
+        (Some(c), _) => worst_ratio(s, c),
+        (None, Some(p)) => (p.worst_ratio, p.worst_parameter.clone()),
+        _ => (f64::NAN, String::new()),
+    };
     ManeuverReport {
         planned: mv.planned,
         waveform: if mv.start_phase == 0.0 {
@@ -742,20 +784,31 @@ pub fn describe(s: &Scenario, crlb: Option<&Crlb>, plan: Option<&Plan>) -> Maneu
         predicted_worst_parameter: param,
         search: plan.map(|p| {
             serde_json::json!({
-                "candidates": p.candidates.len(),
+                "candidates": p.candidates,
                 "search_rate_hz": p.search_rate_hz,
                 "elapsed_s": p.elapsed_s,
-                "binding": p.chosen.binding,
-                "best_by_schedule": p.best_by_schedule.iter().map(|(s, r)| serde_json::json!({"schedule": s.name(), "worst_ratio": r})).collect::<Vec<_>>(),
+                "binding": p.binding,
+                "cached": p.cached,
+                "best_by_schedule": p.best_by_schedule.iter().map(|(s, r)| serde_json::json!({"schedule": s, "worst_ratio": r})).collect::<Vec<_>>(),
             })
         }),
     }
 }
 
-/// `s` with its maneuver planned if it has none; the plan when one was made.
-pub fn resolve(s: Scenario) -> Result<(Scenario, Option<Plan>), String> {
+/// `s` with its maneuver planned if it has none; what the plan was when one was made.
+/// A plan of the same scenario made before by the same code comes from the cache.
+pub fn resolve(s: Scenario) -> Result<(Scenario, Option<PlanInfo>), String> {
     if !s.plan_pending {
         return Ok((s, None));
+    }
+    if let Some((m, info)) = cache::load(&s) {
+        let mut out = s.clone();
+        out.maneuver = m;
+        out.plan_pending = false;
+        if let Ok(out) = out.validated() {
+            warn_shortfall(&info);
+            return Ok((out, Some(info)));
+        }
     }
     // The run computes the exact bound itself: the search's ranks the plan.
     let opts = PlanOptions {
@@ -763,17 +816,23 @@ pub fn resolve(s: Scenario) -> Result<(Scenario, Option<Plan>), String> {
         ..PlanOptions::default()
     };
     let p = plan(&s, &opts).map_err(|e| format!("planning the maneuver: {e}"))?;
-    if let Some(why) = &p.shortfall {
-        log::warn!("flying the best maneuver found, but {why}");
-        eprintln!("warning: flying the best maneuver found, but {why}");
-    }
-    let mut out = s;
+    let info = PlanInfo::from(&p);
+    warn_shortfall(&info);
+    let mut out = s.clone();
     out.maneuver = p.chosen.maneuver.clone();
     out.plan_pending = false;
     let out = out
         .validated()
         .map_err(|e| format!("the planned maneuver does not pass the scenario's checks: {e}"))?;
-    Ok((out, Some(p)))
+    cache::store(&s, &out.maneuver, &info);
+    Ok((out, Some(info)))
+}
+
+fn warn_shortfall(info: &PlanInfo) {
+    if let Some(why) = &info.shortfall {
+        log::warn!("flying the best maneuver found, but {why}");
+        eprintln!("warning: flying the best maneuver found, but {why}");
+    }
 }
 
 /// The chosen maneuver as a `[maneuver]` TOML table.
@@ -785,5 +844,6 @@ pub fn maneuver_toml(m: &Maneuver) -> String {
     toml::to_string(&Wrap { maneuver: m }).unwrap_or_default()
 }
 
+pub mod cache;
 mod output;
 pub use output::write;
