@@ -32,9 +32,9 @@ const FINAL_SAMPLES: f64 = 2.0e6;
 /// Largest attitude excursion [rad] of a planned maneuver at the default SRP noise
 /// (scaled by 1.1×10⁻¹¹ over `srp.asd_at_3mhz`): the estimator models the turn of the
 /// DC SRP with the attitude but not that of its fluctuation, whose product with the
-/// angle biases r beyond the bound at larger angles (30-seed Monte Carlo: RMS/CRLB of
-/// rz 0.9 at 6×10⁻⁴ rad, 1.9 at 1.4×10⁻³, 9 at 5×10⁻³; docs/planning.md).
-pub const MODEL_ATTITUDE_RAD: f64 = 6.0e-4;
+/// angle biases r beyond the bound at larger angles (Monte Carlo, RMS/CRLB of rz:
+/// 1.19 at 5.5×10⁻⁴ rad, 1.24 at 6×10⁻⁴, 1.9 at 1.4×10⁻³, 9 at 5×10⁻³; docs/planning.md).
+pub const MODEL_ATTITUDE_RAD: f64 = 5.5e-4;
 
 /// The attitude limit of the plan: the scenario's, within the estimator's model.
 pub fn attitude_limit(s: &Scenario) -> (f64, &'static str) {
