@@ -18,13 +18,7 @@ impl Commander {
     /// The commander of a validated scenario (whose maneuver fits its window; one
     /// that does not commands no torque).
     pub fn new(s: &Scenario) -> Self {
-        let timeline = Timeline::new(s).unwrap_or_else(|_| Timeline {
-            stretches: Default::default(),
-            ticks_per_period: [1.0; 3],
-            amplitude_nm: [0.0; 3],
-            start_phase: 0.0,
-            fs: s.sample_rate_hz,
-        });
+        let timeline = Timeline::new(s).unwrap_or_else(|_| Timeline::quiet(s.sample_rate_hz));
         Commander { timeline, seq: 0 }
     }
 

@@ -56,8 +56,7 @@ impl Timeline {
         } else {
             Vec::new()
         };
-        let blocked_s = blocked_seconds(&blocked, start, end, fs);
-        let usable_s = s.duration_s - mv.start_s - blocked_s;
+        let usable_s = s.duration_s - mv.start_s - blocked_seconds(&blocked, start, end, fs);
         let freq = axis_frequencies(s);
         let tpp = freq.map(|f| fs / f);
         let mut stretches: [Vec<Stretch>; 3] = Default::default();
@@ -124,26 +123,41 @@ impl Timeline {
         })
     }
 
+    /// No rocking at all (a maneuver that does not fit its window).
+    pub fn quiet(fs: f64) -> Self {
+        Timeline {
+            stretches: Default::default(),
+            ticks_per_period: [1.0; 3],
+            amplitude_nm: [0.0; 3],
+            start_phase: 0.0,
+            fs,
+        }
+    }
+
     /// Commanded torque [N m] on `axis` for the interval starting at `tick`.
     pub fn torque_axis(&self, axis: usize, tick: u64) -> f64 {
+        self.level(axis, tick as f64)
+    }
+
+    /// The square wave of `axis` at `at` ticks (fractional in continuous time): the
+    /// stretch it falls in, its phase there, ±amplitude; 0 outside every stretch.
+    fn level(&self, axis: usize, at: f64) -> f64 {
         let st = &self.stretches[axis];
-        // The last stretch starting at or before `tick`.
-        let i = st.partition_point(|x| x.start_tick <= tick);
-        if i == 0 {
+        // The last stretch starting at or before `at`.
+        let i = st.partition_point(|x| x.start_tick as f64 <= at);
+        let Some(x) = i.checked_sub(1).map(|i| st[i]) else {
             return 0.0;
-        }
-        let x = st[i - 1];
-        let local = tick - x.start_tick;
-        if local >= x.ticks {
-            return 0.0;
-        }
-        let phase = (self.start_phase + local as f64 / self.ticks_per_period[axis]).fract();
-        let sign = if (0.25..0.75).contains(&phase) {
-            -1.0
-        } else {
-            1.0
         };
-        sign * self.amplitude_nm[axis]
+        let local = at - x.start_tick as f64;
+        if local >= x.ticks as f64 {
+            return 0.0;
+        }
+        let phase = (self.start_phase + local / self.ticks_per_period[axis]).fract();
+        if (0.25..0.75).contains(&phase) {
+            -self.amplitude_nm[axis]
+        } else {
+            self.amplitude_nm[axis]
+        }
     }
 
     /// Commanded body torque [N m] for the interval starting at `tick`.
@@ -202,26 +216,7 @@ impl Timeline {
 
     /// Torque [N m] in continuous time (the square wave the ticks sample).
     fn torque_at_time(&self, t: f64) -> Vector3<f64> {
-        Vector3::from_fn(|a, _| {
-            let tick = (t * self.fs).floor().max(0.0) as u64;
-            let st = &self.stretches[a];
-            let i = st.partition_point(|x| x.start_tick <= tick);
-            if i == 0 {
-                return 0.0;
-            }
-            let x = st[i - 1];
-            let t0 = x.start_tick as f64 / self.fs;
-            if t >= (x.start_tick + x.ticks) as f64 / self.fs {
-                return 0.0;
-            }
-            let period = self.ticks_per_period[a] / self.fs;
-            let phase = (self.start_phase + (t - t0) / period).fract();
-            if (0.25..0.75).contains(&phase) {
-                -self.amplitude_nm[a]
-            } else {
-                self.amplitude_nm[a]
-            }
-        })
+        Vector3::from_fn(|a, _| self.level(a, t * self.fs))
     }
 
     /// The rigid-body response to the commanded torques (linear in the amplitudes:
@@ -353,6 +348,12 @@ pub fn axis_frequencies(s: &Scenario) -> [f64; 3] {
 pub fn torque_boost(s: &Scenario) -> f64 {
     let th = &s.thruster;
     1.0 + 3.0 * th.amplitude_jitter_rel + 2.0 * th.overshoot_rel
+}
+
+/// Seconds of the window the maneuver can rock in when it pauses in the star
+/// tracker's outages (from `start_s` = 0).
+pub fn rocking_seconds(s: &Scenario) -> f64 {
+    s.duration_s - blocked_seconds(&outage_ticks(s), 0, s.n_samples(), s.sample_rate_hz)
 }
 
 /// Star-tracker outages as tick intervals [start, end), merged and sorted.

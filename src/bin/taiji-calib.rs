@@ -252,7 +252,9 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
                 .join()
                 .unwrap_or_else(|e| std::panic::resume_unwind(e))?;
             let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
-            report.maneuver = Some(taiji::plan::describe(&s, Some(&crlb), plan.as_ref()));
+            if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
+                m.search = Some(p.search_json());
+            }
             report.faults = faults.map(|f| f.summary());
             report.wall_time_s = Some(t0.elapsed().as_secs_f64());
             if let (true, Some(tel)) = (plots, &tel) {

@@ -13,7 +13,7 @@
 
 use crate::campaign::Threads;
 use crate::crlb::{crlb_at_rate, crlb_on, Crlb};
-use crate::maneuver::{axis_frequencies, torque_boost, Envelope, Timeline};
+use crate::maneuver::{axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline};
 use crate::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::{k_from_beta, Maneuver, Scenario, Schedule};
 use nalgebra::{Matrix3, Vector3};
@@ -134,6 +134,20 @@ pub struct PlanInfo {
     pub shortfall: Option<String>,
     /// Taken from the plan cache (`cache.rs`) rather than searched now.
     pub cached: bool,
+}
+
+impl PlanInfo {
+    /// The report's `maneuver.search` object.
+    pub fn search_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "candidates": self.candidates,
+            "search_rate_hz": self.search_rate_hz,
+            "elapsed_s": self.elapsed_s,
+            "binding": self.binding,
+            "cached": self.cached,
+            "best_by_schedule": self.best_by_schedule.iter().map(|(s, r)| serde_json::json!({"schedule": s, "worst_ratio": r})).collect::<Vec<_>>(),
+        })
+    }
 }
 
 impl From<&Plan> for PlanInfo {
@@ -328,13 +342,7 @@ use crate::maneuver::round_down_4;
 fn shapes(base: &Scenario, counts: &[u64], sched: &[Schedule], slow: &[usize]) -> Vec<Maneuver> {
     let fs = base.sample_rate_hz;
     // Rocking time: the window less the star-tracker outages it waits out.
-    let blind: f64 = base
-        .star_tracker
-        .outages_s
-        .iter()
-        .map(|o| (o[1].min(base.duration_s) - o[0].max(0.0)).max(0.0))
-        .sum();
-    let n_ticks = ((base.duration_s - blind) * fs).floor().max(0.0);
+    let n_ticks = (rocking_seconds(base) * fs).floor().max(0.0);
     let hold = base.spacecraft.attitude_hold_hz;
     let f_hi = MAX_FREQUENCY_HZ.min(fs / 8.0);
     let mut out = Vec::new();
@@ -367,10 +375,8 @@ fn shapes(base: &Scenario, counts: &[u64], sched: &[Schedule], slow: &[usize]) -
             && f >= 10.0 * hold
         {
             for &slow in slow {
-                let mut ratio = [2.0, 4.0, 2.0];
-                ratio[slow] = 1.0;
-                ratio[(slow + 1) % 3] = 2.0;
-                ratio[(slow + 2) % 3] = 4.0;
+                // 1 on the slow axis, then 2 and 4 on the next ones.
+                let ratio = core::array::from_fn(|a| [1.0, 2.0, 4.0][(a + 3 - slow) % 3]);
                 out.push(Maneuver {
                     schedule: Schedule::Simultaneous,
                     frequency_hz: f,
@@ -390,30 +396,35 @@ fn evaluate(base: &Scenario, cands: &mut [Candidate], rate: f64) {
         .unwrap_or(1)
         .clamp(1, 8);
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<std::sync::Mutex<Option<Crlb>>> =
-        cands.iter().map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|sc| {
-        for _ in 0..workers {
-            sc.spawn(|| loop {
+    let done: Vec<(usize, Option<Crlb>)> = std::thread::scope(|sc| {
+        let work = || {
+            let mut out = Vec::new();
+            loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(c) = cands.get(i) else { break };
-                let s = with_maneuver(base, &c.maneuver);
-                let b = crlb_at_rate(&s, rate);
-                if let Ok(mut slot) = results[i].lock() {
-                    *slot = b;
-                }
-            });
-        }
-    });
-    for (c, r) in cands.iter_mut().zip(results) {
-        c.crlb = r.into_inner().ok().flatten();
-        c.rate_hz = rate;
-        let s = with_maneuver(base, &c.maneuver);
-        (c.worst_ratio, c.worst_parameter) = match &c.crlb {
-            Some(b) => worst_ratio(&s, b),
-            None => (f64::INFINITY, "singular Fisher information".into()),
+                let Some(c) = cands.get(i) else { break out };
+                out.push((i, crlb_at_rate(&with_maneuver(base, &c.maneuver), rate)));
+            }
         };
+        let handles: Vec<_> = (0..workers).map(|_| sc.spawn(work)).collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    for (i, b) in done {
+        set_bound(base, &mut cands[i], b, rate);
     }
+}
+
+/// Give `c` its bound (computed at `rate`) and its worst ratio.
+fn set_bound(base: &Scenario, c: &mut Candidate, b: Option<Crlb>, rate: f64) {
+    let s = with_maneuver(base, &c.maneuver);
+    (c.worst_ratio, c.worst_parameter) = match &b {
+        Some(b) => worst_ratio(&s, b),
+        None => (f64::INFINITY, "singular Fisher information".into()),
+    };
+    c.crlb = b;
+    c.rate_hz = rate;
 }
 
 /// A refinement (another start phase than the cosine, another axis order than xyz)
@@ -568,19 +579,15 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
     } else {
         rate
     };
-    let cs = with_maneuver(&base, &chosen.maneuver);
-    chosen.crlb = if final_rate == rate {
-        chosen.crlb
-    } else if final_rate >= base.sample_rate_hz {
-        crlb_on(&cs, Threads::available())
-    } else {
-        crlb_at_rate(&cs, final_rate)
-    };
-    chosen.rate_hz = final_rate;
-    (chosen.worst_ratio, chosen.worst_parameter) = match &chosen.crlb {
-        Some(b) => worst_ratio(&cs, b),
-        None => (f64::INFINITY, "singular Fisher information".into()),
-    };
+    if final_rate != rate {
+        let cs = with_maneuver(&base, &chosen.maneuver);
+        let b = if final_rate >= base.sample_rate_hz {
+            crlb_on(&cs, Threads::available())
+        } else {
+            crlb_at_rate(&cs, final_rate)
+        };
+        set_bound(&base, &mut chosen, b, final_rate);
+    }
     let shortfall = (chosen.worst_ratio.is_nan() || chosen.worst_ratio > 1.0)
         .then(|| infeasible(&base, &chosen));
     Ok(Plan {
@@ -775,23 +782,16 @@ pub fn describe(s: &Scenario, crlb: Option<&Crlb>, plan: Option<&PlanInfo>) -> M
         start_phase: mv.start_phase,
         start_s: mv.start_s,
         pause_in_outages: mv.pause_in_outages,
-        peak_acceleration_m_s2: env
+        peak_acceleration_m_s2: env.as_ref().map_or(f64::NAN, |e| {
+            e.peak_acceleration(&offset_corners(s), boost).1
+        }),
+        peak_attitude_rad: env
             .as_ref()
-            .map_or(f64::NAN, |e| e.peak_acceleration(&offset_corners(s), boost).1),
-        peak_attitude_rad: env.as_ref().map_or(f64::NAN, |e| e.peak_attitude_rad * boost),
+            .map_or(f64::NAN, |e| e.peak_attitude_rad * boost),
         peak_rate_rad_s: env.as_ref().map_or(f64::NAN, |e| e.peak_rate_rad_s * boost),
         predicted_worst_ratio: ratio,
         predicted_worst_parameter: param,
-        search: plan.map(|p| {
-            serde_json::json!({
-                "candidates": p.candidates,
-                "search_rate_hz": p.search_rate_hz,
-                "elapsed_s": p.elapsed_s,
-                "binding": p.binding,
-                "cached": p.cached,
-                "best_by_schedule": p.best_by_schedule.iter().map(|(s, r)| serde_json::json!({"schedule": s, "worst_ratio": r})).collect::<Vec<_>>(),
-            })
-        }),
+        search: plan.map(PlanInfo::search_json),
     }
 }
 

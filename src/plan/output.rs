@@ -85,15 +85,13 @@ pub fn summary(s: &Scenario, p: &Plan, top: usize, margin: Option<f64>) -> Strin
     let c = &p.chosen;
     let _ = writeln!(o, "Chosen, bound at {} Hz:", c.rate_hz);
     if let Some(b) = &c.crlb {
-        for (i, is) in s.inertial_sensor.iter().enumerate() {
-            let prior = s.priors();
+        for (i, prior) in s.priors().iter().enumerate() {
             let rel: Vec<String> = (0..3)
-                .map(|a| format!("{:.2e}", b.beta[i][a] / prior[i].beta[a]))
+                .map(|a| format!("{:.2e}", b.beta[i][a] / prior.beta[a]))
                 .collect();
             let r: Vec<String> = (0..3)
                 .map(|a| format!("{:.3}", b.com_offset_m[i][a] * 1e6))
                 .collect();
-            let _ = is;
             let _ = writeln!(
                 o,
                 "  IS{}  β relative [{}] (req 3.0e-4)   r [{}] µm (req 75)",

@@ -231,7 +231,9 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
             let seed = args.seed.unwrap_or(s.seed);
             let mut report =
                 Report::new(&s, seed, "multi-process", &args.method, &final_est, &crlb);
-            report.maneuver = Some(crate::plan::describe(&s, Some(&crlb), plan.as_ref()));
+            if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
+                m.search = Some(p.search_json());
+            }
             report.wall_time_s = Some(wall);
             report.timing = Some(timing_json(args, &s, &members));
             let restarts: BTreeMap<String, u32> = members
