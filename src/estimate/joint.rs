@@ -169,8 +169,8 @@ pub struct JointEstimator {
     /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
     /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
     /// [rad], drift rate [rad/s], β − β̂ [rad s⁻² V⁻¹]) and its covariance. The drift
-    /// stays exactly 0 while nothing is bridged; the β state keeps the still-unknown
-    /// scale error out of it.
+    /// also follows IS1's double-integrated ω̇ noise, which grows without bound in
+    /// long campaigns; the β state keeps the still-unknown scale error out of it.
     drift_x: [[f64; 4]; 3],
     drift_p: [[[f64; 4]; 4]; 3],
     /// Linear test: whitened residual rows (5 complement + common mode) of the
@@ -726,15 +726,29 @@ impl JointEstimator {
             self.phi_hat[a] += dt * w_model[a];
         }
         self.q_model *= UnitQuaternion::from_scaled_axis(w_model * dt);
+        let c = &self.cfg;
+        let (g0, g1) = (0.5 * dt * dt, dt);
         for a in 0..3 {
+            // IS1's ω̇ noise (readout and drive ripple) integrates twice into the
+            // propagated attitude: a random walk of angle and rate that grows as t^1.5
+            // (2×10⁻⁷ rad at 10⁵ s) and, turning the 3×10⁻⁸ m/s² SRP, would pose as a
+            // CoM offset in long campaigns. The filter follows it on the star tracker.
+            let wd = c.beta_prior[0][a] * self.dv_last[0][a];
+            let q = c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2);
             let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
             x[1] += dt * x[2];
-            // P ← F P Fᵀ with F = I + dt e1 e2ᵀ (drift += dt × drift rate).
+            // P ← F P Fᵀ with F = I + dt e1 e2ᵀ (drift += dt × drift rate), plus the noise.
             for r in 0..4 {
                 p[r][1] += dt * p[r][2];
             }
             for c in 0..4 {
                 p[1][c] += dt * p[2][c];
+            }
+            if q.is_finite() {
+                p[1][1] += q * g0 * g0;
+                p[1][2] += q * g0 * g1;
+                p[2][1] += q * g0 * g1;
+                p[2][2] += q * g1 * g1;
             }
         }
     }
@@ -932,8 +946,7 @@ impl JointEstimator {
     }
 
     /// Star-tracker residual e = θ − κ − β̂1 Φ1 [rad] = θ0 + drift + (β1 − β̂1) Φ1 +
-    /// noise: update the drift filter (its gain on the drift is 0 until a bridged tick
-    /// gives the drift variance).
+    /// noise: update the drift filter.
     fn drift_update(&mut self, a: usize, e: f64) {
         let r = self.cfg.sigma_star_rad.powi(2);
         let h = [1.0, 1.0, 0.0, self.phi[0][a]];
