@@ -389,21 +389,30 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, String> {
             c.runs,
             ranges(&gaps)
         );
-        // Name the shards that wrote nothing, when every file agrees on the count.
+        // Name the shards short of results, when every file agrees on the count.
         let count = files[0].1.shard.count;
-        if count <= 10_000 && files.iter().all(|(_, f)| f.shard.count == count) {
-            let present: std::collections::BTreeSet<u64> =
-                files.iter().map(|(_, f)| f.shard.index).collect();
-            let absent: Vec<String> = (0..count)
-                .filter(|i| !present.contains(i))
-                .map(|i| format!("{i}/{count}"))
-                .collect();
-            if !absent.is_empty() {
-                e += &format!(
-                    "\n  no result at all from shard(s) {}: run them with the same arguments",
-                    absent.join(", ")
-                );
+        if missing <= 100_000 && files.iter().all(|(_, f)| f.shard.count == count) {
+            let mut short: BTreeMap<u64, u64> = BTreeMap::new();
+            for &(a, b) in &gaps {
+                for seed in a..=b {
+                    *short.entry((seed - c.first_seed) % count).or_default() += 1;
+                }
             }
+            let lines: Vec<String> = short
+                .iter()
+                .map(|(&i, &n)| {
+                    // Shard i's seeds: the j < runs with j % count == i.
+                    let of = (c.runs - i).div_ceil(count);
+                    match n == of {
+                        true => format!("shard {i}/{count} wrote none of its {of}"),
+                        false => format!("shard {i}/{count} lacks {n} of its {of}"),
+                    }
+                })
+                .collect();
+            e += &format!(
+                "\n  {}: run them again with the same arguments (a re-run keeps the results already written)",
+                lines.join("; ")
+            );
         }
         problems.push(e);
     }
