@@ -96,8 +96,7 @@ pub fn run_seeds(
     std::thread::scope(|sc| {
         let handles: Vec<_> = (0..workers)
             .map(|_| {
-                let (bar, next, seeds, done, failed) =
-                    (bar.clone(), &next, seeds, &done, &failed);
+                let (bar, next, seeds, done, failed) = (bar.clone(), &next, seeds, &done, &failed);
                 sc.spawn(move || {
                     let mut mine = Vec::new();
                     loop {
@@ -111,14 +110,8 @@ pub fn run_seeds(
                         let mut sc = s.clone();
                         sc.seed = seed;
                         let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
-                        let mut rep = Report::new(
-                            &sc,
-                            seed,
-                            "in-process",
-                            method.name(),
-                            &r.estimate,
-                            bound,
-                        );
+                        let mut rep =
+                            Report::new(&sc, seed, "in-process", method.name(), &r.estimate, bound);
                         rep.faults = r.faults.map(|f| f.summary());
                         if let Err(e) = done(&rep) {
                             if let Ok(mut f) = failed.lock() {

@@ -63,7 +63,10 @@ fn shards() -> &'static Path {
         let d = tmp("shards");
         for i in 0..4 {
             let out = ok(&shard(i, &[], &d));
-            assert!(out.contains(&format!("shard {i}/4: ran 2 seed(s)")), "{out}");
+            assert!(
+                out.contains(&format!("shard {i}/4: ran 2 seed(s)")),
+                "{out}"
+            );
         }
         d
     })
@@ -80,7 +83,11 @@ fn copy(name: &str, seeds: &[u64]) -> PathBuf {
 }
 
 fn merge(dirs: &[&Path]) -> Output {
-    calib().args(["montecarlo", "merge"]).args(dirs).output().unwrap()
+    calib()
+        .args(["montecarlo", "merge"])
+        .args(dirs)
+        .output()
+        .unwrap()
 }
 
 /// Exit 2, no table, and the error message.
@@ -116,11 +123,17 @@ fn four_shards_merged_are_the_single_run_byte_for_byte() {
     assert!(table.contains("8 runs from seed 1"), "{table}");
     assert_eq!(merged_table, table);
     let one = std::fs::read(single.join("montecarlo.json")).unwrap();
-    assert_eq!(
-        std::fs::read(merged.join("montecarlo.json")).unwrap(),
-        one,
-        "montecarlo.json differs"
-    );
+    let two = std::fs::read(merged.join("montecarlo.json")).unwrap();
+    if let Some(at) = (0..one.len().max(two.len())).find(|&i| one.get(i) != two.get(i)) {
+        let around = |b: &[u8]| {
+            String::from_utf8_lossy(&b[at.saturating_sub(80)..(at + 80).min(b.len())]).into_owned()
+        };
+        panic!(
+            "montecarlo.json differs at byte {at}:\nsingle: {}\nmerged: {}",
+            around(&one),
+            around(&two)
+        );
+    }
     let v: serde_json::Value = serde_json::from_slice(&one).unwrap();
     assert_eq!(v["reports"].as_array().unwrap().len(), 8);
 }
@@ -176,7 +189,10 @@ fn a_malformed_or_misnamed_result_file_is_named() {
     let f = d.join("run-5.json");
     let text = std::fs::read_to_string(&f).unwrap();
     for (bad, says) in [
-        (text[..text.len() / 2].to_string(), "not a Monte Carlo result file"),
+        (
+            text[..text.len() / 2].to_string(),
+            "not a Monte Carlo result file",
+        ),
         ("{}".to_string(), "not a Monte Carlo result file"),
         (
             text.replace("montecarlo run 1", "montecarlo run 0"),
@@ -259,4 +275,30 @@ fn bad_shard_arguments_are_user_errors() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--out"));
     assert_eq!(std::fs::read_dir(&d).unwrap().count(), 0);
+}
+
+#[test]
+fn every_key_of_a_result_file_is_documented() {
+    let text = std::fs::read_to_string(shards().join("run-1.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let doc =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/report.md")).unwrap();
+    let mut keys = Vec::new();
+    for (k, x) in v.as_object().unwrap() {
+        keys.push(k.clone());
+        if k != "report" {
+            keys.extend(
+                x.as_object()
+                    .into_iter()
+                    .flat_map(|o| o.keys().map(|n| format!("{k}.{n}"))),
+            );
+        }
+    }
+    assert!(keys.len() > 10, "{keys:?}");
+    let missing: Vec<_> = keys
+        .iter()
+        .filter(|k| !doc.contains(&format!("`{k}`")))
+        .collect();
+    assert!(missing.is_empty(), "docs/report.md lacks {missing:?}");
+    assert!(doc.contains("run-<seed>.json"));
 }

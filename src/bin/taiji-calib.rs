@@ -166,8 +166,7 @@ fn montecarlo_out(mc: &montecarlo::MonteCarlo, out: Option<PathBuf>) -> Result<E
             .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
         let path = out.join("montecarlo.json");
         let text = serde_json::to_string_pretty(mc).map_err(|e| e.to_string())?;
-        std::fs::write(&path, text)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     Ok(ExitCode::SUCCESS)
 }

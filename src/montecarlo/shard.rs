@@ -120,7 +120,9 @@ pub struct ShardDone {
 pub fn build_id() -> Result<String, String> {
     let exe = std::env::current_exe()
         .and_then(std::fs::read)
-        .map_err(|e| format!("cannot read this program's executable to identify the build ({e})"))?;
+        .map_err(|e| {
+            format!("cannot read this program's executable to identify the build ({e})")
+        })?;
     Ok(format!(
         "{} exe {:016x}",
         env!("CARGO_PKG_VERSION"),
@@ -246,9 +248,9 @@ pub fn read_run_file(path: &Path) -> Result<RunFile, String> {
             .ok()
             .and_then(|v| v.get("format").cloned());
         match format {
-            Some(v) if v != FORMAT => format!(
-                "{p}: a result file of format {v}, not {FORMAT:?}: made by another version"
-            ),
+            Some(v) if v != FORMAT => {
+                format!("{p}: a result file of format {v}, not {FORMAT:?}: made by another version")
+            }
             _ => format!("{p}: not a Monte Carlo result file ({e})"),
         }
     })?;
@@ -258,10 +260,12 @@ pub fn read_run_file(path: &Path) -> Result<RunFile, String> {
             f.format
         ));
     }
-    let named = path
-        .file_name()
-        .and_then(|n| n.to_str())
-        .and_then(|n| n.strip_prefix("run-")?.strip_suffix(".json")?.parse::<u64>().ok());
+    let named = path.file_name().and_then(|n| n.to_str()).and_then(|n| {
+        n.strip_prefix("run-")?
+            .strip_suffix(".json")?
+            .parse::<u64>()
+            .ok()
+    });
     if named != Some(f.seed) || f.report.seed != f.seed {
         return Err(format!(
             "{p}: holds seed {} (its report: seed {}); a result file is named run-<seed>.json after its seed",
@@ -361,7 +365,10 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, String> {
             dups.len()
         );
         for (seed, v) in dups.iter().take(10) {
-            let names: Vec<String> = v.iter().map(|&i| files[i].0.display().to_string()).collect();
+            let names: Vec<String> = v
+                .iter()
+                .map(|&i| files[i].0.display().to_string())
+                .collect();
             e += &format!("\n  seed {seed}: {}", names.join(", "));
         }
         if dups.len() > 10 {
