@@ -230,6 +230,32 @@ fn results_of_another_campaign_are_refused() {
         err.contains("2 different campaigns") && err.contains("differ in first_seed"),
         "{err}"
     );
+    // A file from another build, or of another scenario (a different maneuver planned,
+    // say): the campaigns are listed with a file of each.
+    let f = all.join("run-4.json");
+    let text = std::fs::read_to_string(&f).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["campaign"]["build"] = "0.1.0 exe 0000000000000000".into();
+    std::fs::write(&f, v.to_string()).unwrap();
+    let err = refused(&merge(&[&all]));
+    assert!(
+        err.contains("differ in build") && err.contains(&f.display().to_string()),
+        "{err}"
+    );
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let toml = v["scenario_toml"]
+        .as_str()
+        .unwrap()
+        .replace("torque_amplitude_nm = [", "torque_amplitude_nm = [1e-6, ");
+    let hash = format!("{:016x}", taiji::estimate::snapshot::fnv1a(toml.as_bytes()));
+    v["scenario_toml"] = toml.into();
+    v["campaign"]["scenario_hash"] = hash.into();
+    std::fs::write(&f, v.to_string()).unwrap();
+    let err = refused(&merge(&[&all]));
+    assert!(
+        err.contains("differ in scenario_hash") && err.contains(&f.display().to_string()),
+        "{err}"
+    );
     // Writing into another campaign's folder is refused before anything runs (shard
     // 2/4 from seed 1 is seeds 3 and 7, which the other campaign wrote).
     let err = refused(&shard(2, &[], &other));
