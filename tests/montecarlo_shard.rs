@@ -328,3 +328,55 @@ fn every_key_of_a_result_file_is_documented() {
     assert!(missing.is_empty(), "docs/report.md lacks {missing:?}");
     assert!(doc.contains("run-<seed>.json"));
 }
+
+#[test]
+fn a_report_with_nan_and_infinities_reads_back_bit_for_bit() {
+    use taiji::montecarlo::shard::{read_run_file, write_run_file};
+    let mut f = read_run_file(&shards().join("run-1.json")).unwrap();
+    let is = &mut f.report.inertial_sensors[1];
+    is.beta.estimate[0] = f64::NAN;
+    is.k.sigma[2] = -f64::NAN;
+    is.com_offset.estimate[1] = f64::INFINITY;
+    let m = f.report.maneuver.as_mut().unwrap();
+    m.peak_rate_rad_s = f64::NEG_INFINITY;
+    if let Some(s) = f.report.estimator_status.as_mut() {
+        s.chi2_per_dof.insert("linear".into(), f64::NAN);
+    }
+    let d = tmp("nonfinite");
+    write_run_file(&d, &f).unwrap();
+    let text = std::fs::read_to_string(d.join("run-1.json")).unwrap();
+    assert!(
+        text.contains("\"/inertial_sensors/1/k/sigma/2\": \"-NaN\""),
+        "{text}"
+    );
+    let back = read_run_file(&d.join("run-1.json")).unwrap();
+    let bits = |r: &taiji::report::Report| {
+        let v = serde_json::to_string(r).unwrap();
+        let is = &r.inertial_sensors[1];
+        let m = r.maneuver.as_ref().unwrap();
+        let chi2 = r
+            .estimator_status
+            .as_ref()
+            .map(|s| s.chi2_per_dof["linear"].to_bits());
+        (
+            v,
+            is.beta.estimate[0].to_bits(),
+            is.k.sigma[2].to_bits(),
+            is.com_offset.estimate[1].to_bits(),
+            m.peak_rate_rad_s.to_bits(),
+            chi2,
+        )
+    };
+    assert_eq!(bits(&back.report), bits(&f.report));
+    // A nonfinite entry that names no null is a malformed file.
+    let bad = text.replace(
+        "/inertial_sensors/1/k/sigma/2",
+        "/inertial_sensors/1/k/sigma/1",
+    );
+    std::fs::write(d.join("run-1.json"), bad).unwrap();
+    let err = read_run_file(&d.join("run-1.json")).unwrap_err();
+    assert!(
+        err.contains("run-1.json") && err.contains("nonfinite"),
+        "{err}"
+    );
+}

@@ -208,19 +208,17 @@ pub fn run_shard(
     Ok(ShardDone { ran: todo, kept })
 }
 
-/// Write `f` whole or not at all: to a hidden temporary name, synced, then renamed, so
-/// a job killed mid-write leaves no `run-<seed>.json` behind.
-fn write_run_file(dir: &Path, f: &RunFile) -> Result<(), String> {
+/// Write `f` as `dir/run-<seed>.json`, whole or not at all: to a hidden temporary
+/// name, synced, then renamed, so a job killed mid-write leaves no result behind.
+pub fn write_run_file(dir: &Path, f: &RunFile) -> Result<(), String> {
     use std::io::Write;
-    let text = serde_json::to_string_pretty(f).map_err(|e| e.to_string())?;
-    // JSON has no NaN or infinity (they are written as null): a report holding one
-    // would not read back as it was, so it is refused here rather than at the merge.
-    let back = serde_json::from_str::<RunFile>(&text)
-        .ok()
-        .and_then(|b| serde_json::to_string_pretty(&b).ok());
+    let text = to_text(f)?;
+    // The file must give back exactly this report, every bit of every float; a float
+    // field `floats` does not know holding NaN would not (JSON writes it as null).
+    let back = parse(&text).and_then(|b| to_text(&b)).ok();
     if back.as_deref() != Some(text.as_str()) {
         return Err(format!(
-            "seed {}: its report holds a number JSON cannot carry (not finite), so it cannot be merged exactly; run this campaign without --shard",
+            "seed {}: its report does not read back exactly from JSON (a number that is not finite?), so it could not be merged exactly; run this campaign without --shard",
             f.seed
         ));
     }
@@ -238,12 +236,133 @@ fn write_run_file(dir: &Path, f: &RunFile) -> Result<(), String> {
         })
 }
 
+/// Every float of a report with its JSON pointer within the report.
+fn floats(r: &mut Report, f: &mut dyn FnMut(String, &mut f64)) {
+    f("/duration_s".into(), &mut r.duration_s);
+    for (i, is) in r.inertial_sensors.iter_mut().enumerate() {
+        let qs = [
+            ("beta", &mut is.beta),
+            ("k", &mut is.k),
+            ("com_offset", &mut is.com_offset),
+        ];
+        for (name, q) in qs {
+            let vs = [
+                ("truth", &mut q.truth),
+                ("estimate", &mut q.estimate),
+                ("sigma", &mut q.sigma),
+                ("crlb", &mut q.crlb),
+            ];
+            for (field, v) in vs {
+                for (a, x) in v.iter_mut().enumerate() {
+                    f(format!("/inertial_sensors/{i}/{name}/{field}/{a}"), x);
+                }
+            }
+        }
+    }
+    let req = &mut r.requirements;
+    f(
+        "/requirements/scale_factor_rel".into(),
+        &mut req.scale_factor_rel,
+    );
+    f("/requirements/com_offset_m".into(), &mut req.com_offset_m);
+    if let Some(s) = &mut r.estimator_status {
+        for (k, x) in s.chi2_per_dof.iter_mut() {
+            let k = k.replace('~', "~0").replace('/', "~1");
+            f(format!("/estimator_status/chi2_per_dof/{k}"), x);
+        }
+        f(
+            "/estimator_status/sigma_inflation".into(),
+            &mut s.sigma_inflation,
+        );
+    }
+    if let Some(w) = &mut r.wall_time_s {
+        f("/wall_time_s".into(), w);
+    }
+    if let Some(m) = &mut r.maneuver {
+        for (a, x) in m.frequencies_hz.iter_mut().enumerate() {
+            f(format!("/maneuver/frequencies_hz/{a}"), x);
+        }
+        for (a, x) in m.torque_amplitude_nm.iter_mut().enumerate() {
+            f(format!("/maneuver/torque_amplitude_nm/{a}"), x);
+        }
+        for (k, x) in [
+            ("start_phase", &mut m.start_phase),
+            ("start_s", &mut m.start_s),
+            ("peak_acceleration_m_s2", &mut m.peak_acceleration_m_s2),
+            ("peak_attitude_rad", &mut m.peak_attitude_rad),
+            ("peak_rate_rad_s", &mut m.peak_rate_rad_s),
+            ("predicted_worst_ratio", &mut m.predicted_worst_ratio),
+        ] {
+            f(format!("/maneuver/{k}"), x);
+        }
+    }
+}
+
+/// `f` as the file's text: the report's NaN and infinities, which JSON writes as null,
+/// are named in `nonfinite` (pointer → `"NaN"`, `"-NaN"`, `"inf"`, `"-inf"`).
+fn to_text(f: &RunFile) -> Result<String, String> {
+    #[derive(Serialize)]
+    struct Text<'a> {
+        #[serde(flatten)]
+        f: &'a RunFile,
+        #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+        nonfinite: BTreeMap<String, &'static str>,
+    }
+    let mut nonfinite = BTreeMap::new();
+    floats(&mut f.report.clone(), &mut |p, x| {
+        if !x.is_finite() {
+            let v = match *x {
+                x if x.is_nan() && x.is_sign_negative() => "-NaN",
+                x if x.is_nan() => "NaN",
+                x if x > 0.0 => "inf",
+                _ => "-inf",
+            };
+            nonfinite.insert(p, v);
+        }
+    });
+    serde_json::to_string_pretty(&Text { f, nonfinite }).map_err(|e| e.to_string())
+}
+
+/// The inverse of `to_text`.
+fn parse(text: &str) -> Result<RunFile, String> {
+    let mut v: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
+    let nonfinite: BTreeMap<String, String> =
+        match v.as_object_mut().and_then(|o| o.remove("nonfinite")) {
+            Some(n) => serde_json::from_value(n).map_err(|e| format!("nonfinite: {e}"))?,
+            None => BTreeMap::new(),
+        };
+    for p in nonfinite.keys() {
+        match v.get_mut("report").and_then(|r| r.pointer_mut(p)) {
+            Some(x) if x.is_null() => *x = 0.0.into(),
+            _ => return Err(format!("nonfinite: the report has no null at {p}")),
+        }
+    }
+    let mut f: RunFile = serde_json::from_value(v).map_err(|e| e.to_string())?;
+    let mut restored = 0;
+    floats(&mut f.report, &mut |p, x| {
+        if let Some(s) = nonfinite.get(&p) {
+            *x = match s.as_str() {
+                "NaN" => f64::NAN,
+                "-NaN" => -f64::NAN,
+                "inf" => f64::INFINITY,
+                "-inf" => f64::NEG_INFINITY,
+                _ => return,
+            };
+            restored += 1;
+        }
+    });
+    if restored != nonfinite.len() {
+        return Err("nonfinite: a value other than \"NaN\", \"-NaN\", \"inf\", \"-inf\", or a number the report does not have".into());
+    }
+    Ok(f)
+}
+
 /// Read and check one result file (its format, and that its name, seed and scenario
 /// hash agree).
 pub fn read_run_file(path: &Path) -> Result<RunFile, String> {
     let p = path.display();
     let text = std::fs::read_to_string(path).map_err(|e| format!("{p}: cannot read ({e})"))?;
-    let f: RunFile = serde_json::from_str(&text).map_err(|e| {
+    let f: RunFile = parse(&text).map_err(|e| {
         let format = serde_json::from_str::<serde_json::Value>(&text)
             .ok()
             .and_then(|v| v.get("format").cloned());
