@@ -7,6 +7,8 @@ use crate::report::{Report, REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::Scenario;
 use serde::Serialize;
 
+pub mod shard;
+
 /// Statistics of one parameter over the runs.
 #[derive(Debug, Clone, Serialize)]
 pub struct ParamStats {
@@ -42,8 +44,23 @@ pub struct MonteCarlo {
     pub reports: Vec<Report>,
 }
 
+/// Run seeds `first_seed` … `first_seed + runs − 1` on every core and summarise them.
 pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<MonteCarlo, String> {
     let bound = crlb(s).ok_or("the Fisher information of this scenario is singular")?;
+    check_seeds(first_seed, runs)?;
+    let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
+    let reports = run_seeds(s, &seeds, method, &bound, |_| Ok(()))?;
+    Ok(summarise(
+        &s.name,
+        s.inertial_sensor.len(),
+        first_seed,
+        runs,
+        method.name(),
+        reports,
+    ))
+}
+
+fn check_seeds(first_seed: u64, runs: u64) -> Result<(), String> {
     if runs == 0 {
         return Err("--runs must be at least 1".into());
     }
@@ -53,58 +70,89 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
             u64::MAX
         ));
     }
-    let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
+    Ok(())
+}
+
+/// One in-process campaign per seed, on every core; the reports in the order of
+/// `seeds`. `done` sees each report as soon as its campaign ends (on a worker
+/// thread); its first error stops the workers taking new seeds and is returned.
+pub fn run_seeds(
+    s: &Scenario,
+    seeds: &[u64],
+    method: Method,
+    bound: &crate::crlb::Crlb,
+    done: impl Fn(&Report) -> Result<(), String> + Sync,
+) -> Result<Vec<Report>, String> {
     let workers = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
         .min(seeds.len().max(1));
     let mut reports: Vec<Option<Report>> = vec![None; seeds.len()];
     let bar = crate::progress::Bar::new(seeds.len() as u64, "montecarlo");
+    let failed = std::sync::Mutex::new(None::<String>);
     // One campaign per core at a time, each on one thread; a worker takes the next seed
     // when it is done, so a slow core or a busy machine does not leave the other idle.
     let next = std::sync::atomic::AtomicUsize::new(0);
     std::thread::scope(|sc| {
         let handles: Vec<_> = (0..workers)
             .map(|_| {
-                let (bar, next, seeds) = (bar.clone(), &next, &seeds);
+                let (bar, next, seeds, done, failed) = (bar.clone(), &next, seeds, &done, &failed);
                 sc.spawn(move || {
-                    let mut done = Vec::new();
+                    let mut mine = Vec::new();
                     loop {
                         let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                         let Some(&seed) = seeds.get(i) else {
-                            return done;
+                            return mine;
                         };
+                        if failed.lock().map_or(true, |f| f.is_some()) {
+                            return mine;
+                        }
                         let mut sc = s.clone();
                         sc.seed = seed;
                         let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
-                        let mut rep = Report::new(
-                            &sc,
-                            seed,
-                            "in-process",
-                            method.name(),
-                            &r.estimate,
-                            &bound,
-                        );
+                        let mut rep =
+                            Report::new(&sc, seed, "in-process", method.name(), &r.estimate, bound);
                         rep.faults = r.faults.map(|f| f.summary());
-                        done.push((i, rep));
+                        if let Err(e) = done(&rep) {
+                            if let Ok(mut f) = failed.lock() {
+                                f.get_or_insert(e);
+                            }
+                            return mine;
+                        }
+                        mine.push((i, rep));
                         bar.inc(1);
                     }
                 })
             })
             .collect();
         for h in handles {
-            let done = h.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
-            for (i, rep) in done {
+            let mine = h.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+            for (i, rep) in mine {
                 reports[i] = Some(rep);
             }
         }
     });
     bar.finish();
-    let reports: Vec<Report> = reports.into_iter().flatten().collect();
+    if let Some(e) = failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        return Err(e);
+    }
+    Ok(reports.into_iter().flatten().collect())
+}
+
+/// The statistics of `reports` (in seed order, each with `n_is` sensors): the one
+/// summary of a single-machine run and of a merge, so both agree to the bit.
+pub fn summarise(
+    scenario: &str,
+    n_is: usize,
+    first_seed: u64,
+    runs: u64,
+    method: &str,
+    reports: Vec<Report>,
+) -> MonteCarlo {
     let mut params = Vec::new();
     let mut group = [(0.0, 0usize); 3];
     let axes = ["x", "y", "z"];
-    for i in 0..s.inertial_sensor.len() {
+    for i in 0..n_is {
         for (g, name) in ["β", "k", "r"].iter().enumerate() {
             for a in 0..3 {
                 let (mut se, mut worst, mut sz) = (0.0, 0.0f64, 0.0);
@@ -145,19 +193,19 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
             }
         }
     }
-    Ok(MonteCarlo {
+    MonteCarlo {
         runs_verified: verified,
         worst_normalized: worst_z,
         faults: sum_faults(&reports),
-        scenario: s.name.clone(),
+        scenario: scenario.into(),
         runs,
         first_seed,
-        method: method.name().into(),
+        method: method.into(),
         runs_meeting_requirements: met,
         params,
         chi2_by_group: std::array::from_fn(|g| group[g].0 / group[g].1.max(1) as f64),
         reports,
-    })
+    }
 }
 
 /// Per-kind fault counts summed over the runs (None without faults).

@@ -84,21 +84,14 @@ enum Cmd {
         #[arg(long, default_value = "out/export")]
         out: PathBuf,
     },
-    /// Run N seeds and report RMS error, normalized error, CRLB ratio and pass count.
+    /// Run N seeds and report RMS error, normalized error, CRLB ratio and pass count;
+    /// `--shard I/N` runs a share of the seeds (a cluster job), `merge` sums the shares.
+    #[command(args_conflicts_with_subcommands = true)]
     Montecarlo {
-        /// Number of seeds (campaigns) to run, at least 1
-        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u64).range(1..))]
-        runs: u64,
-        #[arg(long)]
-        scenario: Option<PathBuf>,
-        #[arg(long, value_enum, default_value = "joint")]
-        method: MethodArg,
-        /// First seed; run i uses seed + i.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Write the per-run results here as JSON.
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(subcommand)]
+        merge: Option<MonteCarloCmd>,
+        #[command(flatten)]
+        args: MonteCarloArgs,
     },
     /// Print the Cramér–Rao bound of β, k, r for a scenario.
     Crlb {
@@ -128,6 +121,54 @@ enum Cmd {
         #[arg(long, default_value = "out/plan")]
         out: PathBuf,
     },
+}
+
+#[derive(clap::Args)]
+struct MonteCarloArgs {
+    /// Number of seeds (campaigns) to run, at least 1
+    #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u64).range(1..))]
+    runs: u64,
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    #[arg(long, value_enum, default_value = "joint")]
+    method: MethodArg,
+    /// First seed; run i uses seed + i.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Write the per-run results here as JSON (with --shard: DIR/run-<seed>.json).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Run only shard I of N (I from 0 to N-1): runs i with i % N == I, one result
+    /// file per seed in --out; seeds already there are kept. Then `montecarlo merge`.
+    #[arg(long, value_name = "I/N", requires = "out")]
+    shard: Option<montecarlo::shard::Shard>,
+}
+
+#[derive(Subcommand)]
+enum MonteCarloCmd {
+    /// Check that the shards' result files make one whole campaign (every seed once,
+    /// one scenario, estimator and build) and print the table of a single-machine run.
+    Merge {
+        /// Folders holding run-<seed>.json files.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Write DIR/montecarlo.json, as `montecarlo --out DIR` would.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+/// Print the table; with `out`, write DIR/montecarlo.json.
+fn montecarlo_out(mc: &montecarlo::MonteCarlo, out: Option<PathBuf>) -> Result<ExitCode, String> {
+    print!("{}", mc.table());
+    if let Some(out) = out {
+        std::fs::create_dir_all(&out)
+            .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+        let path = out.join("montecarlo.json");
+        let text = serde_json::to_string_pretty(mc).map_err(|e| e.to_string())?;
+        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn main() -> ExitCode {
@@ -303,28 +344,44 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         Cmd::Montecarlo {
-            runs,
-            scenario,
-            method,
-            seed,
-            out,
+            merge: Some(MonteCarloCmd::Merge { dirs, out }),
+            ..
+        } => {
+            if let Some(out) = &out {
+                out_dir(out)?;
+            }
+            montecarlo_out(&montecarlo::shard::merge(&dirs)?, out)
+        }
+        Cmd::Montecarlo {
+            merge: None,
+            args:
+                MonteCarloArgs {
+                    runs,
+                    scenario,
+                    method,
+                    seed,
+                    out,
+                    shard,
+                },
         } => {
             if let Some(out) = &out {
                 out_dir(out)?;
             }
             let (s, _) = load_planned(scenario.as_deref())?;
             let first = seed.unwrap_or(s.seed);
-            let mc = montecarlo::run(&s, first, runs, method.into())?;
-            print!("{}", mc.table());
-            if let Some(out) = out {
-                std::fs::create_dir_all(&out)
-                    .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
-                let path = out.join("montecarlo.json");
-                let text = serde_json::to_string_pretty(&mc).map_err(|e| e.to_string())?;
-                std::fs::write(&path, text)
-                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            if let (Some(shard), Some(dir)) = (shard, &out) {
+                let build = montecarlo::shard::build_id()?;
+                let m = method.into();
+                let done = montecarlo::shard::run_shard(&s, first, runs, m, shard, &build, dir)?;
+                println!(
+                    "shard {shard}: ran {} seed(s), kept {} already in {}; then: taiji-calib montecarlo merge DIR...",
+                    done.ran.len(),
+                    done.kept.len(),
+                    dir.display()
+                );
+                return Ok(ExitCode::SUCCESS);
             }
-            Ok(ExitCode::SUCCESS)
+            montecarlo_out(&montecarlo::run(&s, first, runs, method.into())?, out)
         }
         Cmd::Crlb { scenario } => {
             let (s, _) = load_planned(scenario.as_deref())?;
