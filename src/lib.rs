@@ -61,3 +61,5 @@ pub mod scenario;
 pub mod telemetry;
 #[cfg(feature = "std")]
 pub mod timing;
+#[cfg(feature = "tunnel")]
+pub mod tunnel;
