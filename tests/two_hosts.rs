@@ -165,17 +165,28 @@ fn text(o: &Output) -> String {
     )
 }
 
-/// Wait until the estimator (on flight) has consumed `tick`, read from the flight
-/// host's checkpoint (written every 1000 ticks).
-fn wait_for_checkpoint(flight_out: &Path, timeout: Duration) {
+/// Wait until the run is under way: the flight host's estimator wrote its first
+/// checkpoint (tick 1000). Both supervisors must still be running.
+fn wait_for_checkpoint(flight_out: &Path, sim: &mut Child, flight: &mut Child) {
     let ckpt = flight_out.join("estimator.ckpt");
     let t0 = Instant::now();
     while !ckpt.exists() {
-        assert!(
-            t0.elapsed() < timeout,
-            "no checkpoint on flight after {timeout:?}"
-        );
-        std::thread::sleep(Duration::from_millis(5));
+        for (name, c) in [("sim", &mut *sim), ("flight", &mut *flight)] {
+            if let Ok(Some(st)) = c.try_wait() {
+                let mut err = String::new();
+                if let Some(e) = c.stderr.as_mut() {
+                    use std::io::Read;
+                    let _ = e.read_to_string(&mut err);
+                }
+                panic!("{name} ended ({st}) before the first checkpoint: {err}");
+            }
+        }
+        if t0.elapsed() > Duration::from_secs(120) {
+            let _ = sim.kill();
+            let _ = flight.kill();
+            panic!("no checkpoint on flight after 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(2));
     }
 }
 
@@ -251,9 +262,9 @@ fn a_tunnel_killed_mid_run_is_named_and_the_run_resumes_with_nothing_lost() {
     let hosts = Hosts::up("kt");
     let dir = tmp("killtunnel");
     let sc = write_scenario(&dir, SHORT);
-    let flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
-    let sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &[]);
-    wait_for_checkpoint(&dir.join("flight"), Duration::from_secs(120));
+    let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
+    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &[]);
+    wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     let t = tunnel_of(pid_of(&sim)).expect("the sim host's tunnel");
     // SAFETY: a signal to a process of this test.
     unsafe { libc::kill(t, libc::SIGKILL) };
@@ -262,6 +273,7 @@ fn a_tunnel_killed_mid_run_is_named_and_the_run_resumes_with_nothing_lost() {
     assert!(so.status.success(), "sim: {}", text(&so));
     assert!(fo.status.success(), "flight: {}", text(&fo));
     assert!(text(&so).contains("the tunnel died"), "{}", text(&so));
+    eprintln!("sim:\n{}\nflight:\n{}", text(&so), text(&fo));
     let r = report(&dir.join("sim"));
     assert_eq!(r["hosts"]["tunnel"]["restarts"], 1);
     assert_eq!(r["timing"]["samples_lost"], 0);
@@ -283,9 +295,9 @@ fn a_link_cut_past_the_timeout_stops_cleanly_naming_the_link_and_keeps_the_check
     let lpath = dir.join("launch.toml");
     std::fs::write(&lpath, launch).unwrap();
     let l = lpath.to_str().unwrap();
-    let flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &["--launch", l]);
-    let sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &["--launch", l]);
-    wait_for_checkpoint(&dir.join("flight"), Duration::from_secs(120));
+    let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &["--launch", l]);
+    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &["--launch", l]);
+    wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     hosts.link(false);
     let t0 = Instant::now();
     let so = sim.wait_with_output().unwrap();
