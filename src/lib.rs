@@ -61,5 +61,3 @@ pub mod scenario;
 pub mod telemetry;
 #[cfg(feature = "std")]
 pub mod timing;
-#[cfg(feature = "tunnel")]
-pub mod tunnel;

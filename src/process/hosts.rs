@@ -102,7 +102,7 @@ pub struct TunnelChild {
 
 impl TunnelChild {
     pub fn start(
-        bin_dir: &Path,
+        exe: &Path,
         prefix: &str,
         launch: &LaunchDescription,
         me: &str,
@@ -125,10 +125,9 @@ impl TunnelChild {
         for s in crossing_services(launch, record) {
             args.extend(["--service".into(), s]);
         }
-        let exe = bin_dir.join("taiji-tunnel");
-        let child = spawn(&exe, &args)?;
+        let child = spawn(exe, &args)?;
         Ok(TunnelChild {
-            exe,
+            exe: exe.to_path_buf(),
             args,
             child,
             restarts: 0,
@@ -169,10 +168,17 @@ fn spawn(exe: &Path, args: &[String]) -> Result<Child, String> {
         .spawn()
         .map_err(|e| {
             format!(
-                "cannot start {} ({e}); build it with `cargo build --release --features tunnel`",
+                "cannot start the tunnel {} ({e}); build it with `cargo build --release --manifest-path tools/tunnel/Cargo.toml` and pass --tunnel-bin",
                 exe.display()
             )
         })
+}
+
+/// The tunnel binary: `--tunnel-bin`, else `taiji-tunnel` beside the stages.
+fn tunnel_exe(args: &SupervisorArgs, bin_dir: &Path) -> std::path::PathBuf {
+    args.tunnel_bin
+        .clone()
+        .unwrap_or_else(|| bin_dir.join("taiji-tunnel"))
 }
 
 /// A supervisor's heartbeat across the link.
@@ -235,7 +241,8 @@ impl InCharge {
         bin_dir: &Path,
     ) -> Result<Self, String> {
         let me = launch.host[0].name.clone();
-        let tunnel = TunnelChild::start(bin_dir, &args.bus_prefix, launch, &me, args.record)?;
+        let exe = tunnel_exe(args, bin_dir);
+        let tunnel = TunnelChild::start(&exe, &args.bus_prefix, launch, &me, args.record)?;
         let beat_pub = bus::publisher::<Progress>(node, bus::SVC_PROGRESS)?;
         let remote = launch.host[1..]
             .iter()
@@ -421,8 +428,9 @@ pub(crate) fn agent_watch(
     let set_err = SupervisorError::Set;
     let index = launch.host.iter().position(|h| h.name == me).unwrap_or(0) as u64;
     let boss = launch.host[0].name.clone();
+    let exe = tunnel_exe(args, &set.bin_dir);
     let mut tunnel =
-        TunnelChild::start(&set.bin_dir, &args.bus_prefix, launch, me, false).map_err(set_err)?;
+        TunnelChild::start(&exe, &args.bus_prefix, launch, me, false).map_err(set_err)?;
     let control = bus::subscriber::<Control>(node, bus::SVC_CONTROL).map_err(set_err)?;
     let beat_pub = bus::publisher::<Progress>(node, bus::SVC_PROGRESS).map_err(set_err)?;
     let link_timeout = Duration::from_secs_f64(launch.link_timeout_s);

@@ -65,6 +65,10 @@ pub struct SupervisorArgs {
     /// runs on (default: the first, in charge); it starts that host's processes only.
     #[arg(long)]
     pub host: Option<String>,
+    /// Sets over hosts: the `taiji-tunnel` binary (crate `tools/tunnel`; default:
+    /// beside this executable).
+    #[arg(long)]
+    pub tunnel_bin: Option<PathBuf>,
 }
 
 /// How a supervised run ended, with its process exit code.
@@ -601,7 +605,7 @@ fn supervise(
     };
     for spec in launch.processes(args.record) {
         let host = launch.host_of(spec).to_string();
-        let local = me.is_none_or(|m| m == host);
+        let local = me.map_or(true, |m| m == host);
         if agent && !local {
             continue;
         }

@@ -7,11 +7,14 @@
 //! `--reactive` is `unimplemented!`, and its 100 ms poll caps the lock-step rate (the
 //! backend's zenoh subscribers hold 10 samples each, then push back on the link).
 //!
+//! A crate of its own (`tools/tunnel`), so the main crate never builds zenoh.
+//!
 //! What crosses: only the services named on the command line (`--service`), fed to the
 //! tunnel through its discovery-service hook: the tunnel would otherwise relay every
 //! service of the prefix, the truth included, to the other host.
 
-use crate::bus;
+use clap::Parser;
+use iceoryx2::config::Config;
 use iceoryx2::prelude::*;
 use iceoryx2_integrations_zenoh_tunnel_backend::ZenohBackend;
 use iceoryx2_services_discovery::service_discovery::{Discovery, Tracker};
@@ -19,7 +22,7 @@ use iceoryx2_services_tunnel::{Config as TunnelConfig, Tunnel};
 use std::time::{Duration, Instant};
 
 /// Private service through which this process tells the tunnel what to relay.
-pub const DISCOVERY_SERVICE: &str = "taiji/tunnel/discovery";
+const DISCOVERY_SERVICE: &str = "taiji/tunnel/discovery";
 
 #[derive(Debug, Clone, clap::Parser)]
 #[command(
@@ -27,33 +30,44 @@ pub const DISCOVERY_SERVICE: &str = "taiji/tunnel/discovery";
     version,
     about = "Relay a run's iceoryx2 services to another host over Zenoh (the iceoryx2 tunnel)"
 )]
-pub struct TunnelArgs {
+struct TunnelArgs {
     /// Prefix of the run's iceoryx2 resources.
-    #[arg(long, default_value = bus::DEFAULT_PREFIX)]
-    pub bus_prefix: String,
+    #[arg(long, default_value = "taiji_")]
+    bus_prefix: String,
     /// Zenoh endpoint to listen on (e.g. tcp/10.77.0.1:7447); repeatable.
     #[arg(long)]
-    pub listen: Vec<String>,
+    listen: Vec<String>,
     /// Zenoh endpoint of the other host's tunnel (retried until it answers); repeatable.
     #[arg(long)]
-    pub connect: Vec<String>,
+    connect: Vec<String>,
     /// A service to relay (e.g. taiji/sensor); repeatable; none: every service of the prefix.
     #[arg(long = "service")]
-    pub services: Vec<String>,
+    services: Vec<String>,
     /// Pause between two relay passes [µs] (0: spin). Each pass moves everything pending.
     #[arg(long, default_value_t = 100)]
-    pub poll_us: u64,
+    poll_us: u64,
     /// Period of service discovery on both sides [ms].
     #[arg(long, default_value_t = 100)]
-    pub discover_ms: u64,
+    discover_ms: u64,
     /// Zenoh link lease [ms]: a link silent this long is closed (what it queued is lost).
     #[arg(long, default_value_t = 10_000)]
-    pub lease_ms: u64,
+    lease_ms: u64,
+}
+
+/// The iceoryx2 configuration of a run, as `taiji::bus::config` makes it: the default
+/// with the run's resource prefix; dead nodes are the supervisor's to clean.
+fn iceoryx_config(prefix: &str) -> Result<Config, String> {
+    let mut c = Config::default();
+    c.global.prefix = FileName::new(prefix.as_bytes())
+        .map_err(|e| format!("invalid bus prefix {prefix:?}: {e:?}"))?;
+    c.global.node.cleanup_dead_nodes_on_creation = false;
+    c.global.node.cleanup_dead_nodes_on_destruction = false;
+    Ok(c)
 }
 
 /// The zenoh configuration of a tunnel: a peer on our endpoints only (no multicast
 /// scouting or gossip, so it never meets another run's tunnel on the machine).
-pub fn zenoh_config(args: &TunnelArgs) -> Result<zenoh::Config, String> {
+fn zenoh_config(args: &TunnelArgs) -> Result<zenoh::Config, String> {
     let mut c = zenoh::Config::default();
     let set = |c: &mut zenoh::Config, k: &str, v: String| {
         c.insert_json5(k, &v)
@@ -69,13 +83,13 @@ pub fn zenoh_config(args: &TunnelArgs) -> Result<zenoh::Config, String> {
 }
 
 /// Run the tunnel until SIGINT/SIGTERM (Ok) or a failure (Err).
-pub fn run(args: &TunnelArgs) -> Result<(), String> {
+fn run(args: &TunnelArgs) -> Result<(), String> {
     if args.listen.is_empty() && args.connect.is_empty() {
         return Err(
             "give --listen or --connect (a zenoh endpoint such as tcp/10.77.0.1:7447)".into(),
         );
     }
-    let cfg = bus::config(&args.bus_prefix)?;
+    let cfg = iceoryx_config(&args.bus_prefix)?;
     let zcfg = zenoh_config(args)?;
     let node = NodeBuilder::new()
         .name(&NodeName::new("taiji-tunnel-feed").map_err(|e| format!("{e:?}"))?)
@@ -158,6 +172,21 @@ pub fn run(args: &TunnelArgs) -> Result<(), String> {
         }
         if node.wait(poll).is_err() {
             return Ok(());
+        }
+    }
+}
+
+fn main() -> std::process::ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
+        .format_target(false)
+        .init();
+    set_log_level_from_env_or(LogLevel::Error);
+    let args = TunnelArgs::parse();
+    match run(&args) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("taiji-tunnel: error: {e}");
+            std::process::ExitCode::from(2)
         }
     }
 }
