@@ -8,7 +8,8 @@
 //!
 //! Needs root (namespaces) and the tunnel binary (its own crate, zenoh is heavy):
 //!   cargo build --release --manifest-path tools/tunnel/Cargo.toml
-//! found through `TAIJI_TUNNEL_BIN` or in tools/tunnel/target/release. Elsewhere every
+//! found through `TAIJI_TUNNEL_BIN`, in tools/tunnel/target/release or beside our
+//! binaries (a shared `CARGO_TARGET_DIR`). Elsewhere every
 //! test says why it is skipped and passes.
 
 use serde_json::Value;
@@ -29,11 +30,14 @@ fn two_hosts_tool() -> PathBuf {
 
 /// The tunnel binary (crate tools/tunnel), if built.
 fn tunnel_bin() -> Option<PathBuf> {
-    let p = match std::env::var_os("TAIJI_TUNNEL_BIN") {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(ROOT).join("tools/tunnel/target/release/taiji-tunnel"),
-    };
-    p.is_file().then_some(p)
+    if let Some(p) = std::env::var_os("TAIJI_TUNNEL_BIN") {
+        return Some(PathBuf::from(p)).filter(|p| p.is_file());
+    }
+    // Its own target folder, or beside our binaries under a shared CARGO_TARGET_DIR.
+    let beside = Path::new(SUPERVISOR).with_file_name("taiji-tunnel");
+    [Path::new(ROOT).join("tools/tunnel/target/release/taiji-tunnel"), beside]
+        .into_iter()
+        .find(|p| p.is_file())
 }
 
 /// Why the two hosts cannot be made here (None: they can).
