@@ -379,3 +379,36 @@ fn a_link_stalled_for_seconds_is_named_and_the_run_resumes_with_nothing_lost() {
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
 }
+
+#[test]
+fn host_options_that_cannot_work_are_user_errors() {
+    // No namespaces needed: refused before anything starts.
+    let dir = tmp("usage");
+    let sc = write_scenario(&dir, SHORT);
+    let two = Path::new(ROOT).join("tools/two_hosts.toml");
+    let run = |args: &[&str]| {
+        Command::new(SUPERVISOR)
+            .arg("--scenario")
+            .arg(&sc)
+            .arg("--out")
+            .arg(dir.join("out"))
+            .args(["--bus-prefix", "tjusage_"])
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let l = two.to_str().unwrap();
+    for (args, says) in [
+        (vec!["--host", "flight"], "names no hosts"),
+        (
+            vec!["--launch", l, "--host", "moon"],
+            "hosts are sim, flight",
+        ),
+        (vec!["--launch", l, "--record"], "--record"),
+    ] {
+        let o = run(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}

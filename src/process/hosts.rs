@@ -576,3 +576,61 @@ pub(crate) fn agent_watch(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TWO_HOSTS: &str = include_str!("../../tools/two_hosts.toml");
+
+    #[test]
+    fn only_the_services_between_the_hosts_cross_the_link() {
+        let d = LaunchDescription::parse(TWO_HOSTS, "two_hosts.toml").unwrap();
+        assert_eq!(
+            crossing_services(&d, false),
+            [
+                "taiji/sensor",
+                "taiji/estimate",
+                "taiji/progress",
+                "taiji/control",
+                "taiji/wake/fee",
+                "taiji/wake/estimator"
+            ]
+        );
+        // The truth never reaches the flight computer.
+        assert!(!crossing_services(&d, false).contains(&bus::SVC_TRUTH.to_string()));
+        // Everything on one host: nothing crosses.
+        let one = LaunchDescription::parse(crate::launch::DEFAULT, "x").unwrap();
+        assert!(crossing_services(&one, false).is_empty());
+    }
+
+    #[test]
+    fn hosts_in_the_launch_description_are_checked() {
+        let d = LaunchDescription::parse(TWO_HOSTS, "x").unwrap();
+        assert_eq!(d.in_charge().unwrap().name, "sim");
+        let est = d
+            .process
+            .iter()
+            .find(|p| p.name == "taiji-estimator")
+            .unwrap();
+        assert_eq!(d.host_of(est), "flight");
+        let e = LaunchDescription::parse(
+            &TWO_HOSTS.replace("host = \"flight\"", "host = \"moon\""),
+            "x",
+        )
+        .unwrap_err();
+        assert!(e.contains("taiji-estimator runs on host \"moon\""), "{e}");
+        let e = LaunchDescription::parse(
+            &TWO_HOSTS.replace("name = \"flight\"", "name = \"sim\""),
+            "x",
+        )
+        .unwrap_err();
+        assert!(e.contains("listed twice"), "{e}");
+        let e = LaunchDescription::parse(
+            &TWO_HOSTS.replace("link_timeout_s = 20.0", "link_timeout_s = 0.0"),
+            "x",
+        )
+        .unwrap_err();
+        assert!(e.contains("link_timeout_s"), "{e}");
+    }
+}
