@@ -11,8 +11,11 @@ use taiji::timing::monotonic_ns;
 fn service(
     node: &Node<ipc::Service>,
     name: &str,
-) -> iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u64; 2], ()> {
-    let sn: ServiceName = name.try_into().expect("valid service name");
+) -> Result<
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u64; 2], ()>,
+    String,
+> {
+    let sn: ServiceName = name.try_into().map_err(|e| format!("{name}: {e:?}"))?;
     node.service_builder(&sn)
         .publish_subscribe::<[u64; 2]>()
         .subscriber_max_buffer_size(64)
@@ -20,7 +23,7 @@ fn service(
         .max_subscribers(4)
         .history_size(0)
         .open_or_create()
-        .expect("service")
+        .map_err(|e| format!("cannot open {name}: {e:?}"))
 }
 
 fn percentile(sorted: &[u64], q: f64) -> f64 {
@@ -49,8 +52,8 @@ fn main() -> Result<(), String> {
         .config(&cfg)
         .create::<ipc::Service>()
         .map_err(|e| format!("{e:?}"))?;
-    let ping = service(&node, "taiji/ping");
-    let pong = service(&node, "taiji/pong");
+    let ping = service(&node, "taiji/ping")?;
+    let pong = service(&node, "taiji/pong")?;
     match mode.as_str() {
         "pong" => {
             let sub = ping
