@@ -27,6 +27,7 @@ fn main() -> std::process::ExitCode {
         Outcome::UserError(e) => eprintln!("taiji-supervisor: error: {e}"),
         Outcome::SetFailed(e) => eprintln!("taiji-supervisor: the process set failed: {e}"),
         Outcome::Interrupted => eprintln!("taiji-supervisor: interrupted; every process stopped"),
+        Outcome::HostStopped(m) => println!("taiji-supervisor: {m}"),
     }
     std::process::ExitCode::from(outcome.exit_code())
 }

@@ -37,6 +37,19 @@ pub struct ProcessSpec {
     /// CPU to pin the process to in real-time runs (none: not pinned).
     #[serde(default)]
     pub cpu: Option<usize>,
+    /// Host it runs on (a `[[host]]` name; none: the first host, which is in charge).
+    #[serde(default)]
+    pub host: Option<String>,
+}
+
+/// One host of a set spread over hosts joined by a network link (`src/process/hosts.rs`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HostSpec {
+    pub name: String,
+    /// Zenoh endpoint its tunnel listens on, e.g. `tcp/10.231.7.1:7447`; the other
+    /// hosts' tunnels connect to the first host's.
+    pub endpoint: String,
 }
 
 fn never() -> Restart {
@@ -61,6 +74,18 @@ pub struct LaunchDescription {
     pub stop_timeout_s: f64,
     /// Started in this order; every process in the set must be listed once.
     pub process: Vec<ProcessSpec>,
+    /// Hosts of the set (none: one host, no tunnel); the first is in charge: its
+    /// supervisor starts the campaign, watches every host and writes the report.
+    #[serde(default)]
+    pub host: Vec<HostSpec>,
+    /// A link to a host silent this long (no heartbeat crossed it) stops the set [s];
+    /// a shorter silence is a link stall the set resumes from.
+    #[serde(default = "link_timeout")]
+    pub link_timeout_s: f64,
+}
+
+fn link_timeout() -> f64 {
+    30.0
 }
 
 /// The default launch description (the same as `tools/launch.toml`).
@@ -85,6 +110,7 @@ impl LaunchDescription {
             ("heartbeat_timeout_s", d.heartbeat_timeout_s),
             ("ready_timeout_s", d.ready_timeout_s),
             ("stop_timeout_s", d.stop_timeout_s),
+            ("link_timeout_s", d.link_timeout_s),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!(
@@ -117,6 +143,36 @@ impl LaunchDescription {
                 p.name, p.rt_priority
             ));
         }
+        for (i, h) in d.host.iter().enumerate() {
+            if h.name.is_empty()
+                || !h
+                    .name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '-')
+            {
+                return Err(format!(
+                    "launch description {origin}: host name {:?} must be letters, digits or '-'",
+                    h.name
+                ));
+            }
+            if d.host[..i].iter().any(|o| o.name == h.name) {
+                return Err(format!(
+                    "launch description {origin}: host {:?} is listed twice",
+                    h.name
+                ));
+            }
+        }
+        if let Some(p) = d.process.iter().find(|p| {
+            p.host
+                .as_ref()
+                .is_some_and(|h| !d.host.iter().any(|x| &x.name == h))
+        }) {
+            return Err(format!(
+                "launch description {origin}: process {} runs on host {:?}, which no [[host]] names",
+                p.name,
+                p.host.as_deref().unwrap_or_default()
+            ));
+        }
         if d.process.iter().filter(|p| p.name == RECORDER).count() > 1 {
             return Err(format!(
                 "launch description {origin}: process {RECORDER} is listed more than once"
@@ -130,6 +186,20 @@ impl LaunchDescription {
         self.process
             .iter()
             .filter(move |p| record || !p.record_only)
+    }
+
+    /// The host a process runs on ("" when the set has a single host).
+    pub fn host_of<'a>(&'a self, p: &'a ProcessSpec) -> &'a str {
+        match (&p.host, self.host.first()) {
+            (Some(h), _) => h,
+            (None, Some(first)) => &first.name,
+            (None, None) => "",
+        }
+    }
+
+    /// The host in charge (the first), when the set spans hosts.
+    pub fn in_charge(&self) -> Option<&HostSpec> {
+        (self.host.len() > 1).then(|| &self.host[0])
     }
 
     pub fn load_or_default(path: Option<&Path>) -> Result<Self, String> {

@@ -82,6 +82,9 @@ pub struct Report {
     pub timing: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub restarts: Option<serde_json::Value>,
+    /// Sets spread over hosts: where each process ran, the tunnel, link events.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hosts: Option<serde_json::Value>,
     /// Heap allocations the estimator process made in its filter loop (multi-process).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimator_loop_allocations: Option<u64>,
@@ -163,6 +166,7 @@ impl Report {
             wall_time_s: None,
             timing: None,
             restarts: None,
+            hosts: None,
             estimator_loop_allocations: None,
             maneuver: Some(crate::plan::describe(s, Some(crlb), None)),
         }

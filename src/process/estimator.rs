@@ -81,12 +81,17 @@ pub struct EstimatorArgs {
     /// The estimator's table (JSON; the supervisor writes it to the run directory).
     #[arg(long)]
     pub table: std::path::PathBuf,
+    /// Sets across hosts: after this long without a sample [ms] (samples lost on the
+    /// link), ask the front-end to resend from the next tick (0: never).
+    #[arg(long, default_value_t = 0)]
+    pub resync_after_ms: u64,
     #[command(flatten)]
     pub bus: BusArgs,
 }
 
 pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
     let table = EstimatorTable::load(&args.table)?;
+    let resync_ns = args.resync_after_ms.saturating_mul(1_000_000);
     let args = &args.bus;
     let method = args.method()?;
     let period = args.period_ns(table.config.fs)?;
@@ -121,6 +126,7 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
     // counted from the first sample on (iceoryx2 allocates while it connects ports).
     let mut allocs_before = None;
     let mut done = false;
+    let mut last_input = monotonic_ns();
     let exit = loop {
         if let Some(e) = link.poll()? {
             break e;
@@ -135,6 +141,19 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
             }
         }
         let Some(sample) = bus::receive(&input)? else {
+            // Starved mid-campaign: samples were lost on a link between hosts. A new
+            // incarnation makes the front-end resend from `next`, and what is still in
+            // flight under the old one is dropped (below): nothing lost, nothing twice.
+            let now = monotonic_ns();
+            if resync_ns > 0 && allocs_before.is_some() && !done && now > last_input + resync_ns {
+                log::warn!(
+                    "taiji-estimator: no sample for {} ms; asking the front-end to resend from tick {next}",
+                    resync_ns / 1_000_000
+                );
+                link.progress.incarnation = now;
+                link.beat()?;
+                last_input = now;
+            }
             if let Some(e) = link.idle(super::IDLE) {
                 break e;
             }
@@ -145,6 +164,7 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
         if sample.header.epoch != link.progress.incarnation {
             continue;
         }
+        last_input = monotonic_ns();
         if allocs_before.is_none() {
             allocs_before = alloc_count::thread_allocations();
         }

@@ -9,6 +9,7 @@
 pub mod commander;
 pub mod estimator;
 pub mod fee;
+pub mod hosts;
 pub mod outbox;
 pub mod plant;
 pub mod recorder;

@@ -61,6 +61,14 @@ pub struct SupervisorArgs {
     /// Directory holding the process binaries (default: beside this executable).
     #[arg(long)]
     pub bin_dir: Option<PathBuf>,
+    /// Sets over hosts (`[[host]]` in the launch description): the host this supervisor
+    /// runs on (default: the first, in charge); it starts that host's processes only.
+    #[arg(long)]
+    pub host: Option<String>,
+    /// Sets over hosts: the `taiji-tunnel` binary (crate `tools/tunnel`; default:
+    /// beside this executable).
+    #[arg(long)]
+    pub tunnel_bin: Option<PathBuf>,
 }
 
 /// How a supervised run ended, with its process exit code.
@@ -74,6 +82,9 @@ pub enum Outcome {
     SetFailed(String),
     /// SIGINT / SIGTERM (exit 130).
     Interrupted,
+    /// A host that is not in charge: its processes ran until the one in charge said
+    /// stop (exit 0).
+    HostStopped(String),
 }
 
 impl Outcome {
@@ -84,6 +95,7 @@ impl Outcome {
             Outcome::UserError(_) => 2,
             Outcome::SetFailed(_) => 3,
             Outcome::Interrupted => 130,
+            Outcome::HostStopped(_) => 0,
         }
     }
 }
@@ -98,20 +110,23 @@ fn proc_id(name: &str) -> u32 {
     }
 }
 
-struct Member {
-    spec: ProcessSpec,
-    id: u32,
-    child: Child,
-    restarts: u32,
+pub(crate) struct Member {
+    pub(crate) spec: ProcessSpec,
+    pub(crate) id: u32,
+    /// None: it runs on another host (watched through its heartbeats only).
+    pub(crate) child: Option<Child>,
+    /// Host it runs on ("" in a single-host set).
+    pub(crate) host: String,
+    pub(crate) restarts: u32,
     /// When it was (re)started or last heard from.
-    last_seen: Instant,
-    last: Option<Progress>,
+    pub(crate) last_seen: Instant,
+    pub(crate) last: Option<Progress>,
 }
 
-struct Set {
-    members: Vec<Member>,
+pub(crate) struct Set {
+    pub(crate) members: Vec<Member>,
     /// Bus prefix of the run (for cleaning a dead member's resources).
-    prefix: String,
+    pub(crate) prefix: String,
     common: Vec<String>,
     /// Arguments of the simulating stages only (the scenario, the seed); the estimator
     /// gets its table instead.
@@ -119,13 +134,13 @@ struct Set {
     table_args: Vec<String>,
     /// Real-time run: stages get their launch-description SCHED_FIFO priority.
     realtime: bool,
-    bin_dir: PathBuf,
+    pub(crate) bin_dir: PathBuf,
     /// Progress of the campaign (the estimator's tick), on a terminal only.
     bar: crate::progress::Bar,
 }
 
 impl Set {
-    fn spawn(&self, spec: &ProcessSpec) -> Result<Child, String> {
+    pub(crate) fn spawn(&self, spec: &ProcessSpec) -> Result<Child, String> {
         let exe = self.bin_dir.join(&spec.name);
         let mut cmd = Command::new(&exe);
         cmd.args(&self.common);
@@ -148,12 +163,15 @@ impl Set {
 
     /// After the stop command: wait for everyone to exit by themselves, then SIGTERM
     /// what is left, then SIGKILL after `timeout`.
-    fn stop_all(&mut self, timeout: Duration) {
+    pub(crate) fn stop_all(&mut self, timeout: Duration) {
         let t0 = Instant::now();
         let mut termed = false;
         loop {
             let running: Vec<usize> = (0..self.members.len())
-                .filter(|&i| matches!(self.members[i].child.try_wait(), Ok(None)))
+                .filter(|&i| {
+                    let c = self.members[i].child.as_mut();
+                    c.is_some_and(|c| matches!(c.try_wait(), Ok(None)))
+                })
                 .collect();
             if running.is_empty() {
                 return;
@@ -163,16 +181,20 @@ impl Set {
                 for i in running {
                     let m = &mut self.members[i];
                     log::warn!("{} did not stop; killing it", m.spec.name);
-                    let _ = m.child.kill();
-                    let _ = m.child.wait();
+                    if let Some(c) = m.child.as_mut() {
+                        let _ = c.kill();
+                        let _ = c.wait();
+                    }
                 }
                 return;
             }
             if !termed && waited > timeout / 2 {
                 termed = true;
                 for i in running {
-                    // SAFETY: kill with the pid of our own, still running child.
-                    unsafe { libc::kill(self.members[i].child.id() as i32, libc::SIGTERM) };
+                    if let Some(c) = &self.members[i].child {
+                        // SAFETY: kill with the pid of our own, still running child.
+                        unsafe { libc::kill(c.id() as i32, libc::SIGTERM) };
+                    }
                 }
             }
             std::thread::sleep(Duration::from_millis(2));
@@ -180,7 +202,7 @@ impl Set {
     }
 }
 
-fn describe(status: std::process::ExitStatus) -> String {
+pub(crate) fn describe(status: std::process::ExitStatus) -> String {
     use std::os::unix::process::ExitStatusExt;
     match (status.code(), status.signal()) {
         (Some(c), _) => format!("exit status {c}"),
@@ -189,7 +211,7 @@ fn describe(status: std::process::ExitStatus) -> String {
     }
 }
 
-fn interrupted(status: std::process::ExitStatus) -> bool {
+pub(crate) fn interrupted(status: std::process::ExitStatus) -> bool {
     use std::os::unix::process::ExitStatusExt;
     status.code() == Some(130) || matches!(status.signal(), Some(libc::SIGINT | libc::SIGTERM))
 }
@@ -221,13 +243,23 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
             args.time_scale
         ));
     }
+    let me = match super::hosts::my_host(args, &launch) {
+        Ok(m) => m,
+        Err(e) => return Outcome::UserError(e),
+    };
+    if me.is_some() && args.record {
+        return Outcome::UserError(
+            "--record: recording a set spread over hosts is not supported (the recorder's streams would cross the link)".into(),
+        );
+    }
     let Some(crlb) = crate::crlb::crlb(&s) else {
         return Outcome::UserError(
             "the Fisher information of this scenario is singular: the maneuver does not excite every parameter".into(),
         );
     };
-    match supervise(args, &s, &launch) {
-        Ok(Supervised::Done(final_est, members, wall)) => {
+    match supervise(args, &s, &launch, me.as_deref()) {
+        Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
+        Ok(Supervised::Done(final_est, members, wall, hosts)) => {
             let seed = args.seed.unwrap_or(s.seed);
             let mut report =
                 Report::new(&s, seed, "multi-process", &args.method, &final_est, &crlb);
@@ -235,7 +267,13 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
                 m.search = Some(p.search_json());
             }
             report.wall_time_s = Some(wall);
-            report.timing = Some(timing_json(args, &s, &members));
+            let mut timing = timing_json(args, &s, &members);
+            if let (Some(h), Some(t)) = (&hosts, timing.as_object_mut()) {
+                t.insert("tunnel_hop_us".into(), h["tunnel_hop_us"].clone());
+                t.insert("clocks".into(), h["clocks"].clone());
+            }
+            report.timing = Some(timing);
+            report.hosts = hosts;
             let restarts: BTreeMap<String, u32> = members
                 .iter()
                 .filter(|m| m.spec.restart != Restart::Never)
@@ -280,11 +318,19 @@ struct MemberSummary {
 }
 
 enum Supervised {
-    Done(Box<EstimateMsg>, Vec<MemberSummary>, f64),
+    /// The final estimate, every member, the wall time [s], and (sets over hosts) the
+    /// report's `hosts`.
+    Done(
+        Box<EstimateMsg>,
+        Vec<MemberSummary>,
+        f64,
+        Option<serde_json::Value>,
+    ),
     Interrupted,
+    HostStopped(String),
 }
 
-enum SupervisorError {
+pub(crate) enum SupervisorError {
     User(String),
     Set(String),
 }
@@ -431,6 +477,7 @@ fn supervise(
     args: &SupervisorArgs,
     s: &Scenario,
     launch: &LaunchDescription,
+    me: Option<&str>,
 ) -> Result<Supervised, SupervisorError> {
     let user = SupervisorError::User;
     let set_err = SupervisorError::Set;
@@ -547,12 +594,32 @@ fn supervise(
         bin_dir,
         bar: crate::progress::Bar::new(s.n_samples(), "process set"),
     };
+    // Sets over hosts: this host's tunnel; the one in charge also watches the others.
+    let in_charge_host = launch.host.first().map(|h| h.name.as_str());
+    let agent = me.is_some() && me != in_charge_host;
+    let mut hosts = match me {
+        Some(_) if !agent => {
+            Some(super::hosts::InCharge::start(args, launch, &node, &set.bin_dir).map_err(user)?)
+        }
+        _ => None,
+    };
     for spec in launch.processes(args.record) {
-        match set.spawn(spec) {
+        let host = launch.host_of(spec).to_string();
+        let local = me.map_or(true, |m| m == host);
+        if agent && !local {
+            continue;
+        }
+        let child = if local {
+            set.spawn(spec).map(Some)
+        } else {
+            Ok(None)
+        };
+        match child {
             Ok(child) => set.members.push(Member {
                 spec: spec.clone(),
                 id: proc_id(&spec.name),
                 child,
+                host,
                 restarts: 0,
                 last_seen: Instant::now(),
                 last: None,
@@ -564,7 +631,28 @@ fn supervise(
         }
     }
 
-    let result = watch(&node, &progress, &estimates, &send, &mut set, launch, s);
+    let result = match me {
+        Some(m) if agent => super::hosts::agent_watch(&node, &progress, &mut set, launch, m, args)
+            .map(|stopped| {
+                stopped.map(|tick| EstimateMsg {
+                    header: Header {
+                        tick,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                })
+            }),
+        _ => watch(
+            &node,
+            &progress,
+            &estimates,
+            &send,
+            &mut set,
+            launch,
+            s,
+            hosts.as_mut(),
+        ),
+    };
     set.bar.finish();
     // Whatever happened: stop everyone. What they left on the bus goes when `_hold` is
     // dropped, after this supervisor's node.
@@ -583,6 +671,15 @@ fn supervise(
             r
         }
     };
+    let hosts_json = hosts.as_ref().map(|h| {
+        let placed: Vec<(String, String)> = set
+            .members
+            .iter()
+            .map(|m| (m.spec.name.clone(), m.host.clone()))
+            .chain([("taiji-supervisor".to_string(), h.me.clone())])
+            .collect();
+        h.report(&placed)
+    });
     let members = set
         .members
         .into_iter()
@@ -594,7 +691,12 @@ fn supervise(
         })
         .collect();
     match result {
-        Ok(Some(est)) => Ok(Supervised::Done(Box::new(est), members, wall)),
+        Ok(Some(est)) if agent => Ok(Supervised::HostStopped(format!(
+            "host {}: stopped by the supervisor in charge (last estimate tick {})",
+            me.unwrap_or_default(),
+            est.header.tick
+        ))),
+        Ok(Some(est)) => Ok(Supervised::Done(Box::new(est), members, wall, hosts_json)),
         Ok(None) => Ok(Supervised::Interrupted),
         Err(e) => Err(e),
     }
@@ -614,6 +716,7 @@ fn remove_checkpoint(ckpt: &std::path::Path) {
 }
 
 /// Watch the set until the final estimate (Some), a termination request (None) or a failure.
+#[allow(clippy::too_many_arguments)]
 fn watch(
     node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
     progress: &bus::Sub<Progress>,
@@ -622,6 +725,7 @@ fn watch(
     set: &mut Set,
     launch: &LaunchDescription,
     s: &Scenario,
+    mut hosts: Option<&mut super::hosts::InCharge>,
 ) -> Result<Option<EstimateMsg>, SupervisorError> {
     let set_err = SupervisorError::Set;
     let heartbeat = Duration::from_secs_f64(launch.heartbeat_timeout_s);
@@ -641,11 +745,20 @@ fn watch(
             if p.process == PROC_ESTIMATOR {
                 set.bar.set(p.next_tick);
             }
+            if let Some(h) = hosts.as_deref_mut() {
+                let host = set.members.iter().find(|m| m.id == p.process);
+                h.heard(&p, host.map(|m| m.host.as_str()));
+            }
             if let Some(m) = set.members.iter_mut().find(|m| m.id == p.process) {
                 m.last = Some(p);
                 m.last_seen = Instant::now();
             }
         }
+        // A silent link holds the verdicts on the processes behind it (below).
+        let link_silent = match hosts.as_deref_mut() {
+            Some(h) => h.poll().map_err(set_err)?,
+            None => false,
+        };
         while let Some(e) = bus::receive(estimates).map_err(set_err)? {
             if e.flags & EST_FINAL != 0 {
                 final_est = Some(e);
@@ -653,7 +766,10 @@ fn watch(
         }
         // Exits: restart what may be restarted, otherwise stop the set.
         for i in 0..set.members.len() {
-            let status = match set.members[i].child.try_wait() {
+            let Some(child) = set.members[i].child.as_mut() else {
+                continue;
+            };
+            let status = match child.try_wait() {
                 Ok(Some(st)) => st,
                 Ok(None) => continue,
                 Err(e) => {
@@ -686,7 +802,7 @@ fn watch(
                 }
                 let child = set.spawn(&spec).map_err(set_err)?;
                 let m = &mut set.members[i];
-                m.child = child;
+                m.child = Some(child);
                 m.restarts += 1;
                 m.last_seen = Instant::now();
                 continue;
@@ -729,8 +845,16 @@ fn watch(
         }
         // Watchdog: a restartable process that publishes no progress (hung, stopped) is
         // killed; the exit handling above restarts it on the next pass.
+        if link_silent {
+            let now = Instant::now();
+            last_advance = now;
+            for m in set.members.iter_mut().filter(|m| m.child.is_none()) {
+                m.last_seen = now;
+            }
+        }
         if let Some(m) = set.members.iter_mut().find(|m| {
             m.last_seen.elapsed() > heartbeat
+                && m.child.is_some()
                 && m.spec.restart == Restart::OnFailure
                 && m.restarts < m.spec.max_restarts
         }) {
@@ -739,7 +863,9 @@ fn watch(
                 m.spec.name,
                 launch.heartbeat_timeout_s
             );
-            let _ = m.child.kill();
+            if let Some(c) = m.child.as_mut() {
+                let _ = c.kill();
+            }
             m.last_seen = Instant::now();
             last_advance = Instant::now();
             continue;
