@@ -168,7 +168,7 @@ pub struct JointEstimator {
     dv_anchor: [[f64; 3]; 2],
     /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
     /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
-    /// [rad], drift rate [rad/s], β − β̂ [rad s⁻² V⁻¹]) and its covariance. The drift
+    /// [rad], drift rate [rad/s], β1 − β1,prior [rad s⁻² V⁻¹]) and its covariance. The drift
     /// also follows IS1's double-integrated ω̇ noise, which grows without bound in
     /// long campaigns; the β state keeps the still-unknown scale error out of it.
     drift_x: [[f64; 4]; 3],
@@ -689,12 +689,42 @@ impl JointEstimator {
     /// Which IS's angular voltage to use on axis `a` when the two disagree: the one
     /// nearer the previous ω̇ (ω̇ changes from one sample to the next by far less than
     /// an upset that fails the cross test, but at a torque edge).
-    fn trusted_is(&self, a: usize, d0: &[f64; 3], d1: &[f64; 3]) -> [bool; 2] {
+    /// Which IS to keep on angular axis `a` when the two disagree. A voltage upset
+    /// shifts ΔV and ΣV of its electrode pair together, so under the right hypothesis
+    /// ("IS i is corrupted": ω̇ from the other IS alone) the other IS's linear channel
+    /// on that pair fits the current solution, under the wrong one it misses by about
+    /// the mismatch. The linear signals other than ΣV and ΔV are taken from the last
+    /// accepted sample (they move by far less in a tick). The IS nearer the previous
+    /// ω̇ is kept only before the first accepted linear sample: at a torque edge ω̇
+    /// changes by more than a mismatch, and that guess alone picks the corrupted IS
+    /// about as often as not.
+    fn trusted_is(&self, a: usize, d: [&[f64; 3]; 2], sums: [&[f64; 3]; 2]) -> [bool; 2] {
         let bp = &self.cfg.beta_prior;
+        if self.n_used > 0 {
+            let j = PAIR_OF_ANGULAR[a];
+            // Residual of IS `keep`'s channel j with ω̇ on axis a from IS `keep` alone.
+            let miss = |keep: usize| {
+                let mut sig = self.gate_s;
+                for i in 0..2 {
+                    for m in 0..3 {
+                        sig[S_SUM + 3 * i + m] = sums[i][m] - self.sum_ref[i][m];
+                        sig[S_DV + 3 * i + m] = d[i][m];
+                    }
+                }
+                let o = 1 - keep;
+                sig[S_DV + 3 * o + a] = d[keep][a] * bp[keep][a] / bp[o][a];
+                let row = self.gate_c.row(3 * keep + j);
+                (row * sig)[0].abs()
+            };
+            let (m0, m1) = (miss(0), miss(1));
+            if m0.is_finite() && m1.is_finite() && m0 != m1 {
+                return [m0 < m1, m1 < m0];
+            }
+        }
         let prev: f64 = (0..2)
             .map(|l| self.w(l) * bp[l][a] * self.dv_last[l][a])
             .sum();
-        let first = (bp[0][a] * d0[a] - prev).abs() <= (bp[1][a] * d1[a] - prev).abs();
+        let first = (bp[0][a] * d[0][a] - prev).abs() <= (bp[1][a] * d[1][a] - prev).abs();
         [first, !first]
     }
 
@@ -728,11 +758,11 @@ impl JointEstimator {
         self.q_model *= UnitQuaternion::from_scaled_axis(w_model * dt);
         let c = &self.cfg;
         let (g0, g1) = (0.5 * dt * dt, dt);
+        // IS1's ω̇ noise (readout and drive ripple) integrates twice into the propagated
+        // attitude: a random walk of angle and rate that grows as t^1.5 (2×10⁻⁷ rad at
+        // 10⁵ s) and, turning the 3×10⁻⁸ m/s² SRP, would pose as a CoM offset in long
+        // campaigns. The filter follows it on the star tracker.
         for a in 0..3 {
-            // IS1's ω̇ noise (readout and drive ripple) integrates twice into the
-            // propagated attitude: a random walk of angle and rate that grows as t^1.5
-            // (2×10⁻⁷ rad at 10⁵ s) and, turning the 3×10⁻⁸ m/s² SRP, would pose as a
-            // CoM offset in long campaigns. The filter follows it on the star tracker.
             let wd = c.beta_prior[0][a] * self.dv_last[0][a];
             let q = c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2);
             let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
@@ -744,7 +774,7 @@ impl JointEstimator {
             for c in 0..4 {
                 p[1][c] += dt * p[2][c];
             }
-            if q.is_finite() {
+            if q > 0.0 && q.is_finite() {
                 p[1][1] += q * g0 * g0;
                 p[1][2] += q * g0 * g1;
                 p[2][1] += q * g0 * g1;
@@ -791,9 +821,18 @@ impl JointEstimator {
                 self.reject(CAUSE_ANGULAR_MISMATCH);
                 ok = [false; 2];
                 for a in (0..3).filter(|&a| tested[a] && !pair[a]) {
-                    let t = self.trusted_is(a, &d0, &d1);
+                    let sums = [s.is[0].linear_volts(), s.is[1].linear_volts()];
+                    let t = self.trusted_is(a, [&d0, &d1], [&sums[0], &sums[1]]);
                     axis_ok[0][a] = t[0];
                     axis_ok[1][a] = t[1];
+                    // Should the kept IS be the corrupted one, the propagated rate is off
+                    // by dt times the mismatch from here on: the drift filter must allow
+                    // that step of its rate, or it would smear the ramp over the maneuver.
+                    let c = &self.cfg;
+                    let step = (c.beta_prior[0][a] * d0[a] - c.beta_prior[1][a] * d1[a]) / c.fs;
+                    if step.is_finite() {
+                        self.drift_p[a][2][2] += step * step;
+                    }
                 }
             }
             for a in (0..3).filter(|&a| pair[a]) {
@@ -945,8 +984,8 @@ impl JointEstimator {
         self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
     }
 
-    /// Star-tracker residual e = θ − κ − β̂1 Φ1 [rad] = θ0 + drift + (β1 − β̂1) Φ1 +
-    /// noise: update the drift filter.
+    /// Star-tracker residual e = θ − κ − β1,prior Φ1 [rad] = θ0 + drift +
+    /// (β1 − β1,prior) Φ1 + noise: update the drift filter.
     fn drift_update(&mut self, a: usize, e: f64) {
         let r = self.cfg.sigma_star_rad.powi(2);
         let h = [1.0, 1.0, 0.0, self.phi[0][a]];
@@ -1229,7 +1268,9 @@ impl JointEstimator {
         }
         self.n_star += 1;
         for a in 0..3 {
-            let e = theta[a] - kappa[a] - self.p[P_BETA + a] * self.phi[0][a];
+            // Against the prior β, not the running β̂: the SRP's turn feeds β̂, so a
+            // drift filter that followed β̂ would feed back on itself through the turn.
+            let e = theta[a] - kappa[a] - self.cfg.beta_prior[0][a] * self.phi[0][a];
             self.drift_update(a, e);
         }
         let r = self.cfg.sigma_star_rad.powi(2);
@@ -1613,10 +1654,6 @@ impl JointEstimator {
                 return false;
             };
             self.p += delta;
-            // The drift filter's β state is relative to the current β̂.
-            for a in 0..3 {
-                self.drift_x[a][3] -= delta[P_BETA + a];
-            }
             self.sigma = var.map(|v| v.max(0.0).sqrt());
             self.status &= !(ST_SOLVE_FAILED | ST_NO_SOLUTION);
             let cost = self.group_costs(&self.p);
