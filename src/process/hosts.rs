@@ -422,7 +422,7 @@ pub(crate) fn agent_watch(
     me: &str,
     args: &SupervisorArgs,
 ) -> Result<Option<u64>, super::supervisor::SupervisorError> {
-    use super::supervisor::{describe, interrupted, SupervisorError};
+    use super::supervisor::{Reap, SupervisorError};
     use crate::launch::Restart;
     use crate::msg::{Control, CMD_STOP, PROC_ESTIMATOR};
     let set_err = SupervisorError::Set;
@@ -513,49 +513,14 @@ pub(crate) fn agent_watch(
             log::warn!("link {me} <-> {boss}: heartbeats back");
         }
         // This host's processes: restart by policy, like the supervisor in charge.
-        for i in 0..set.members.len() {
-            let Some(child) = set.members[i].child.as_mut() else {
-                continue;
-            };
-            let status = match child.try_wait() {
-                Ok(Some(st)) => st,
-                Ok(None) => continue,
-                Err(e) => {
-                    return Err(set_err(format!(
-                        "cannot watch {}: {e}",
-                        set.members[i].spec.name
-                    )))
-                }
-            };
-            if interrupted(status) {
-                return Ok(None);
+        match set.reap(&format!("host {me}: ")).map_err(set_err)? {
+            Reap::Running => {}
+            Reap::Interrupted => return Ok(None),
+            Reap::Stopped(why) => {
+                return Err(set_err(format!(
+                    "host {me}: {why}; stopping host {me}'s processes"
+                )))
             }
-            let m = &set.members[i];
-            let name = m.spec.name.clone();
-            if m.spec.restart == Restart::OnFailure
-                && !status.success()
-                && m.restarts < m.spec.max_restarts
-            {
-                log::warn!(
-                    "host {me}: {name} died ({}); restarting it ({} of at most {})",
-                    describe(status),
-                    m.restarts + 1,
-                    m.spec.max_restarts
-                );
-                std::thread::sleep(Duration::from_millis(m.spec.restart_delay_ms));
-                let spec = m.spec.clone();
-                let _ = bus::cleanup_stale(&set.prefix);
-                let child = set.spawn(&spec).map_err(set_err)?;
-                let m = &mut set.members[i];
-                m.child = Some(child);
-                m.restarts += 1;
-                m.last_seen = Instant::now();
-                continue;
-            }
-            return Err(set_err(format!(
-                "host {me}: {name} died ({}) and may not be restarted; stopping host {me}'s processes",
-                describe(status)
-            )));
         }
         // A restartable process silent on its own host is hung: kill it (restarted above).
         if let Some(m) = set.members.iter_mut().find(|m| {

@@ -139,6 +139,78 @@ pub(crate) struct Set {
     bar: crate::progress::Bar,
 }
 
+/// What [`Set::reap`] found among this host's processes.
+pub(crate) enum Reap {
+    /// None exited for good (any that died were restarted by policy).
+    Running,
+    /// One was stopped by SIGINT/SIGTERM: the user is stopping the set.
+    Interrupted,
+    /// One exited and may not be restarted: its name, how it ended, and why not.
+    Stopped(String),
+}
+
+impl Set {
+    /// Watch this host's processes: restart what died by its policy (after its delay,
+    /// releasing the dead node's shared memory first); the first that may not be
+    /// restarted ends the watch. `who` prefixes the log lines ("host sim: ").
+    pub(crate) fn reap(&mut self, who: &str) -> Result<Reap, String> {
+        for i in 0..self.members.len() {
+            let Some(child) = self.members[i].child.as_mut() else {
+                continue;
+            };
+            let status = match child.try_wait() {
+                Ok(Some(st)) => st,
+                Ok(None) => continue,
+                Err(e) => return Err(format!("cannot watch {}: {e}", self.members[i].spec.name)),
+            };
+            if interrupted(status) {
+                return Ok(Reap::Interrupted);
+            }
+            let m = &self.members[i];
+            let name = m.spec.name.clone();
+            if m.spec.restart == Restart::OnFailure
+                && !status.success()
+                && m.restarts < m.spec.max_restarts
+            {
+                log::warn!(
+                    "{who}{name} died ({}); restarting it ({} of at most {})",
+                    describe(status),
+                    m.restarts + 1,
+                    m.spec.max_restarts
+                );
+                std::thread::sleep(Duration::from_millis(m.spec.restart_delay_ms));
+                let spec = m.spec.clone();
+                // Release the dead process's shared memory before its successor opens it.
+                if let Ok(sv) = bus::cleanup_stale(&self.prefix) {
+                    log::info!("{who}removed {} dead node(s)", sv.removed_dead);
+                }
+                let child = self.spawn(&spec)?;
+                let m = &mut self.members[i];
+                m.child = Some(child);
+                m.restarts += 1;
+                m.last_seen = Instant::now();
+                continue;
+            }
+            let why = match m.spec.restart {
+                Restart::Never => format!(
+                    "{name} is not restartable (restart = \"never\" in the launch description)"
+                ),
+                Restart::OnFailure if status.success() => {
+                    format!("{name} exited before the campaign ended")
+                }
+                Restart::OnFailure => {
+                    format!("{name} exhausted its {} restarts", m.spec.max_restarts)
+                }
+            };
+            return Ok(Reap::Stopped(format!(
+                "{name} died ({}); {why}",
+                describe(status)
+            )));
+        }
+        Ok(Reap::Running)
+    }
+}
+
 impl Set {
     pub(crate) fn spawn(&self, spec: &ProcessSpec) -> Result<Child, String> {
         let exe = self.bin_dir.join(&spec.name);
@@ -765,63 +837,10 @@ fn watch(
             }
         }
         // Exits: restart what may be restarted, otherwise stop the set.
-        for i in 0..set.members.len() {
-            let Some(child) = set.members[i].child.as_mut() else {
-                continue;
-            };
-            let status = match child.try_wait() {
-                Ok(Some(st)) => st,
-                Ok(None) => continue,
-                Err(e) => {
-                    return Err(set_err(format!(
-                        "cannot watch {}: {e}",
-                        set.members[i].spec.name
-                    )))
-                }
-            };
-            if interrupted(status) {
-                return Ok(None);
-            }
-            let m = &set.members[i];
-            let name = m.spec.name.clone();
-            if m.spec.restart == Restart::OnFailure
-                && !status.success()
-                && m.restarts < m.spec.max_restarts
-            {
-                log::warn!(
-                    "{name} died ({}); restarting it ({} of at most {})",
-                    describe(status),
-                    m.restarts + 1,
-                    m.spec.max_restarts
-                );
-                std::thread::sleep(Duration::from_millis(m.spec.restart_delay_ms));
-                let spec = m.spec.clone();
-                // Release the dead process's shared memory before its successor opens it.
-                if let Ok(sv) = bus::cleanup_stale(&set.prefix) {
-                    log::info!("removed {} dead node(s)", sv.removed_dead);
-                }
-                let child = set.spawn(&spec).map_err(set_err)?;
-                let m = &mut set.members[i];
-                m.child = Some(child);
-                m.restarts += 1;
-                m.last_seen = Instant::now();
-                continue;
-            }
-            let why = match m.spec.restart {
-                Restart::Never => format!(
-                    "{name} is not restartable (restart = \"never\" in the launch description)"
-                ),
-                Restart::OnFailure if status.success() => {
-                    format!("{name} exited before the campaign ended")
-                }
-                Restart::OnFailure => {
-                    format!("{name} exhausted its {} restarts", m.spec.max_restarts)
-                }
-            };
-            return Err(set_err(format!(
-                "{name} died ({}); {why}; stopping the set",
-                describe(status)
-            )));
+        match set.reap("").map_err(set_err)? {
+            Reap::Running => {}
+            Reap::Interrupted => return Ok(None),
+            Reap::Stopped(why) => return Err(set_err(format!("{why}; stopping the set"))),
         }
         if !started {
             if set.members.iter().all(|m| m.last.is_some()) {
