@@ -168,9 +168,9 @@ pub struct JointEstimator {
     dv_anchor: [[f64; 3]; 2],
     /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
     /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
-    /// [rad], drift rate [rad/s], β1 − β1,prior [rad s⁻² V⁻¹]) and its covariance. The drift
-    /// also follows IS1's double-integrated ω̇ noise, which grows without bound in
-    /// long campaigns; the β state keeps the still-unknown scale error out of it.
+    /// [rad], drift rate [rad/s], β1 − β1,prior [rad s⁻² V⁻¹]) and its covariance.
+    /// The drift also follows IS1's double-integrated ω̇ noise, which grows without
+    /// bound in long campaigns; the β state keeps the scale error out of it.
     drift_x: [[f64; 4]; 3],
     drift_p: [[[f64; 4]; 4]; 3],
     /// Linear test: whitened residual rows (5 complement + common mode) of the
@@ -686,9 +686,6 @@ impl JointEstimator {
         pass
     }
 
-    /// Which IS's angular voltage to use on axis `a` when the two disagree: the one
-    /// nearer the previous ω̇ (ω̇ changes from one sample to the next by far less than
-    /// an upset that fails the cross test, but at a torque edge).
     /// Which IS to keep on angular axis `a` when the two disagree. A voltage upset
     /// shifts ΔV and ΣV of its electrode pair together, so under the right hypothesis
     /// ("IS i is corrupted": ω̇ from the other IS alone) the other IS's linear channel
@@ -696,8 +693,8 @@ impl JointEstimator {
     /// the mismatch. The linear signals other than ΣV and ΔV are taken from the last
     /// accepted sample (they move by far less in a tick). The IS nearer the previous
     /// ω̇ is kept only before the first accepted linear sample: at a torque edge ω̇
-    /// changes by more than a mismatch, and that guess alone picks the corrupted IS
-    /// about as often as not.
+    /// changes by more than a mismatch, and that guess kept the corrupted IS in seeds
+    /// 5 and 18 of the upset test (`tests/integrity.rs`).
     fn trusted_is(&self, a: usize, d: [&[f64; 3]; 2], sums: [&[f64; 3]; 2]) -> [bool; 2] {
         let bp = &self.cfg.beta_prior;
         if self.n_used > 0 {
@@ -1268,8 +1265,8 @@ impl JointEstimator {
         }
         self.n_star += 1;
         for a in 0..3 {
-            // Against the prior β, not the running β̂: the SRP's turn feeds β̂, so a
-            // drift filter that followed β̂ would feed back on itself through the turn.
+            // Against the prior β, not the running β̂: the filter then depends on the
+            // data alone, not on when the solves ran (its β state takes the difference).
             let e = theta[a] - kappa[a] - self.cfg.beta_prior[0][a] * self.phi[0][a];
             self.drift_update(a, e);
         }
