@@ -6,6 +6,9 @@
 //! Every test uses its own bus prefix; they still run one at a time (`serial`), so the
 //! real-time test measures the set alone rather than four sets sharing two cores.
 
+mod common;
+
+use common::{estimates, in_process, report};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -49,42 +52,6 @@ fn supervisor(scenario: &Path, out: &Path, prefix: &str, extra: &[&str]) -> Comm
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     c
-}
-
-fn report(out: &Path) -> Value {
-    let text = std::fs::read_to_string(out.join("report.json")).expect("report.json");
-    serde_json::from_str(&text).unwrap()
-}
-
-/// The estimates (value and σ) of a report, per IS: the fields that must be bit-identical.
-fn estimates(r: &Value) -> Vec<Value> {
-    r["inertial_sensors"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|is| {
-            serde_json::json!([
-                is["beta"]["estimate"],
-                is["beta"]["sigma"],
-                is["k"]["estimate"],
-                is["k"]["sigma"],
-                is["com_offset"]["estimate"],
-                is["com_offset"]["sigma"],
-            ])
-        })
-        .collect()
-}
-
-/// In-process estimates of the same scenario and seed, serialised the same way.
-fn in_process(scenario: &Path, seed: u64) -> Vec<Value> {
-    // Planned as the supervisor plans it, when the file gives no maneuver.
-    let (s, _) = taiji::plan::resolve(Scenario::load(scenario).unwrap()).unwrap();
-    let res = taiji::campaign::run(&s, seed, Method::Joint, |_| {});
-    let crlb = taiji::crlb::crlb(&s).unwrap();
-    let r = taiji::report::Report::new(&s, seed, "in-process", "joint", &res.estimate, &crlb);
-    // Through the same text form as report.json, so both sides parse identically.
-    let text = serde_json::to_string(&r).unwrap();
-    estimates(&serde_json::from_str(&text).unwrap())
 }
 
 /// Processes whose command line carries this bus prefix (the set of one test).

@@ -12,12 +12,12 @@
 //! binaries (a shared `CARGO_TARGET_DIR`). Elsewhere every
 //! test says why it is skipped and passes.
 
-use serde_json::Value;
+mod common;
+
+use common::{estimates, in_process, report};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
-use taiji::estimate::Method;
-use taiji::scenario::Scenario;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
@@ -138,39 +138,6 @@ fn write_scenario(dir: &Path, text: &str) -> PathBuf {
     let p = dir.join("scenario.toml");
     std::fs::write(&p, text).unwrap();
     p
-}
-
-fn report(out: &Path) -> Value {
-    let text = std::fs::read_to_string(out.join("report.json")).expect("report.json");
-    serde_json::from_str(&text).unwrap()
-}
-
-fn estimates(r: &Value) -> Vec<Value> {
-    r["inertial_sensors"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|is| {
-            serde_json::json!([
-                is["beta"]["estimate"],
-                is["beta"]["sigma"],
-                is["k"]["estimate"],
-                is["k"]["sigma"],
-                is["com_offset"]["estimate"],
-                is["com_offset"]["sigma"],
-            ])
-        })
-        .collect()
-}
-
-/// In-process estimates (`taiji-calib run`) of the same scenario and seed.
-fn in_process(scenario: &Path, seed: u64) -> Vec<Value> {
-    let (s, _) = taiji::plan::resolve(Scenario::load(scenario).unwrap()).unwrap();
-    let res = taiji::campaign::run(&s, seed, Method::Joint, |_| {});
-    let crlb = taiji::crlb::crlb(&s).unwrap();
-    let r = taiji::report::Report::new(&s, seed, "in-process", "joint", &res.estimate, &crlb);
-    let text = serde_json::to_string(&r).unwrap();
-    estimates(&serde_json::from_str(&text).unwrap())
 }
 
 fn text(o: &Output) -> String {

@@ -87,6 +87,19 @@ struct Coeffs {
     ang: [SVector<f64, 2>; 3],
 }
 
+/// Residual coefficients at the current parameters and their derivatives by each.
+struct Linearised<'a> {
+    c0: &'a Coeffs,
+    dc: &'a [Coeffs; NP],
+}
+
+/// The Gauss–Newton sums a residual group adds to: H, g and the group's cost.
+struct Sums<'a> {
+    hm: &'a mut SMatrix<f64, NP, NP>,
+    g: &'a mut Par,
+    cost: &'a mut f64,
+}
+
 /// The estimator's whole state: fixed-size, plain data (`Pod`: every field a number,
 /// no padding), so a checkpoint is its bytes and any bytes that pass the checkpoint's
 /// checks are a valid state.
@@ -817,8 +830,8 @@ impl JointEstimator {
                 // axis, keep the one nearer the previous ω̇.
                 self.reject(CAUSE_ANGULAR_MISMATCH);
                 ok = [false; 2];
+                let sums = [s.is[0].linear_volts(), s.is[1].linear_volts()];
                 for a in (0..3).filter(|&a| tested[a] && !pair[a]) {
-                    let sums = [s.is[0].linear_volts(), s.is[1].linear_volts()];
                     let t = self.trusted_is(a, [&d0, &d1], [&sums[0], &sums[1]]);
                     axis_ok[0][a] = t[0];
                     axis_ok[1][a] = t[1];
@@ -1394,55 +1407,38 @@ impl JointEstimator {
     /// One residual group's row: its Gauss–Newton terms into (H, g) and its cost.
     /// Where the CPU has AVX2 its matrix products (most of a solve's ~10⁶
     /// multiply-adds) run compiled for it, like [`Self::update_linear`]: the same bits.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn add_group(
-        row: &SVector<f64, 6>,
-        m: &Gram,
-        weight: f64,
-        c0: &Coeffs,
-        dc: &[Coeffs; NP],
-        hm: &mut SMatrix<f64, NP, NP>,
-        g: &mut Par,
-        cost: &mut f64,
-    ) {
+    fn add_group(row: &SVector<f64, 6>, m: &Gram, weight: f64, lin: &Linearised, out: &mut Sums) {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, checked just now.
-            unsafe { Self::add_group_avx2(row, m, weight, c0, dc, hm, g, cost) };
+            unsafe { Self::add_group_avx2(row, m, weight, lin, out) };
             return;
         }
-        Self::add_group_portable(row, m, weight, c0, dc, hm, g, cost);
+        Self::add_group_portable(row, m, weight, lin, out);
     }
 
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx2")]
     unsafe fn add_group_avx2(
         row: &SVector<f64, 6>,
         m: &Gram,
         weight: f64,
-        c0: &Coeffs,
-        dc: &[Coeffs; NP],
-        hm: &mut SMatrix<f64, NP, NP>,
-        g: &mut Par,
-        cost: &mut f64,
+        lin: &Linearised,
+        out: &mut Sums,
     ) {
-        Self::add_group_portable(row, m, weight, c0, dc, hm, g, cost);
+        Self::add_group_portable(row, m, weight, lin, out);
     }
 
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn add_group_portable(
         row: &SVector<f64, 6>,
         m: &Gram,
         weight: f64,
-        c0: &Coeffs,
-        dc: &[Coeffs; NP],
-        hm: &mut SMatrix<f64, NP, NP>,
-        g: &mut Par,
-        cost: &mut f64,
+        lin: &Linearised,
+        out: &mut Sums,
     ) {
+        let (c0, dc) = (lin.c0, lin.dc);
         let c: Sig = c0.lin.transpose() * row;
         if c.iter().all(|v| *v == 0.0) {
             return;
@@ -1451,9 +1447,9 @@ impl JointEstimator {
             (0..6).map(|r| row[r] * dc[k].lin[(r, s)]).sum()
         });
         let md = m * d;
-        *hm += d.transpose() * md * weight;
-        *g += md.transpose() * c * weight;
-        *cost += c.dot(&(m * c));
+        *out.hm += d.transpose() * md * weight;
+        *out.g += md.transpose() * c * weight;
+        *out.cost += c.dot(&(m * c));
     }
 
     /// Gauss–Newton normal equations (H, g) at `p`, and each residual group's χ²; with
@@ -1517,9 +1513,14 @@ impl JointEstimator {
         let mut cost = [0.0; N_GROUPS];
         // A closure, out of line: its matrix products (tens of kB) take the stack only
         // while it runs (the solve's stack is a flight figure).
+        let lin = Linearised { c0: &c0, dc: &dc };
         let mut add = |row: &SVector<f64, 6>, m: &Gram, grp: usize| {
-            let (hm, g, cost) = (&mut hm, &mut g, &mut cost[grp]);
-            Self::add_group(row, m, gw[grp], &c0, &dc, hm, g, cost);
+            let mut out = Sums {
+                hm: &mut hm,
+                g: &mut g,
+                cost: &mut cost[grp],
+            };
+            Self::add_group(row, m, gw[grp], &lin, &mut out);
         };
         let h = self.srp_direction(p);
         for reg in 0..N_REG {

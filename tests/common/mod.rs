@@ -1,0 +1,44 @@
+//! Helpers shared by the process-set tests (one host and two): a run's report and the
+//! in-process estimates it must equal bit for bit.
+
+use serde_json::Value;
+use std::path::Path;
+use taiji::estimate::Method;
+use taiji::scenario::Scenario;
+
+pub fn report(out: &Path) -> Value {
+    let text = std::fs::read_to_string(out.join("report.json")).expect("report.json");
+    serde_json::from_str(&text).unwrap()
+}
+
+/// The estimates (value and σ) of a report, per IS: the fields that must be bit-identical.
+pub fn estimates(r: &Value) -> Vec<Value> {
+    r["inertial_sensors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|is| {
+            serde_json::json!([
+                is["beta"]["estimate"],
+                is["beta"]["sigma"],
+                is["k"]["estimate"],
+                is["k"]["sigma"],
+                is["com_offset"]["estimate"],
+                is["com_offset"]["sigma"],
+            ])
+        })
+        .collect()
+}
+
+/// In-process estimates (`taiji-calib run`) of the same scenario and seed, serialised
+/// the same way.
+pub fn in_process(scenario: &Path, seed: u64) -> Vec<Value> {
+    // Planned as the supervisor plans it, when the file gives no maneuver.
+    let (s, _) = taiji::plan::resolve(Scenario::load(scenario).unwrap()).unwrap();
+    let res = taiji::campaign::run(&s, seed, Method::Joint, |_| {});
+    let crlb = taiji::crlb::crlb(&s).unwrap();
+    let r = taiji::report::Report::new(&s, seed, "in-process", "joint", &res.estimate, &crlb);
+    // Through the same text form as report.json, so both sides parse identically.
+    let text = serde_json::to_string(&r).unwrap();
+    estimates(&serde_json::from_str(&text).unwrap())
+}
