@@ -17,7 +17,7 @@ pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
 pub const MAX_DURATION_S: f64 = 1.0e6;
 
 /// Least ratio of the DC SRP [m/s²] to its fluctuation ASD at 3 mHz [m s⁻² Hz^-½].
-pub const SRP_DC_OVER_ASD: f64 = 5.0;
+pub const SRP_DC_OVER_ASD: f64 = 250.0;
 
 /// A scenario that failed to load or validate; the message names the key.
 #[derive(Debug, Clone, PartialEq)]
@@ -560,8 +560,10 @@ impl Scenario {
         pos("srp.asd_at_3mhz", srp.asd_at_3mhz)?;
         pos("srp.dc_m_s2", srp.dc_m_s2)?;
         // The estimator learns the direction of the coloured SRP noise from the DC SRP
-        // it measures; that needs the DC to dominate the fluctuation (verified down to
-        // ~9× the ASD at 3 mHz; it fails at ~1×). Any sunlit spacecraft has ≳1e-8 m/s².
+        // it measures; that needs the DC to dominate the fluctuation. σ stays honest
+        // down to ~250× the ASD at 3 mHz (30 seeds: r's mean (err/σ)² 1.15–1.48 at
+        // 270×, 1.8–2.0 at 100×, 2.7 at 27×; requirements are met far below). Any
+        // sunlit spacecraft has ≳1e-8 m/s², ~10³× the default ASD.
         if srp.dc_m_s2 < SRP_DC_OVER_ASD * srp.asd_at_3mhz {
             if blame_second("srp.dc_m_s2", "srp.asd_at_3mhz") {
                 return err(

@@ -54,8 +54,8 @@ fn an_srp_dc_buried_in_its_own_noise_is_rejected() {
     let e = err("[srp]\ndc_m_s2 = 1e-12");
     assert!(e.contains("srp.dc_m_s2") && e.contains("direction"), "{e}");
     // Small but still dominant over its fluctuation: accepted.
-    let s = Scenario::from_toml_str("[srp]\ndc_m_s2 = 1e-10").unwrap();
-    assert_eq!(s.srp.dc_m_s2, 1e-10);
+    let s = Scenario::from_toml_str("[srp]\ndc_m_s2 = 3e-9").unwrap();
+    assert_eq!(s.srp.dc_m_s2, 3e-9);
 }
 
 #[test]
