@@ -37,7 +37,7 @@ use crate::msg::*;
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Signals of the linear group.
-pub const NS: usize = 32;
+pub const NS: usize = 38;
 /// Parameters.
 pub const NP: usize = 30;
 /// Noise regimes of the linear channels (by the dominant rotation axis).
@@ -53,6 +53,18 @@ const S_T: usize = 22;
 /// order in the propagated angle, exact in the attitude (R̂ propagated with the running
 /// β̂ and pulled onto the star tracker after data gaps).
 const S_W: usize = 23;
+/// Φ1_a ε_m at `S_PU + pu(a, m)` (a ≠ m) [V² s²]: the attitude times the SRP measured
+/// in IS1's channel m relative to the reference sample, ε_m = ΣV_1m − ΣV_1m,ref −
+/// (A r̂)_m/k̂_m + (θ̂ × b̂)_m/k̂_m (the maneuver's own acceleration and the SRP's turn at
+/// the running solution taken out, so ε is the inertial SRP's change: its fluctuation
+/// and its DC against the reference sample). The SRP then turns with what it is at
+/// each sample, fluctuation included, not with a fitted constant.
+const S_PU: usize = 32;
+
+/// Index of Φ1_a ε_m among the six products (a ≠ m).
+fn pu(a: usize, m: usize) -> usize {
+    2 * a + usize::from(m != (a + 1) % 3)
+}
 
 pub const P_BETA: usize = 0; // + 3 i + a
 pub const P_R: usize = 6; // + 3 i + a
@@ -140,6 +152,7 @@ pub struct JointEstimator {
     m_filt: Gram,
     bank: PowerLawBank,
     wp: SMatrix<f64, MAX_POLES, MAX_POLES>,
+    #[cfg_attr(feature = "std", serde(with = "poles_serde"))]
     wx: [[f64; MAX_POLES]; NS],
     /// Gain of the SRP state onto the whitened common-mode channel.
     hn: f64,
@@ -1008,6 +1021,24 @@ impl JointEstimator {
         any
     }
 
+    /// The SRP in IS1's channels against the reference sample [V], inertial: the
+    /// maneuver's A r̂ / k̂ (this sample's ω̇, ω at the running solution) and the
+    /// running DC turned by θ̂ = β̂1 Φ1 taken out. Both are small (3 % and 5×10⁻⁴ of
+    /// the SRP), so their running errors stay far below the fluctuation. `s` holds
+    /// this sample's signals up to `S_PU`.
+    fn srp_change(&self, s: &Sig, phi_mid: &[[f64; 3]; 2]) -> [f64; 3] {
+        let bc = self.srp_dc(&self.p);
+        let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
+        let turn = theta.cross(&Vector3::from(bc));
+        core::array::from_fn(|m| {
+            let mut eps = s[S_SUM + m] + turn[m] / self.k_of(&self.p, 0, m);
+            for c in (S_DV..S_DV + 6).chain(S_PP..S_PP + 6) {
+                eps += self.gate_c[(m, c)] * s[c];
+            }
+            eps
+        })
+    }
+
     fn angular_inputs(&self, data: &[IsData; 2], ok: &[[bool; 3]; 2]) -> [[f64; 3]; 2] {
         let n = self.n_is();
         let mut dv = [[0.0; 3]; 2];
@@ -1187,6 +1218,12 @@ impl JointEstimator {
             s[S_PHI + a] = phi_mid[0][a];
             for m in 0..3 {
                 s[S_W + 3 * a + m] = w_turn[(a, m)];
+            }
+        }
+        let eps = self.srp_change(&s, phi_mid);
+        for (m, e) in eps.iter().enumerate() {
+            for a in (0..3).filter(|&a| a != m) {
+                s[S_PU + pu(a, m)] = phi_mid[0][a] * e;
             }
         }
         s[S_ONE] = 1.0;
@@ -1475,8 +1512,25 @@ impl JointEstimator {
                 }
                 // SRP direction turning with the attitude: a_srp = R̂ᵀ b − (β1 Φ1 − Φ̂) × b
                 // to first order in β1 − β̂1, i.e. b − (β1 Φ1) × b + W b.
-                lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * bc[j2];
-                lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
+                if self.drifted() {
+                    // The DC only: with the attitude uncertain after bridged ticks,
+                    // the fluctuation's turn is below what is known of the attitude
+                    // (measured: turning the measured SRP then cost r_z accuracy).
+                    lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * bc[j2];
+                    lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
+                } else {
+                    // −θ × a(t) with the SRP as measured, a_m(t) = k_1m (ΣV_1m,ref +
+                    // ε_m(t)): the reference sample's on Φ1, its change on Φ1 ε. The
+                    // SRP's fluctuation δ(t) turns with the attitude too, (Rᵀ − I) δ ŝ,
+                    // up to 5×10⁻¹⁴ m/s² across the sun; taken as white noise it kept
+                    // r_z at 1.3× its bound at 10⁴ s and (err/σ)² at 2.2–3.2 at
+                    // 10⁵–3×10⁵ s.
+                    let (k1, k2) = (self.k_of(p, 0, j1), self.k_of(p, 0, j2));
+                    lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * k2 * self.sum_ref[0][j2];
+                    lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * k1 * self.sum_ref[0][j1];
+                    lin[(row, S_PU + pu(j1, j2))] += inv_k * beta1(j1) * k2;
+                    lin[(row, S_PU + pu(j2, j1))] -= inv_k * beta1(j2) * k1;
+                }
                 for m in 0..3 {
                     lin[(row, S_W + 3 * j + m)] = -inv_k * bc[m];
                 }
@@ -1593,18 +1647,23 @@ impl JointEstimator {
             let cm = self.coeffs(&pp);
             let f = 0.5 / hk;
             d.lin = (cp.lin - cm.lin) * f;
-            if self.drifted() && (P_BETA..P_BETA + 6).contains(&k) {
-                // The SRP turns with the attitude β1 Φ1 + drift. Once ticks had to be
-                // bridged, that attitude is the star tracker's as much as the IS's and
-                // its β-dependence is no evidence about β: a 10⁻⁸ rad error of the
-                // drift estimate would pose as a 10⁻⁴ scale error. The coefficient
-                // still uses β1, so at the solution the attitude is the final β's.
-                // IS2's β counts too: its channels carry the turned SRP divided by its
+            if (P_BETA..P_BETA + 6).contains(&k) {
+                // The SRP turns with the attitude β1 Φ1 + drift, but its β-dependence
+                // is no evidence about β: the star tracker measures β far better, and
+                // a turn model off by 10⁻¹⁷ m/s² (a 10⁻⁸ rad drift error once ticks
+                // are bridged; the measured SRP's running corrections) poses as a
+                // 10⁻⁶ scale error (βy 7σ off at 10⁵ s). The coefficient still uses
+                // β1, so at the solution the attitude is the final β's. IS2's β
+                // counts too: its channels carry the turned SRP divided by its
                 // k = G β2 (with IS1's β alone, 5 % dropouts left the common β scale 9×
-                // its bound off and 3.5× outside its σ).
+                // its bound off and 3.5× outside its σ). Measured at 10⁴ s without
+                // faults: β's error the same with or without this evidence.
                 for row in 0..6 {
                     for a in 0..3 {
                         d.lin[(row, S_PHI + a)] = 0.0;
+                    }
+                    for c in S_PU..S_PU + 6 {
+                        d.lin[(row, c)] = 0.0;
                     }
                 }
             }
@@ -1928,5 +1987,45 @@ impl JointEstimator {
                 m.k_sigma[i][j] = g * m.beta_sigma[i][PERM[j]];
             }
         }
+    }
+}
+
+/// Serde for the whitening filter's per-signal pole states (serde derives arrays up
+/// to 32 elements; there are `NS`): a tuple of `NS` arrays, as a derive would write.
+#[cfg(feature = "std")]
+mod poles_serde {
+    use super::{MAX_POLES, NS};
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    type Poles = [[f64; MAX_POLES]; NS];
+
+    pub fn serialize<S: Serializer>(v: &Poles, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_tuple(NS)?;
+        for x in v {
+            t.serialize_element(x)?;
+        }
+        t.end()
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Poles, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Poles;
+            fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+                write!(f, "{NS} arrays of {MAX_POLES} pole states")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut a: A) -> Result<Poles, A::Error> {
+                let mut out = [[0.0; MAX_POLES]; NS];
+                for (i, x) in out.iter_mut().enumerate() {
+                    *x = a
+                        .next_element()?
+                        .ok_or_else(|| Error::invalid_length(i, &self))?;
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_tuple(NS, V)
     }
 }
