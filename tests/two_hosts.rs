@@ -87,6 +87,18 @@ impl Hosts {
 
     /// The supervisor of one host, inside its namespace.
     fn supervisor(&self, host: &str, sc: &Path, out: &Path, extra: &[&str]) -> Child {
+        self.supervisor_env(host, sc, out, extra, &[])
+    }
+
+    /// `supervisor` with environment variables (fault injection).
+    fn supervisor_env(
+        &self,
+        host: &str,
+        sc: &Path,
+        out: &Path,
+        extra: &[&str],
+        env: &[(&str, &str)],
+    ) -> Child {
         let ns = if host == "sim" { "a" } else { "b" };
         let default_launch = Path::new(ROOT).join("tools/two_hosts.toml");
         let mut c = Command::new(two_hosts_tool());
@@ -103,6 +115,7 @@ impl Hosts {
             .args(["--bus-prefix", "tjhil_"])
             .args(extra)
             .env("RUST_LOG", "warn")
+            .envs(env.iter().copied())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -262,6 +275,8 @@ fn a_tunnel_killed_mid_run_is_named_and_the_run_resumes_with_nothing_lost() {
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
+    // The resync (the estimator starved, then a new incarnation) touched no heap.
+    assert_eq!(r["estimator_loop_allocations"], 0);
 }
 
 #[test]
@@ -345,6 +360,148 @@ fn a_link_stalled_for_seconds_is_named_and_the_run_resumes_with_nothing_lost() {
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
+    assert_eq!(r["estimator_loop_allocations"], 0);
+}
+
+#[test]
+fn a_final_estimate_and_stops_lost_on_the_link_are_sent_again_and_the_run_ends_cleanly() {
+    need_two_hosts!();
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let hosts = Hosts::up("fe");
+    let dir = tmp("end");
+    let sc = write_scenario(&dir, SHORT);
+    // The link "breaks" as the run ends: the estimator's final estimate and the first
+    // stop commands of the supervisor in charge never cross (fault injection). Sent
+    // once, the first would stall the set (exit 3) and the second leave the flight
+    // host waiting out its link timeout (20 s, then exit 3).
+    let t0 = Instant::now();
+    let flight = hosts.supervisor_env(
+        "flight",
+        &sc,
+        &dir.join("flight"),
+        &[],
+        &[("TAIJI_FAULT_DROP_FINAL", "1")],
+    );
+    let sim = hosts.supervisor_env(
+        "sim",
+        &sc,
+        &dir.join("sim"),
+        &[],
+        &[("TAIJI_FAULT_DROP_STOPS", "3")],
+    );
+    let so = sim.wait_with_output().unwrap();
+    let fo = flight.wait_with_output().unwrap();
+    let waited = t0.elapsed();
+    eprintln!(
+        "both ended after {waited:?}\nsim:\n{}\nflight:\n{}",
+        text(&so),
+        text(&fo)
+    );
+    assert!(so.status.success(), "sim: {}", text(&so));
+    assert!(fo.status.success(), "flight: {}", text(&fo));
+    assert!(
+        text(&fo).contains("no stop 1000 ms after the final estimate; sending it again"),
+        "{}",
+        text(&fo)
+    );
+    assert!(
+        text(&so).contains("stop command 3 not sent"),
+        "{}",
+        text(&so)
+    );
+    assert!(
+        text(&fo).contains("stopped by the supervisor in charge"),
+        "{}",
+        text(&fo)
+    );
+    let r = report(&dir.join("sim"));
+    assert_eq!(r["samples_used"], 30000);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
+    assert_eq!(r["estimator_loop_allocations"], 0);
+}
+
+/// Processes of `exe` whose command line carries bus prefix `prefix`.
+fn pids_with(prefix: &str, exe: &str) -> Vec<i32> {
+    let mut pids = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else {
+            continue;
+        };
+        let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) else {
+            continue;
+        };
+        let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
+        if cmd.contains(prefix) && cmd.split(' ').next().is_some_and(|a| a.ends_with(exe)) {
+            pids.push(pid);
+        }
+    }
+    pids
+}
+
+#[test]
+fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
+    // One host, no namespaces: the front-end frozen mid-run starves the estimator as a
+    // link losing samples would; it resyncs (a new incarnation, the front-end resends).
+    // Its first final estimate is not sent (fault injection), so it sends it again.
+    // Both paths run in the filter loop, which must still touch no heap.
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tmp("resync");
+    // Long enough to be mid-run when frozen, on a loaded machine too.
+    let sc = write_scenario(&dir, "name = \"resync\"\nseed = 5\nduration_s = 10000.0\n");
+    let launch = std::fs::read_to_string(Path::new(ROOT).join("tools/launch.toml"))
+        .unwrap()
+        .replace(
+            "restart_delay_ms = 100\n",
+            "restart_delay_ms = 100\nargs = [\"--resync-after-ms\", \"300\"]\n",
+        );
+    assert!(launch.contains("--resync-after-ms"));
+    let lpath = dir.join("launch.toml");
+    std::fs::write(&lpath, launch).unwrap();
+    let out = dir.join("out");
+    let pfx = format!("tjrs{}_", std::process::id());
+    let mut sup = Command::new(SUPERVISOR)
+        .arg("--launch")
+        .arg(&lpath)
+        .arg("--scenario")
+        .arg(&sc)
+        .arg("--out")
+        .arg(&out)
+        .args(["--bus-prefix", &pfx])
+        .env("RUST_LOG", "warn")
+        .env("TAIJI_FAULT_DROP_FINAL", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let ckpt = out.join("estimator.ckpt");
+    let t0 = Instant::now();
+    while !ckpt.exists() {
+        if let Ok(Some(st)) = sup.try_wait() {
+            panic!("the run ended ({st}) before its first checkpoint");
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "no checkpoint");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let fee = pids_with(&pfx, "taiji-fee");
+    assert_eq!(fee.len(), 1, "{fee:?}");
+    // SAFETY: signals to a process of this test.
+    unsafe { libc::kill(fee[0], libc::SIGSTOP) };
+    std::thread::sleep(Duration::from_millis(1500));
+    unsafe { libc::kill(fee[0], libc::SIGCONT) };
+    let o = sup.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    for says in [
+        "no sample for 300 ms; asking the front-end to resend",
+        "taiji-fee: estimator restarted; resending",
+        "no stop 300 ms after the final estimate; sending it again",
+    ] {
+        assert!(text(&o).contains(says), "{says}: {}", text(&o));
+    }
+    let r = report(&out);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(r["samples_used"], 100000);
+    assert_eq!(estimates(&r), in_process(&sc, 5));
+    assert_eq!(r["estimator_loop_allocations"], 0);
 }
 
 #[test]
