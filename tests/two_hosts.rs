@@ -161,6 +161,29 @@ fn text(o: &Output) -> String {
     )
 }
 
+/// The run's hold (`TAIJI_FAULT_HOLD`): the commander issues no tick from 1500 on while
+/// the file exists, so the run cannot end (on a fast or a loaded machine alike) before
+/// the test has done its damage mid-run; `release` lets it go on.
+struct Hold {
+    file: PathBuf,
+}
+
+impl Hold {
+    fn new(dir: &Path) -> Hold {
+        let file = dir.join("hold");
+        std::fs::write(&file, "").unwrap();
+        Hold { file }
+    }
+
+    fn env(&self) -> (&'static str, String) {
+        ("TAIJI_FAULT_HOLD", format!("1500:{}", self.file.display()))
+    }
+
+    fn release(&self) {
+        std::fs::remove_file(&self.file).unwrap();
+    }
+}
+
 /// Wait until the run is under way: the flight host's estimator wrote its first
 /// checkpoint (tick 1000). Both supervisors must still be running.
 fn wait_for_checkpoint(flight_out: &Path, sim: &mut Child, flight: &mut Child) {
@@ -258,12 +281,15 @@ fn a_tunnel_killed_mid_run_is_named_and_the_run_resumes_with_nothing_lost() {
     let hosts = Hosts::up("kt");
     let dir = tmp("killtunnel");
     let sc = write_scenario(&dir, SHORT);
+    let hold = Hold::new(&dir);
+    let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
-    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &[]);
+    let mut sim = hosts.supervisor_env("sim", &sc, &dir.join("sim"), &[], &[(k, &v)]);
     wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     let t = tunnel_of(pid_of(&sim)).expect("the sim host's tunnel");
     // SAFETY: a signal to a process of this test.
     unsafe { libc::kill(t, libc::SIGKILL) };
+    hold.release();
     let so = sim.wait_with_output().unwrap();
     let fo = flight.wait_with_output().unwrap();
     assert!(so.status.success(), "sim: {}", text(&so));
@@ -275,8 +301,6 @@ fn a_tunnel_killed_mid_run_is_named_and_the_run_resumes_with_nothing_lost() {
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
-    // The resync (the estimator starved, then a new incarnation) touched no heap.
-    assert_eq!(r["estimator_loop_allocations"], 0);
 }
 
 #[test]
@@ -285,16 +309,18 @@ fn a_link_cut_past_the_timeout_stops_cleanly_naming_the_link_and_keeps_the_check
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("lc");
     let dir = tmp("cut");
-    // Long enough to be mid-run when cut.
     let sc = write_scenario(&dir, "name = \"cut\"\nseed = 3\nduration_s = 20000.0\n");
     let launch = std::fs::read_to_string(Path::new(ROOT).join("tools/two_hosts.toml"))
         .unwrap()
-        .replace("link_timeout_s = 20.0", "link_timeout_s = 3.0");
+        .replace("link_timeout_s = 20.0", "link_timeout_s = 6.0");
     let lpath = dir.join("launch.toml");
     std::fs::write(&lpath, launch).unwrap();
     let l = lpath.to_str().unwrap();
+    // Held mid-run (never released): the run cannot end before the cut.
+    let hold = Hold::new(&dir);
+    let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &["--launch", l]);
-    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &["--launch", l]);
+    let mut sim = hosts.supervisor_env("sim", &sc, &dir.join("sim"), &["--launch", l], &[(k, &v)]);
     wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     hosts.link(false);
     let t0 = Instant::now();
@@ -320,7 +346,7 @@ fn a_link_cut_past_the_timeout_stops_cleanly_naming_the_link_and_keeps_the_check
         "{}",
         text(&fo)
     );
-    // Link timeout (3 s) + the stop (≤ 5 s) + the tunnel's (≤ 3 s); one run in a few
+    // Link timeout (6 s) + the stop (≤ 5 s) + the tunnel's (≤ 3 s); one run in a few
     // under a loaded machine took 33 s, so the bound only catches a hang.
     assert!(waited < Duration::from_secs(90), "took {waited:?}");
     assert!(
@@ -336,13 +362,16 @@ fn a_link_stalled_for_seconds_is_named_and_the_run_resumes_with_nothing_lost() {
     let hosts = Hosts::up("st");
     let dir = tmp("stall");
     let sc = write_scenario(&dir, SHORT);
+    let hold = Hold::new(&dir);
+    let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
-    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &[]);
+    let mut sim = hosts.supervisor_env("sim", &sc, &dir.join("sim"), &[], &[(k, &v)]);
     wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     // Shorter than the zenoh lease (10 s) and the link timeout (20 s).
     hosts.link(false);
     std::thread::sleep(Duration::from_secs(3));
     hosts.link(true);
+    hold.release();
     let so = sim.wait_with_output().unwrap();
     let fo = flight.wait_with_output().unwrap();
     assert!(so.status.success(), "sim: {}", text(&so));
@@ -360,7 +389,6 @@ fn a_link_stalled_for_seconds_is_named_and_the_run_resumes_with_nothing_lost() {
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
-    assert_eq!(r["estimator_loop_allocations"], 0);
 }
 
 #[test]
@@ -417,37 +445,19 @@ fn a_final_estimate_and_stops_lost_on_the_link_are_sent_again_and_the_run_ends_c
     let r = report(&dir.join("sim"));
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
-    assert_eq!(r["estimator_loop_allocations"], 0);
-}
-
-/// Processes of `exe` whose command line carries bus prefix `prefix`.
-fn pids_with(prefix: &str, exe: &str) -> Vec<i32> {
-    let mut pids = Vec::new();
-    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
-        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else {
-            continue;
-        };
-        let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) else {
-            continue;
-        };
-        let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
-        if cmd.contains(prefix) && cmd.split(' ').next().is_some_and(|a| a.ends_with(exe)) {
-            pids.push(pid);
-        }
-    }
-    pids
 }
 
 #[test]
 fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
-    // One host, no namespaces: the front-end frozen mid-run starves the estimator as a
-    // link losing samples would; it resyncs (a new incarnation, the front-end resends).
-    // Its first final estimate is not sent (fault injection), so it sends it again.
-    // Both paths run in the filter loop, which must still touch no heap.
+    // One host, no namespaces: the run held mid-run starves the estimator as a link
+    // losing samples would; it resyncs (a new incarnation, the front-end resends). Its
+    // first final estimate is not sent (fault injection), so it sends it again. Both
+    // paths run in the filter loop, which must still touch no heap.
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tmp("resync");
-    // Long enough to be mid-run when frozen, on a loaded machine too.
-    let sc = write_scenario(&dir, "name = \"resync\"\nseed = 5\nduration_s = 10000.0\n");
+    let sc = write_scenario(&dir, SHORT);
+    let hold = Hold::new(&dir);
+    let (k, v) = hold.env();
     let launch = std::fs::read_to_string(Path::new(ROOT).join("tools/launch.toml"))
         .unwrap()
         .replace(
@@ -469,6 +479,7 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
         .args(["--bus-prefix", &pfx])
         .env("RUST_LOG", "warn")
         .env("TAIJI_FAULT_DROP_FINAL", "1")
+        .env(k, v)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -482,12 +493,9 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
         assert!(t0.elapsed() < Duration::from_secs(120), "no checkpoint");
         std::thread::sleep(Duration::from_millis(2));
     }
-    let fee = pids_with(&pfx, "taiji-fee");
-    assert_eq!(fee.len(), 1, "{fee:?}");
-    // SAFETY: signals to a process of this test.
-    unsafe { libc::kill(fee[0], libc::SIGSTOP) };
+    // Starved for 1.5 s: at least one resync (after 300 ms).
     std::thread::sleep(Duration::from_millis(1500));
-    unsafe { libc::kill(fee[0], libc::SIGCONT) };
+    hold.release();
     let o = sup.wait_with_output().unwrap();
     assert!(o.status.success(), "{}", text(&o));
     for says in [
@@ -499,8 +507,8 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
     }
     let r = report(&out);
     assert_eq!(r["timing"]["samples_lost"], 0);
-    assert_eq!(r["samples_used"], 100000);
-    assert_eq!(estimates(&r), in_process(&sc, 5));
+    assert_eq!(r["samples_used"], 30000);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
     assert_eq!(r["estimator_loop_allocations"], 0);
 }
 
