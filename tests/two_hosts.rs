@@ -6,7 +6,8 @@
 //! nothing lost; a link cut past the link timeout stops the set cleanly (exit 3,
 //! naming the link) and the flight host keeps the estimator's checkpoint.
 //!
-//! Needs root (namespaces) and the tunnel binary (its own crate, zenoh is heavy):
+//! Needs root (namespaces) and the tunnel binary (its own crate, zenoh is heavy;
+//! `tools/test` builds it where namespaces can be made and sets `TAIJI_TUNNEL_BIN`):
 //!   cargo build --release --manifest-path tools/tunnel/Cargo.toml
 //! found through `TAIJI_TUNNEL_BIN`, in tools/tunnel/target/release or beside our
 //! binaries (a shared `CARGO_TARGET_DIR`). Elsewhere every
