@@ -162,22 +162,31 @@ fn text(o: &Output) -> String {
     )
 }
 
-/// The run's hold (`TAIJI_FAULT_HOLD`): the commander issues no tick from 1500 on while
+/// The run's hold (`TAIJI_FAULT_HOLD`): the commander issues no tick from `at` on while
 /// the file exists, so the run cannot end (on a fast or a loaded machine alike) before
-/// the test has done its damage mid-run; `release` lets it go on.
+/// the test has done its damage mid-run; `release` lets it go on. Held late (tick
+/// 20000 of 30000), samples are usually still flowing when the fault comes.
 struct Hold {
     file: PathBuf,
+    at: u64,
 }
 
 impl Hold {
     fn new(dir: &Path) -> Hold {
+        Hold::at(dir, 20_000)
+    }
+
+    fn at(dir: &Path, at: u64) -> Hold {
         let file = dir.join("hold");
         std::fs::write(&file, "").unwrap();
-        Hold { file }
+        Hold { file, at }
     }
 
     fn env(&self) -> (&'static str, String) {
-        ("TAIJI_FAULT_HOLD", format!("1500:{}", self.file.display()))
+        (
+            "TAIJI_FAULT_HOLD",
+            format!("{}:{}", self.at, self.file.display()),
+        )
     }
 
     fn release(&self) {
@@ -457,7 +466,8 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tmp("resync");
     let sc = write_scenario(&dir, SHORT);
-    let hold = Hold::new(&dir);
+    // Held just past the first checkpoint: the estimator starves while held.
+    let hold = Hold::at(&dir, 1500);
     let (k, v) = hold.env();
     let launch = std::fs::read_to_string(Path::new(ROOT).join("tools/launch.toml"))
         .unwrap()
