@@ -6,7 +6,8 @@
 //! nothing lost; a link cut past the link timeout stops the set cleanly (exit 3,
 //! naming the link) and the flight host keeps the estimator's checkpoint.
 //!
-//! Needs root (namespaces) and the tunnel binary (its own crate, zenoh is heavy):
+//! Needs root (namespaces) and the tunnel binary (its own crate, zenoh is heavy;
+//! `tools/test` builds it where namespaces can be made and sets `TAIJI_TUNNEL_BIN`):
 //!   cargo build --release --manifest-path tools/tunnel/Cargo.toml
 //! found through `TAIJI_TUNNEL_BIN`, in tools/tunnel/target/release or beside our
 //! binaries (a shared `CARGO_TARGET_DIR`). Elsewhere every
@@ -87,6 +88,18 @@ impl Hosts {
 
     /// The supervisor of one host, inside its namespace.
     fn supervisor(&self, host: &str, sc: &Path, out: &Path, extra: &[&str]) -> Child {
+        self.supervisor_env(host, sc, out, extra, &[])
+    }
+
+    /// `supervisor` with environment variables (fault injection).
+    fn supervisor_env(
+        &self,
+        host: &str,
+        sc: &Path,
+        out: &Path,
+        extra: &[&str],
+        env: &[(&str, &str)],
+    ) -> Child {
         let ns = if host == "sim" { "a" } else { "b" };
         let default_launch = Path::new(ROOT).join("tools/two_hosts.toml");
         let mut c = Command::new(two_hosts_tool());
@@ -103,6 +116,7 @@ impl Hosts {
             .args(["--bus-prefix", "tjhil_"])
             .args(extra)
             .env("RUST_LOG", "warn")
+            .envs(env.iter().copied())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -146,6 +160,38 @@ fn text(o: &Output) -> String {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     )
+}
+
+/// The run's hold (`TAIJI_FAULT_HOLD`): the commander issues no tick from `at` on while
+/// the file exists, so the run cannot end (on a fast or a loaded machine alike) before
+/// the test has done its damage mid-run; `release` lets it go on. Held late (tick
+/// 20000 of 30000), samples are usually still flowing when the fault comes.
+struct Hold {
+    file: PathBuf,
+    at: u64,
+}
+
+impl Hold {
+    fn new(dir: &Path) -> Hold {
+        Hold::at(dir, 20_000)
+    }
+
+    fn at(dir: &Path, at: u64) -> Hold {
+        let file = dir.join("hold");
+        std::fs::write(&file, "").unwrap();
+        Hold { file, at }
+    }
+
+    fn env(&self) -> (&'static str, String) {
+        (
+            "TAIJI_FAULT_HOLD",
+            format!("{}:{}", self.at, self.file.display()),
+        )
+    }
+
+    fn release(&self) {
+        std::fs::remove_file(&self.file).unwrap();
+    }
 }
 
 /// Wait until the run is under way: the flight host's estimator wrote its first
@@ -245,12 +291,15 @@ fn a_tunnel_killed_mid_run_is_named_and_the_run_resumes_with_nothing_lost() {
     let hosts = Hosts::up("kt");
     let dir = tmp("killtunnel");
     let sc = write_scenario(&dir, SHORT);
+    let hold = Hold::new(&dir);
+    let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
-    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &[]);
+    let mut sim = hosts.supervisor_env("sim", &sc, &dir.join("sim"), &[], &[(k, &v)]);
     wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     let t = tunnel_of(pid_of(&sim)).expect("the sim host's tunnel");
     // SAFETY: a signal to a process of this test.
     unsafe { libc::kill(t, libc::SIGKILL) };
+    hold.release();
     let so = sim.wait_with_output().unwrap();
     let fo = flight.wait_with_output().unwrap();
     assert!(so.status.success(), "sim: {}", text(&so));
@@ -270,16 +319,18 @@ fn a_link_cut_past_the_timeout_stops_cleanly_naming_the_link_and_keeps_the_check
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("lc");
     let dir = tmp("cut");
-    // Long enough to be mid-run when cut.
     let sc = write_scenario(&dir, "name = \"cut\"\nseed = 3\nduration_s = 20000.0\n");
     let launch = std::fs::read_to_string(Path::new(ROOT).join("tools/two_hosts.toml"))
         .unwrap()
-        .replace("link_timeout_s = 20.0", "link_timeout_s = 3.0");
+        .replace("link_timeout_s = 20.0", "link_timeout_s = 6.0");
     let lpath = dir.join("launch.toml");
     std::fs::write(&lpath, launch).unwrap();
     let l = lpath.to_str().unwrap();
+    // Held mid-run (never released): the run cannot end before the cut.
+    let hold = Hold::new(&dir);
+    let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &["--launch", l]);
-    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &["--launch", l]);
+    let mut sim = hosts.supervisor_env("sim", &sc, &dir.join("sim"), &["--launch", l], &[(k, &v)]);
     wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     hosts.link(false);
     let t0 = Instant::now();
@@ -305,7 +356,7 @@ fn a_link_cut_past_the_timeout_stops_cleanly_naming_the_link_and_keeps_the_check
         "{}",
         text(&fo)
     );
-    // Link timeout (3 s) + the stop (≤ 5 s) + the tunnel's (≤ 3 s); one run in a few
+    // Link timeout (6 s) + the stop (≤ 5 s) + the tunnel's (≤ 3 s); one run in a few
     // under a loaded machine took 33 s, so the bound only catches a hang.
     assert!(waited < Duration::from_secs(90), "took {waited:?}");
     assert!(
@@ -321,13 +372,16 @@ fn a_link_stalled_for_seconds_is_named_and_the_run_resumes_with_nothing_lost() {
     let hosts = Hosts::up("st");
     let dir = tmp("stall");
     let sc = write_scenario(&dir, SHORT);
+    let hold = Hold::new(&dir);
+    let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
-    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &[]);
+    let mut sim = hosts.supervisor_env("sim", &sc, &dir.join("sim"), &[], &[(k, &v)]);
     wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
     // Shorter than the zenoh lease (10 s) and the link timeout (20 s).
     hosts.link(false);
     std::thread::sleep(Duration::from_secs(3));
     hosts.link(true);
+    hold.release();
     let so = sim.wait_with_output().unwrap();
     let fo = flight.wait_with_output().unwrap();
     assert!(so.status.success(), "sim: {}", text(&so));
@@ -345,6 +399,128 @@ fn a_link_stalled_for_seconds_is_named_and_the_run_resumes_with_nothing_lost() {
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
+}
+
+#[test]
+fn a_final_estimate_and_stops_lost_on_the_link_are_sent_again_and_the_run_ends_cleanly() {
+    need_two_hosts!();
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let hosts = Hosts::up("fe");
+    let dir = tmp("end");
+    let sc = write_scenario(&dir, SHORT);
+    // The link "breaks" as the run ends: the estimator's final estimate and the first
+    // stop commands of the supervisor in charge never cross (fault injection). Sent
+    // once, the first would stall the set (exit 3) and the second leave the flight
+    // host waiting out its link timeout (20 s, then exit 3).
+    let t0 = Instant::now();
+    let flight = hosts.supervisor_env(
+        "flight",
+        &sc,
+        &dir.join("flight"),
+        &[],
+        &[("TAIJI_FAULT_DROP_FINAL", "1")],
+    );
+    let sim = hosts.supervisor_env(
+        "sim",
+        &sc,
+        &dir.join("sim"),
+        &[],
+        &[("TAIJI_FAULT_DROP_STOPS", "3")],
+    );
+    let so = sim.wait_with_output().unwrap();
+    let fo = flight.wait_with_output().unwrap();
+    let waited = t0.elapsed();
+    eprintln!(
+        "both ended after {waited:?}\nsim:\n{}\nflight:\n{}",
+        text(&so),
+        text(&fo)
+    );
+    assert!(so.status.success(), "sim: {}", text(&so));
+    assert!(fo.status.success(), "flight: {}", text(&fo));
+    assert!(
+        text(&fo).contains("no stop 1000 ms after the final estimate; sending it again"),
+        "{}",
+        text(&fo)
+    );
+    assert!(
+        text(&so).contains("stop command 3 not sent"),
+        "{}",
+        text(&so)
+    );
+    assert!(
+        text(&fo).contains("stopped by the supervisor in charge"),
+        "{}",
+        text(&fo)
+    );
+    let r = report(&dir.join("sim"));
+    assert_eq!(r["samples_used"], 30000);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
+}
+
+#[test]
+fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
+    // One host, no namespaces: the run held mid-run starves the estimator as a link
+    // losing samples would; it resyncs (a new incarnation, the front-end resends). Its
+    // first final estimate is not sent (fault injection), so it sends it again. Both
+    // paths run in the filter loop, which must still touch no heap.
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tmp("resync");
+    let sc = write_scenario(&dir, SHORT);
+    // Held just past the first checkpoint: the estimator starves while held.
+    let hold = Hold::at(&dir, 1500);
+    let (k, v) = hold.env();
+    let launch = std::fs::read_to_string(Path::new(ROOT).join("tools/launch.toml"))
+        .unwrap()
+        .replace(
+            "restart_delay_ms = 100\n",
+            "restart_delay_ms = 100\nargs = [\"--resync-after-ms\", \"300\"]\n",
+        );
+    assert!(launch.contains("--resync-after-ms"));
+    let lpath = dir.join("launch.toml");
+    std::fs::write(&lpath, launch).unwrap();
+    let out = dir.join("out");
+    let pfx = format!("tjrs{}_", std::process::id());
+    let mut sup = Command::new(SUPERVISOR)
+        .arg("--launch")
+        .arg(&lpath)
+        .arg("--scenario")
+        .arg(&sc)
+        .arg("--out")
+        .arg(&out)
+        .args(["--bus-prefix", &pfx])
+        .env("RUST_LOG", "warn")
+        .env("TAIJI_FAULT_DROP_FINAL", "1")
+        .env(k, v)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let ckpt = out.join("estimator.ckpt");
+    let t0 = Instant::now();
+    while !ckpt.exists() {
+        if let Ok(Some(st)) = sup.try_wait() {
+            panic!("the run ended ({st}) before its first checkpoint");
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "no checkpoint");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    // Starved for 1.5 s: at least one resync (after 300 ms).
+    std::thread::sleep(Duration::from_millis(1500));
+    hold.release();
+    let o = sup.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    for says in [
+        "no sample for 300 ms; asking the front-end to resend",
+        "taiji-fee: estimator restarted; resending",
+        "no stop 300 ms after the final estimate; sending it again",
+    ] {
+        assert!(text(&o).contains(says), "{says}: {}", text(&o));
+    }
+    let r = report(&out);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(r["samples_used"], 30000);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
+    assert_eq!(r["estimator_loop_allocations"], 0);
 }
 
 #[test]

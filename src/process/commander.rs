@@ -8,7 +8,31 @@ use crate::msg::{TorqueCommand, PROC_COMMANDER, PROC_PLANT, STATE_DONE, STATE_RU
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
+/// Fault injection for tests: `TAIJI_FAULT_HOLD=TICK:PATH` holds the campaign before
+/// tick TICK while the file PATH exists, so a test can act mid-run (cut a link, kill a
+/// tunnel) however fast or slow the machine, then let the run go on.
+pub const FAULT_HOLD: &str = "TAIJI_FAULT_HOLD";
+
+fn fault_hold() -> Result<Option<(u64, std::path::PathBuf)>, String> {
+    let Ok(v) = std::env::var(FAULT_HOLD) else {
+        return Ok(None);
+    };
+    match v.split_once(':') {
+        Some((t, p)) if !p.is_empty() => {
+            match t.trim().parse::<u64>() {
+                Ok(t) => {
+                    log::warn!("taiji-commander: fault injection: holding before tick {t} while {p} exists");
+                    Ok(Some((t, p.into())))
+                }
+                Err(_) => Err(format!("{FAULT_HOLD} must be TICK:PATH, not {v:?}")),
+            }
+        }
+        _ => Err(format!("{FAULT_HOLD} must be TICK:PATH, not {v:?}")),
+    }
+}
+
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
+    let mut hold = fault_hold()?;
     let s = args.scenario()?;
     let period = args.period_ns(&s)?;
     let mut link = Link::new(
@@ -42,6 +66,16 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
             if now < due {
                 let wait = Duration::from_nanos((due - now).min(1_000_000));
                 if let Some(e) = link.sleep(wait) {
+                    return Ok(e);
+                }
+                continue;
+            }
+        }
+        if let Some((at, path)) = &hold {
+            if t >= *at {
+                if !path.exists() {
+                    hold = None;
+                } else if let Some(e) = link.idle(Duration::from_millis(2)) {
                     return Ok(e);
                 }
                 continue;

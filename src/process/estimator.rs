@@ -36,6 +36,20 @@ fn fault_checkpoint_delay() -> Result<Duration, String> {
     }
 }
 
+/// Fault injection: `TAIJI_FAULT_DROP_FINAL=1` does not send the first final estimate,
+/// as if the link broke as it crossed, so tests can show the run still ends cleanly.
+pub const FAULT_DROP_FINAL: &str = "TAIJI_FAULT_DROP_FINAL";
+
+fn fault_drop_final() -> Result<u32, String> {
+    match std::env::var(FAULT_DROP_FINAL) {
+        Err(_) => Ok(0),
+        Ok(v) => match v.trim().parse::<u32>() {
+            Ok(k) if k <= 1 => Ok(k),
+            _ => Err(format!("{FAULT_DROP_FINAL} must be 0 or 1, not {v:?}")),
+        },
+    }
+}
+
 /// Everything the estimator process is given: the estimator's table (priors, known
 /// geometry, noise levels — `EstimatorConfig` has no field for a truth) and the length
 /// of the campaign. The supervisor writes it from the scenario (`TABLE_FILE`); the
@@ -127,6 +141,10 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
     let mut allocs_before = None;
     let mut done = false;
     let mut last_input = monotonic_ns();
+    // The final estimate, kept to be sent again (sets over hosts), and when it last was.
+    let mut final_msg = None;
+    let mut final_sent = 0u64;
+    let mut drop_final = fault_drop_final()?;
     let exit = loop {
         if let Some(e) = link.poll()? {
             break e;
@@ -146,13 +164,24 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
             // flight under the old one is dropped (below): nothing lost, nothing twice.
             let now = monotonic_ns();
             if resync_ns > 0 && allocs_before.is_some() && !done && now > last_input + resync_ns {
-                log::warn!(
+                super::warn_without_alloc(format_args!(
                     "taiji-estimator: no sample for {} ms; asking the front-end to resend from tick {next}",
                     resync_ns / 1_000_000
-                );
+                ));
                 link.progress.incarnation = now;
                 link.beat()?;
                 last_input = now;
+            }
+            // Done, and still no stop: the final estimate may have been lost on the
+            // link (cut as it crossed). Resend it (same seq: receivers keep the first)
+            // until the supervisor in charge, having it, says stop.
+            if let Some(f) = final_msg.filter(|_| resync_ns > 0 && now > final_sent + resync_ns) {
+                super::warn_without_alloc(format_args!(
+                    "taiji-estimator: no stop {} ms after the final estimate; sending it again",
+                    resync_ns / 1_000_000
+                ));
+                out.send(f)?;
+                final_sent = now;
             }
             if let Some(e) = link.idle(super::IDLE) {
                 break e;
@@ -196,7 +225,16 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
             let mut f = est.finish();
             f.header.origin_ns = sample.header.origin_ns;
             f.header.publish_ns = monotonic_ns();
-            out.send(f)?;
+            if drop_final > 0 {
+                drop_final -= 1;
+                super::warn_without_alloc(format_args!(
+                    "taiji-estimator: fault injection: the final estimate is not sent"
+                ));
+            } else {
+                out.send(f)?;
+            }
+            final_msg = Some(f);
+            final_sent = monotonic_ns();
             done = true;
             link.progress.state = STATE_DONE;
         }

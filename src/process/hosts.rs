@@ -16,7 +16,7 @@
 use super::supervisor::SupervisorArgs;
 use crate::bus;
 use crate::launch::LaunchDescription;
-use crate::msg::{Header, Progress, STATE_READY};
+use crate::msg::{Header, Progress, CMD_STOP, STATE_DONE, STATE_READY};
 use crate::timing::{monotonic_ns, LatencyHistogram};
 use serde_json::json;
 use std::path::Path;
@@ -32,6 +32,26 @@ pub const BEAT: Duration = Duration::from_millis(100);
 /// A host silent this long is reported as a link stall (logged, in the report); the
 /// set stops only after the launch description's `link_timeout_s`.
 pub const LINK_SUSPECT: Duration = Duration::from_secs(1);
+/// An agent that acknowledged the stop ends once no repeat of it came for this long
+/// (the one in charge repeats it every `BEAT` until acknowledged).
+const ACK_QUIET: Duration = Duration::from_millis(300);
+
+/// Fault injection: `TAIJI_FAULT_DROP_STOPS=N` makes the supervisor in charge not send
+/// its first N stop commands, as if the link broke as they crossed, so tests can show
+/// that the stop is repeated until the other hosts acknowledge it.
+pub const FAULT_DROP_STOPS: &str = "TAIJI_FAULT_DROP_STOPS";
+
+fn fault_drop_stops() -> Result<u32, String> {
+    match std::env::var(FAULT_DROP_STOPS) {
+        Err(_) => Ok(0),
+        Ok(v) => match v.trim().parse::<u32>() {
+            Ok(k) if k <= 100 => Ok(k),
+            _ => Err(format!(
+                "{FAULT_DROP_STOPS} must be a whole number up to 100, not {v:?}"
+            )),
+        },
+    }
+}
 
 /// The chain and who uses which service ("supervisor": the one in charge).
 fn users(service: &str) -> &'static [&'static str] {
@@ -222,6 +242,10 @@ pub struct InCharge {
     seq: u64,
     t0: Instant,
     link_timeout: Duration,
+    /// A link stayed silent past the timeout (no stop can cross it).
+    lost: bool,
+    /// Stop commands still to drop (fault injection).
+    drop_stops: u32,
 }
 
 pub struct RemoteHost {
@@ -231,6 +255,8 @@ pub struct RemoteHost {
     /// Since when it is silent (a stall being waited out).
     pub silent_since: Option<Instant>,
     pub heard_once: bool,
+    /// Its agent acknowledged the stop.
+    pub stopped: bool,
 }
 
 impl InCharge {
@@ -251,6 +277,7 @@ impl InCharge {
                 last_heard: Instant::now(),
                 silent_since: None,
                 heard_once: false,
+                stopped: false,
             })
             .collect();
         Ok(InCharge {
@@ -265,6 +292,8 @@ impl InCharge {
             seq: 0,
             t0: Instant::now(),
             link_timeout: Duration::from_secs_f64(launch.link_timeout_s),
+            lost: false,
+            drop_stops: fault_drop_stops()?,
         })
     }
 
@@ -288,6 +317,7 @@ impl InCharge {
             {
                 h.last_heard = Instant::now();
                 h.heard_once = true;
+                h.stopped |= p.state == STATE_DONE;
             }
             return;
         }
@@ -331,6 +361,7 @@ impl InCharge {
                     });
                 }
                 if quiet > self.link_timeout {
+                    self.lost = true;
                     return Err(format!(
                         "link {} <-> {} lost: no heartbeat crossed it for {:.0} s (link_timeout_s); stopping the set",
                         self.me,
@@ -351,6 +382,64 @@ impl InCharge {
             }
         }
         Ok(silent)
+    }
+
+    /// End the run on every host: repeat the stop every `BEAT` until each other host's
+    /// agent acknowledged it, for at most the link timeout — a stop lost on a link that
+    /// breaks at that moment is sent again once it is back. A link already lost gets
+    /// one stop (its host stops by itself: its own link timeout).
+    pub fn stop_hosts(
+        &mut self,
+        node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+        progress: &bus::Sub<Progress>,
+        send: &dyn Fn(u32, u64) -> Result<(), String>,
+    ) {
+        let t0 = Instant::now();
+        let mut next_stop = t0;
+        let mut seq = 1;
+        loop {
+            if Instant::now() >= next_stop {
+                next_stop = Instant::now() + BEAT;
+                if self.drop_stops > 0 {
+                    self.drop_stops -= 1;
+                    log::warn!("fault injection: stop command {seq} not sent");
+                } else if let Err(e) = send(CMD_STOP, seq) {
+                    log::warn!("cannot send the stop: {e}");
+                }
+                seq += 1;
+            }
+            if self.lost {
+                return;
+            }
+            while let Ok(Some(p)) = bus::receive(progress) {
+                self.heard(&p, None);
+            }
+            if self.remote.iter().all(|h| h.stopped) {
+                return;
+            }
+            if let Err(e) = self.poll() {
+                log::warn!("host {}: {e}", self.me);
+                return;
+            }
+            if t0.elapsed() > self.link_timeout {
+                let silent: Vec<&str> = self
+                    .remote
+                    .iter()
+                    .filter(|h| !h.stopped)
+                    .map(|h| h.name.as_str())
+                    .collect();
+                log::warn!(
+                    "host {}: no acknowledgement of the stop from host(s) {} in {:.0} s (link_timeout_s); they stop by themselves once the link has been silent that long",
+                    self.me,
+                    silent.join(", "),
+                    self.link_timeout.as_secs_f64()
+                );
+                return;
+            }
+            if node.wait(Duration::from_millis(1)).is_err() {
+                return;
+            }
+        }
     }
 
     /// Is this host's link silent now?
@@ -424,7 +513,7 @@ pub(crate) fn agent_watch(
 ) -> Result<Option<u64>, super::supervisor::SupervisorError> {
     use super::supervisor::{Reap, SupervisorError};
     use crate::launch::Restart;
-    use crate::msg::{Control, CMD_STOP, PROC_ESTIMATOR};
+    use crate::msg::{Control, PROC_ESTIMATOR};
     let set_err = SupervisorError::Set;
     let index = launch.host.iter().position(|h| h.name == me).unwrap_or(0) as u64;
     let boss = launch.host[0].name.clone();
@@ -472,7 +561,10 @@ pub(crate) fn agent_watch(
         while let Some(c) = bus::receive(&control).map_err(set_err)? {
             if c.command == CMD_STOP {
                 log::info!("host {me}: the supervisor in charge said stop");
-                return Ok(Some(tick_of_estimator(set)));
+                let tick = tick_of_estimator(set);
+                acknowledge_stop(node, &control, &beat_pub, index, &mut seq, link_timeout)
+                    .map_err(set_err)?;
+                return Ok(Some(tick));
             }
         }
         if Instant::now() >= next_beat {
@@ -540,6 +632,43 @@ pub(crate) fn agent_watch(
             m.last_seen = Instant::now();
         }
     }
+}
+
+/// An agent told to stop: acknowledge it (an agent beat in `STATE_DONE`), and again on
+/// every repeat of the stop — the one in charge repeats it until an acknowledgement
+/// crosses — until no repeat came for `ACK_QUIET` (at most `limit`). Its tunnel runs
+/// meanwhile; its processes, told to stop too, end by themselves.
+fn acknowledge_stop(
+    node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+    control: &bus::Sub<crate::msg::Control>,
+    beat_pub: &bus::Pub<Progress>,
+    index: u64,
+    seq: &mut u64,
+    limit: Duration,
+) -> Result<(), String> {
+    let t0 = Instant::now();
+    let mut last_stop = t0;
+    let mut ack = true;
+    while last_stop.elapsed() < ACK_QUIET && t0.elapsed() < limit {
+        if ack {
+            ack = false;
+            *seq += 1;
+            let mut b = beat(PROC_AGENT, 0, 0, *seq);
+            b.header.tick = index;
+            b.state = STATE_DONE;
+            bus::publish(beat_pub, b)?;
+        }
+        while let Some(c) = bus::receive(control)? {
+            if c.command == CMD_STOP {
+                last_stop = Instant::now();
+                ack = true;
+            }
+        }
+        if node.wait(Duration::from_millis(1)).is_err() {
+            break;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -417,6 +417,39 @@ pub fn parse_method(name: &str) -> Result<Method, String> {
     }
 }
 
+/// A warning from a loop that must not touch the heap. The logger allocates on every
+/// record (its colour probe reads environment variables), so when warnings are enabled
+/// the line is formatted on the stack, in the logger's layout, and written to stderr
+/// (cut at 255 bytes).
+pub fn warn_without_alloc(args: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    if !log::log_enabled!(log::Level::Warn) {
+        return;
+    }
+    let mut line = heapless::Vec::<u8, 256>::new();
+    let mut w = Truncating(&mut line);
+    let _ = write!(w, "[WARN ] {args}");
+    if line.len() == line.capacity() {
+        line.pop();
+    }
+    let _ = line.push(b'\n');
+    let _ = std::io::stderr().write_all(&line);
+}
+
+/// Writes what fits, drops the rest.
+struct Truncating<'a>(&'a mut heapless::Vec<u8, 256>);
+
+impl std::io::Write for Truncating<'_> {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        let room = self.0.capacity() - self.0.len();
+        let _ = self.0.extend_from_slice(&b[..b.len().min(room)]);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 /// `log` through env_logger (`RUST_LOG`, default warn); iceoryx2's own log at error
 /// unless `IOX2_LOG_LEVEL` says otherwise (its warnings about a dead peer's socket are
 /// expected during a restart).

@@ -728,7 +728,13 @@ fn supervise(
     set.bar.finish();
     // Whatever happened: stop everyone. What they left on the bus goes when `_hold` is
     // dropped, after this supervisor's node.
-    let _ = send(CMD_STOP, 1);
+    match hosts.as_mut() {
+        // Over hosts: repeated until every other host acknowledged it.
+        Some(h) => h.stop_hosts(&node, &progress, &send),
+        None => {
+            let _ = send(CMD_STOP, 1);
+        }
+    }
     set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
     let wall = t_start.elapsed().as_secs_f64();
     // The checkpoint only serves restarts within this run (the next run starts afresh):
