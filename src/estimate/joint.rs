@@ -37,7 +37,7 @@ use crate::msg::*;
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Signals of the linear group.
-pub const NS: usize = 38;
+pub const NS: usize = 35;
 /// Parameters.
 pub const NP: usize = 30;
 /// Noise regimes of the linear channels (by the dominant rotation axis).
@@ -53,18 +53,13 @@ const S_T: usize = 22;
 /// order in the propagated angle, exact in the attitude (R̂ propagated with the running
 /// β̂ and pulled onto the star tracker after data gaps).
 const S_W: usize = 23;
-/// Φ1_a ε_m at `S_PU + pu(a, m)` (a ≠ m) [V² s²]: the attitude times the SRP measured
-/// in IS1's channel m relative to the reference sample, ε_m = ΣV_1m − ΣV_1m,ref −
-/// (A r̂)_m/k̂_m + (θ̂ × b̂)_m/k̂_m (the maneuver's own acceleration and the SRP's turn at
-/// the running solution taken out, so ε is the inertial SRP's change: its fluctuation
-/// and its DC against the reference sample). The SRP then turns with what it is at
-/// each sample, fluctuation included, not with a fitted constant.
-const S_PU: usize = 32;
-
-/// Index of Φ1_a ε_m among the six products (a ≠ m).
-fn pu(a: usize, m: usize) -> usize {
-    2 * a + usize::from(m != (a + 1) % 3)
-}
+/// (θ̂ × a_ε)_j at `S_TF + j` [m/s²]: the SRP's change since the reference sample,
+/// a_ε,m = k̂_1m ε_m with ε_m = ΣV_1m − ΣV_1m,ref − (A r̂)_m/k̂_m + (θ̂ × b̂)_m/k̂_m (IS1's
+/// channel m with the maneuver's acceleration and the SRP's turn at the running
+/// solution taken out: the inertial SRP's fluctuation and its DC against the
+/// reference sample), turned by the running attitude θ̂ = β̂1 Φ1. It is ~10⁻¹² m/s²
+/// turned by ~10⁻³ rad, so the running β̂, k̂ in it err by 10⁻²⁰ m/s².
+const S_TF: usize = 32;
 
 pub const P_BETA: usize = 0; // + 3 i + a
 pub const P_R: usize = 6; // + 3 i + a
@@ -1025,7 +1020,7 @@ impl JointEstimator {
     /// maneuver's A r̂ / k̂ (this sample's ω̇, ω at the running solution) and the
     /// running DC turned by θ̂ = β̂1 Φ1 taken out. Both are small (3 % and 5×10⁻⁴ of
     /// the SRP), so their running errors stay far below the fluctuation. `s` holds
-    /// this sample's signals up to `S_PU`.
+    /// this sample's signals up to `S_TF`.
     fn srp_change(&self, s: &Sig, phi_mid: &[[f64; 3]; 2]) -> [f64; 3] {
         let bc = self.srp_dc(&self.p);
         let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
@@ -1221,10 +1216,11 @@ impl JointEstimator {
             }
         }
         let eps = self.srp_change(&s, phi_mid);
-        for (m, e) in eps.iter().enumerate() {
-            for a in (0..3).filter(|&a| a != m) {
-                s[S_PU + pu(a, m)] = phi_mid[0][a] * e;
-            }
+        let a_eps = Vector3::from_fn(|m, _| self.k_of(&self.p, 0, m) * eps[m]);
+        let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
+        let tf = theta.cross(&a_eps);
+        for j in 0..3 {
+            s[S_TF + j] = tf[j];
         }
         s[S_ONE] = 1.0;
         s[S_T] = t;
@@ -1520,7 +1516,7 @@ impl JointEstimator {
                     lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
                 } else {
                     // −θ × a(t) with the SRP as measured, a_m(t) = k_1m (ΣV_1m,ref +
-                    // ε_m(t)): the reference sample's on Φ1, its change on Φ1 ε. The
+                    // ε_m(t)): the reference sample's on Φ1, its change (`S_TF`). The
                     // SRP's fluctuation δ(t) turns with the attitude too, (Rᵀ − I) δ ŝ,
                     // up to 5×10⁻¹⁴ m/s² across the sun; taken as white noise it kept
                     // r_z at 1.3× its bound at 10⁴ s and (err/σ)² at 2.2–3.2 at
@@ -1528,8 +1524,7 @@ impl JointEstimator {
                     let (k1, k2) = (self.k_of(p, 0, j1), self.k_of(p, 0, j2));
                     lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * k2 * self.sum_ref[0][j2];
                     lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * k1 * self.sum_ref[0][j1];
-                    lin[(row, S_PU + pu(j1, j2))] += inv_k * beta1(j1) * k2;
-                    lin[(row, S_PU + pu(j2, j1))] -= inv_k * beta1(j2) * k1;
+                    lin[(row, S_TF + j)] = inv_k;
                 }
                 for m in 0..3 {
                     lin[(row, S_W + 3 * j + m)] = -inv_k * bc[m];
@@ -1662,7 +1657,7 @@ impl JointEstimator {
                     for a in 0..3 {
                         d.lin[(row, S_PHI + a)] = 0.0;
                     }
-                    for c in S_PU..S_PU + 6 {
+                    for c in S_TF..S_TF + 3 {
                         d.lin[(row, c)] = 0.0;
                     }
                 }
