@@ -927,12 +927,6 @@ impl JointEstimator {
             }
         }
         if let Some(sig) = lin_sig {
-            if n == 2 {
-                let raw = self.gate_c * sig;
-                for k in 0..6 {
-                    self.lone_track[k].learn(raw[k], ALPHA_LIN);
-                }
-            }
             self.n_used += 1;
             self.update_linear(&sig, &dv);
             self.gate_s = sig;
@@ -1175,11 +1169,16 @@ impl JointEstimator {
         // By reference: the owned matrices would be copied (gate_c is 1.5 kB) every
         // sample, which the lint does not know.
         #[allow(clippy::op_ref)]
-        let z = &self.gate_w * (&self.gate_c * sig);
+        let raw = &self.gate_c * sig;
+        let z = self.gate_w * raw;
         let ok = (0..6).all(|k| self.lin_track[k].check(z[k], 1.0));
         for k in 0..6 {
             if ok {
                 self.lin_track[k].learn(z[k], ALPHA_LIN);
+                // Each channel alone, for the lone-IS test (`lone_misfit`).
+                if self.n_is() == 2 {
+                    self.lone_track[k].learn(raw[k], ALPHA_LIN);
+                }
             } else {
                 self.lin_track[k].miss();
             }
