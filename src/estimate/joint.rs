@@ -57,8 +57,9 @@ const S_W: usize = 23;
 /// a_ε,m = k̂_1m ε_m with ε_m = ΣV_1m − ΣV_1m,ref − (A r̂)_m/k̂_m + (θ̂ × b̂)_m/k̂_m (IS1's
 /// channel m with the maneuver's acceleration and the SRP's turn at the running
 /// solution taken out: the inertial SRP's fluctuation and its DC against the
-/// reference sample), turned by the running attitude θ̂ = β̂1 Φ1. It is ~10⁻¹² m/s²
-/// turned by ~10⁻³ rad, so the running β̂, k̂ in it err by 10⁻²⁰ m/s².
+/// reference sample), turned by the running attitude θ̂ = β̂1 Φ1. That change is
+/// small (the fluctuation, ~10⁻¹² m/s², and what the reference sample's own A r left,
+/// ≲10⁻⁹) and turned by ≲10⁻³ rad, so the running β̂, k̂ in it err by ≲10⁻¹⁷ m/s².
 const S_TF: usize = 32;
 
 pub const P_BETA: usize = 0; // + 3 i + a
