@@ -40,16 +40,6 @@ fn fault_checkpoint_delay() -> Result<Duration, String> {
 /// as if the link broke as it crossed, so tests can show the run still ends cleanly.
 pub const FAULT_DROP_FINAL: &str = "TAIJI_FAULT_DROP_FINAL";
 
-fn fault_drop_final() -> Result<u32, String> {
-    match std::env::var(FAULT_DROP_FINAL) {
-        Err(_) => Ok(0),
-        Ok(v) => match v.trim().parse::<u32>() {
-            Ok(k) if k <= 1 => Ok(k),
-            _ => Err(format!("{FAULT_DROP_FINAL} must be 0 or 1, not {v:?}")),
-        },
-    }
-}
-
 /// Everything the estimator process is given: the estimator's table (priors, known
 /// geometry, noise levels — `EstimatorConfig` has no field for a truth) and the length
 /// of the campaign. The supervisor writes it from the scenario (`TABLE_FILE`); the
@@ -144,7 +134,7 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
     // The final estimate, kept to be sent again (sets over hosts), and when it last was.
     let mut final_msg = None;
     let mut final_sent = 0u64;
-    let mut drop_final = fault_drop_final()?;
+    let mut drop_final = super::fault_count(FAULT_DROP_FINAL, 1)?;
     let exit = loop {
         if let Some(e) = link.poll()? {
             break e;

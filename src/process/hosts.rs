@@ -41,18 +41,6 @@ const ACK_QUIET: Duration = Duration::from_millis(300);
 /// that the stop is repeated until the other hosts acknowledge it.
 pub const FAULT_DROP_STOPS: &str = "TAIJI_FAULT_DROP_STOPS";
 
-fn fault_drop_stops() -> Result<u32, String> {
-    match std::env::var(FAULT_DROP_STOPS) {
-        Err(_) => Ok(0),
-        Ok(v) => match v.trim().parse::<u32>() {
-            Ok(k) if k <= 100 => Ok(k),
-            _ => Err(format!(
-                "{FAULT_DROP_STOPS} must be a whole number up to 100, not {v:?}"
-            )),
-        },
-    }
-}
-
 /// The chain and who uses which service ("supervisor": the one in charge).
 fn users(service: &str) -> &'static [&'static str] {
     const ALL: &[&str] = &[
@@ -293,7 +281,7 @@ impl InCharge {
             t0: Instant::now(),
             link_timeout: Duration::from_secs_f64(launch.link_timeout_s),
             lost: false,
-            drop_stops: fault_drop_stops()?,
+            drop_stops: super::fault_count(FAULT_DROP_STOPS, 100)?,
         })
     }
 

@@ -475,3 +475,17 @@ pub fn main_of(name: &str, run: impl FnOnce() -> Result<Exit, String>) -> std::p
         }
     }
 }
+
+/// A fault-injection count from the environment variable `var` (unset: 0), at most
+/// `max`; anything else is a user error naming the variable.
+pub(crate) fn fault_count(var: &str, max: u32) -> Result<u32, String> {
+    match std::env::var(var) {
+        Err(_) => Ok(0),
+        Ok(v) => match v.trim().parse::<u32>() {
+            Ok(k) if k <= max => Ok(k),
+            _ => Err(format!(
+                "{var} must be a whole number from 0 to {max}, not {v:?}"
+            )),
+        },
+    }
+}
