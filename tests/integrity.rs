@@ -336,3 +336,25 @@ fn an_upset_on_an_axis_only_one_is_delivers_is_caught_by_its_linear_channel() {
     assert!(r.samples_rejected_by_cause["linear_outlier"] >= 1);
     assert_honest(&r, "all faults, seed 12");
 }
+
+#[test]
+fn r_z_sigma_carries_the_error_of_beta_that_the_srp_turn_brings_in() {
+    // The SRP turns with the attitude β1 Φ1, and a square-wave attitude looks like
+    // ω̇ × r_z in the channels that measure r_z (≈1.8 mm of r_z per unit relative β at
+    // 0.6 mHz). β comes from the star tracker, not the turn, so its error reaches r_z
+    // untaken by H⁻¹: with the linear readout noise 100× below the default that leak
+    // dominates, and σ from H⁻¹ left r_z's mean (err/σ)² at 2.9 over these seeds
+    // (1.13 with the sandwich σ).
+    let s = planned("[front_end]\nlinear_noise_rthz = 3e-17\n");
+    let mut sum = 0.0;
+    let mut n = 0.0;
+    for seed in 1..=12 {
+        let r = run(&s, seed);
+        for row in r.rows().iter().filter(|row| row.name.contains("rz")) {
+            sum += row.z * row.z;
+            n += 1.0;
+        }
+    }
+    assert!(n == 24.0, "{n} r_z rows");
+    assert!(sum / n <= 2.0, "r_z mean (err/σ)² {:.2}", sum / n);
+}
