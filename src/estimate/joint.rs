@@ -1633,12 +1633,17 @@ impl JointEstimator {
         *out.hm += d.transpose() * md * weight;
         *out.g += md.transpose() * c * weight;
         *out.cost += c.dot(&(m * c));
-        let dd =
-            SMatrix::<f64, NS, 6>::from_fn(|s, b| match TURN_COLS.iter().position(|&t| t == s) {
-                Some(col) => (0..6).map(|r| row[r] * lin.turn[b][(r, col)]).sum(),
-                None => 0.0,
-            });
-        *out.cross += md.transpose() * dd * weight;
+        // Jᵀ W Δ: Δ's rows are zero but on the turn's six signals.
+        for (col, &sc) in TURN_COLS.iter().enumerate() {
+            for b in 0..6 {
+                let dd: f64 = (0..6).map(|r| row[r] * lin.turn[b][(r, col)]).sum();
+                if dd != 0.0 {
+                    for i in 0..NP {
+                        out.cross[(i, b)] += md[(sc, i)] * dd * weight;
+                    }
+                }
+            }
+        }
     }
 
     /// Gauss–Newton normal equations (H, g) at `p`, and each residual group's χ²; with
@@ -1830,15 +1835,14 @@ impl JointEstimator {
     }
 
     /// Solve H δ = −g with Jacobi scaling; also returns diag(H⁻¹).
-    fn newton_step(hm: &SMatrix<f64, NP, NP>, g: &Par) -> Option<(Par, Par)> {
+    fn newton_step(hm: &SMatrix<f64, NP, NP>, g: &Par) -> Option<(Par, SMatrix<f64, NP, NP>)> {
         let sc = Par::from_fn(|k, _| 1.0 / hm[(k, k)].max(1e-300).sqrt());
         let hs = SMatrix::<f64, NP, NP>::from_fn(|i, j| hm[(i, j)] * sc[i] * sc[j]);
         let ch = hs.cholesky()?;
         let gs = g.component_mul(&sc);
         let delta = -ch.solve(&gs).component_mul(&sc);
         let inv = ch.inverse();
-        let var = Par::from_fn(|k, _| inv[(k, k)] * sc[k] * sc[k]);
-        Some((delta, var))
+        Some((delta, SMatrix::from_fn(|i, j| inv[(i, j)] * sc[i] * sc[j])))
     }
 
     /// Variance of the estimate [parameter units²]: the sandwich A⁻¹ H A⁻ᵀ. The
@@ -1847,21 +1851,26 @@ impl JointEstimator {
     /// an error δβ moves the solution by −A⁻¹ Jᵀ W Δ δβ, A = H + Jᵀ W Δ. H⁻¹ alone
     /// would leave that out: r_z's error is 15 % above its σ without it (300 seeds,
     /// (err/σ)² 1.33), as β's error, taken from the star tracker, turns the SRP.
-    fn sandwich_var(n: &Normal) -> Option<Par> {
-        let sc = Par::from_fn(|k, _| 1.0 / n.hm[(k, k)].max(1e-300).sqrt());
-        let mut a = n.hm;
-        for b in 0..6 {
-            for i in 0..NP {
-                a[(i, P_BETA + b)] += n.cross[(i, b)];
+    ///
+    /// A = H + C, C nonzero in the six β columns only (C = X V, X = `cross`, V the
+    /// selector of those columns), so with U = H⁻¹ X and W = U (I₆ + V U)⁻¹,
+    /// A⁻¹ H A⁻ᵀ = K H⁻¹ Kᵀ with K = I − W V: only the diagonal is built, from H⁻¹
+    /// (the step's own inverse) and 30 × 6 products.
+    fn sandwich_var(n: &Normal, hinv: &SMatrix<f64, NP, NP>) -> Option<Par> {
+        let u: SMatrix<f64, NP, 6> = hinv * n.cross;
+        let vu = SMatrix::<f64, 6, 6>::from_fn(|b, c| u[(P_BETA + b, c)]);
+        let m = (SMatrix::<f64, 6, 6>::identity() + vu).try_inverse()?;
+        let w = u * m;
+        let var = Par::from_fn(|k, _| {
+            let mut v = hinv[(k, k)];
+            for b in 0..6 {
+                v -= 2.0 * w[(k, b)] * hinv[(k, P_BETA + b)];
+                for c in 0..6 {
+                    v += w[(k, b)] * hinv[(P_BETA + b, P_BETA + c)] * w[(k, c)];
+                }
             }
-        }
-        let scale = |m: &SMatrix<f64, NP, NP>| {
-            SMatrix::<f64, NP, NP>::from_fn(|i, j| m[(i, j)] * sc[i] * sc[j])
-        };
-        let lu = scale(&a).lu();
-        let y = lu.solve(&scale(&n.hm))?;
-        let cov = lu.solve(&y.transpose())?;
-        let var = Par::from_fn(|k, _| cov[(k, k)] * sc[k] * sc[k]);
+            v
+        });
         var.iter().all(|v| v.is_finite()).then_some(var)
     }
 
@@ -1871,11 +1880,10 @@ impl JointEstimator {
     pub fn solve(&mut self, iterations: usize, priors: bool) -> bool {
         for _ in 0..iterations {
             let n = self.normal_equations(&self.p, priors);
-            let step = Self::newton_step(&n.hm, &n.g).filter(|(d, v)| {
-                d.iter().all(|x| x.is_finite()) && v.iter().all(|x| x.is_finite())
-            });
-            let var = Self::sandwich_var(&n);
-            let (Some((delta, _)), Some(var)) = (step, var) else {
+            let step = Self::newton_step(&n.hm, &n.g)
+                .filter(|(d, _)| d.iter().all(|x| x.is_finite()))
+                .and_then(|(d, hinv)| Some((d, Self::sandwich_var(&n, &hinv)?)));
+            let Some((delta, var)) = step else {
                 self.status |= ST_SOLVE_FAILED;
                 return false;
             };
@@ -1954,7 +1962,8 @@ impl JointEstimator {
     /// noise-free signals.
     pub fn fisher_sigma(&self, p: &Par) -> Option<Par> {
         let n = self.normal_equations(p, false);
-        Self::sandwich_var(&n).map(|var| var.map(|v| v.max(0.0).sqrt()))
+        let (_, hinv) = Self::newton_step(&n.hm, &n.g)?;
+        Self::sandwich_var(&n, &hinv).map(|var| var.map(|v| v.max(0.0).sqrt()))
     }
 
     /// Fit the nuisances (θ0, θ̇0, b', α') with β and r held at their values in `p`,
@@ -2103,7 +2112,8 @@ mod tests {
     #[test]
     fn without_the_turn_cross_term_the_sandwich_is_the_inverse_hessian() {
         let n = normal(0.0);
-        let var = JointEstimator::sandwich_var(&n).unwrap();
+        let (_, hinv) = JointEstimator::newton_step(&n.hm, &n.g).unwrap();
+        let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
         let inv = n.hm.try_inverse().unwrap();
         for k in 0..NP {
             assert!((var[k] / inv[(k, k)] - 1.0).abs() < 1e-9, "{k}");
@@ -2113,7 +2123,8 @@ mod tests {
     #[test]
     fn the_sandwich_is_a_inverse_h_a_inverse_transposed() {
         let n = normal(3.0);
-        let var = JointEstimator::sandwich_var(&n).unwrap();
+        let (_, hinv) = JointEstimator::newton_step(&n.hm, &n.g).unwrap();
+        let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
         let mut a = n.hm;
         for c in 0..6 {
             for i in 0..NP {
