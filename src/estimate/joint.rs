@@ -724,10 +724,15 @@ impl JointEstimator {
                 (c.sigma_angular / c.beta_prior[1][a]).powi(2) + (c.sigma_ripple * v2).powi(2);
             let (rho, var_rho, tol) = match self.ratio[a].ratio() {
                 Some((r, vr)) => (r, vr * (var1 + r * r * var2), 0.0),
-                // Before the fit: the prior ratio, with room for the ground error.
+                // Before the fit: the prior ratio, with room for the ground error. The
+                // scenario allows each prior within 20 % of its truth, so the ratio
+                // within 50 %. A 10 % room rejected the samples of an axis whose priors
+                // were 5 % off in opposite directions, and the fit learns from accepted
+                // samples only: with priors 5 % off at random, 5 of 30 runs lost a
+                // third of the campaign as `angular_mismatch`, 13 were inconsistent.
                 None => {
                     let r = c.beta_prior[1][a] / c.beta_prior[0][a];
-                    (r, 0.0, 0.1 * (r * v2).abs())
+                    (r, 0.0, 0.5 * (r * v2).abs())
                 }
             };
             let d = v1 - rho * v2;
