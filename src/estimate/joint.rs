@@ -1651,10 +1651,11 @@ impl JointEstimator {
         }
     }
 
-    /// Gauss–Newton normal equations (H, g) at `p`, and each residual group's χ²; with
-    /// `priors`, the weak ground priors are included (they only matter before every
-    /// axis has been excited). Each group enters with its weight (1, or 1/(χ²/dof)
-    /// when its noise proved larger than modelled).
+    /// Gauss–Newton normal equations (H, g) at `p`, and the cross term of the turn's
+    /// β-derivatives (`sandwich_var`); with `priors`, the weak ground priors are
+    /// included (they only matter before every axis has been excited). Each group
+    /// enters with its weight (1, or 1/(χ²/dof) when its noise proved larger than
+    /// modelled).
     fn normal_equations(&self, p: &Par, priors: bool) -> Normal {
         let c0 = self.coeffs(p);
         let mut dc = [Coeffs {
@@ -1839,7 +1840,7 @@ impl JointEstimator {
         !(second && self.n_is() < 2)
     }
 
-    /// Solve H δ = −g with Jacobi scaling; also returns diag(H⁻¹).
+    /// Solve H δ = −g with Jacobi scaling; also returns H⁻¹.
     fn newton_step(hm: &SMatrix<f64, NP, NP>, g: &Par) -> Option<(Par, SMatrix<f64, NP, NP>)> {
         let sc = Par::from_fn(|k, _| 1.0 / hm[(k, k)].max(1e-300).sqrt());
         let hs = SMatrix::<f64, NP, NP>::from_fn(|i, j| hm[(i, j)] * sc[i] * sc[j]);
