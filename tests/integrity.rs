@@ -303,6 +303,27 @@ fn a_long_campaign_keeps_an_honest_sigma() {
     assert_honest(&r, "10⁵ s, seed 1");
 }
 
+/// Mean (err/σ)² over the seeds of the rows whose name holds `name`, and how many
+/// rows; `each` checks every run first.
+fn mean_z2(
+    s: &Scenario,
+    seeds: std::ops::RangeInclusive<u64>,
+    name: &str,
+    each: impl Fn(u64, &Report),
+) -> (f64, usize) {
+    let mut sum = 0.0;
+    let mut n = 0;
+    for seed in seeds {
+        let r = run(s, seed);
+        each(seed, &r);
+        for row in r.rows().iter().filter(|row| row.name.contains(name)) {
+            sum += row.z * row.z;
+            n += 1;
+        }
+    }
+    (sum / n as f64, n)
+}
+
 #[test]
 fn dropouts_of_both_is_leave_the_common_scale_honest() {
     // 5 % IS dropouts: 0.25 % of ticks lose both IS and are bridged. IS2's channels
@@ -310,17 +331,10 @@ fn dropouts_of_both_is_leave_the_common_scale_honest() {
     // posed as evidence about the common β scale: mean (err/σ)² of β was 12 over 30
     // seeds (9× its bound off); 0.6–0.8 once no β takes evidence from the turn.
     let s = planned("[faults]\nis_dropout_rate = 0.05\n");
-    let mut sum = 0.0;
-    let mut n = 0.0;
-    for seed in 1..=6 {
-        let r = run(&s, seed);
+    let (z2, _) = mean_z2(&s, 1..=6, "β", |seed, r| {
         assert!(r.requirements.verified, "seed {seed}\n{}", r.table());
-        for row in r.rows().iter().filter(|row| row.name.contains('β')) {
-            sum += row.z * row.z;
-            n += 1.0;
-        }
-    }
-    assert!(sum / n <= 2.5, "β mean (err/σ)² {:.2}", sum / n);
+    });
+    assert!(z2 <= 2.5, "β mean (err/σ)² {z2:.2}");
 }
 
 #[test]
@@ -346,17 +360,9 @@ fn r_z_sigma_carries_the_error_of_beta_that_the_srp_turn_brings_in() {
     // dominates, and σ from H⁻¹ left r_z's mean (err/σ)² at 2.9 over these seeds
     // (1.13 with the sandwich σ).
     let s = planned("[front_end]\nlinear_noise_rthz = 3e-17\n");
-    let mut sum = 0.0;
-    let mut n = 0.0;
-    for seed in 1..=12 {
-        let r = run(&s, seed);
-        for row in r.rows().iter().filter(|row| row.name.contains("rz")) {
-            sum += row.z * row.z;
-            n += 1.0;
-        }
-    }
-    assert!(n == 24.0, "{n} r_z rows");
-    assert!(sum / n <= 2.0, "r_z mean (err/σ)² {:.2}", sum / n);
+    let (z2, n) = mean_z2(&s, 1..=12, "rz", |_, _| {});
+    assert!(n == 24, "{n} r_z rows");
+    assert!(z2 <= 2.0, "r_z mean (err/σ)² {z2:.2}");
 }
 
 #[test]

@@ -108,12 +108,12 @@ struct Linearised<'a> {
 /// measured SRP's change.
 const TURN_COLS: [usize; 6] = [S_PHI, S_PHI + 1, S_PHI + 2, S_TF, S_TF + 1, S_TF + 2];
 
-/// The Gauss–Newton sums a residual group adds to: H, g, the group's cost, and the
-/// cross term Jᵀ W Δ of the turn's β-derivatives Δ (`Linearised::turn`).
+/// The Gauss–Newton sums a residual group adds to: H, g, and the cross term Jᵀ W Δ
+/// of the turn's β-derivatives Δ (`Linearised::turn`). (Each group's χ² is
+/// `group_costs`'s.)
 struct Sums<'a> {
     hm: &'a mut SMatrix<f64, NP, NP>,
     g: &'a mut Par,
-    cost: &'a mut f64,
     cross: &'a mut SMatrix<f64, NP, 6>,
 }
 
@@ -1592,7 +1592,7 @@ impl JointEstimator {
         (cnt, msq, wsq)
     }
 
-    /// One residual group's row: its Gauss–Newton terms into (H, g) and its cost.
+    /// One residual group's row: its Gauss–Newton terms into (H, g) and the cross term.
     /// Where the CPU has AVX2 its matrix products (most of a solve's ~10⁶
     /// multiply-adds) run compiled for it, like [`Self::update_linear`]: the same bits.
     #[inline(always)]
@@ -1637,7 +1637,6 @@ impl JointEstimator {
         let md = m * d;
         *out.hm += d.transpose() * md * weight;
         *out.g += md.transpose() * c * weight;
-        *out.cost += c.dot(&(m * c));
         // Jᵀ W Δ: Δ's rows are zero but on the turn's six signals.
         for (col, &sc) in TURN_COLS.iter().enumerate() {
             for b in 0..6 {
@@ -1715,7 +1714,6 @@ impl JointEstimator {
             }
         }
         let gw = self.group_weight;
-        let mut cost = [0.0; N_GROUPS];
         let mut cross = SMatrix::<f64, NP, 6>::zeros();
         // A closure, out of line: its matrix products (tens of kB) take the stack only
         // while it runs (the solve's stack is a flight figure).
@@ -1728,7 +1726,6 @@ impl JointEstimator {
             let mut out = Sums {
                 hm: &mut hm,
                 g: &mut g,
-                cost: &mut cost[grp],
                 cross: &mut cross,
             };
             Self::add_group(row, m, gw[grp], &lin, &mut out);
@@ -1749,13 +1746,11 @@ impl JointEstimator {
             let md = m * d;
             hm += d.transpose() * md * gw[GROUP_STAR];
             g += md.transpose() * c0.star[a] * gw[GROUP_STAR];
-            cost[GROUP_STAR] += c0.star[a].dot(&(m * c0.star[a]));
             let m = symmetric(&self.m_ang[a]);
             let d = SMatrix::<f64, 2, NP>::from_fn(|s, k| dc[k].ang[a][s]);
             let md = m * d;
             hm += d.transpose() * md * gw[GROUP_ANGULAR];
             g += md.transpose() * c0.ang[a] * gw[GROUP_ANGULAR];
-            cost[GROUP_ANGULAR] += c0.ang[a].dot(&(m * c0.ang[a]));
         }
         Normal { hm, g, cross }
     }
@@ -1907,7 +1902,7 @@ impl JointEstimator {
         false
     }
 
-    /// Each group's χ² at `p` (the cost of `normal_equations` without derivatives).
+    /// Each group's χ² at `p`, with the rows `normal_equations` uses.
     fn group_costs(&self, p: &Par) -> [f64; N_GROUPS] {
         let c0 = self.coeffs(p);
         let mut cost = [0.0; N_GROUPS];
