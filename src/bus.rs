@@ -11,6 +11,7 @@
 //! | `taiji/progress`    | `Progress`      | every stage| upstream stage, supervisor     |
 //! | `taiji/control`     | `Control`       | supervisor | every stage                    |
 
+use crate::msg::{Control, EstimateMsg, Progress, SensorSample, TorqueCommand, TruthState};
 use iceoryx2::node::NodeView;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -47,8 +48,47 @@ const MAX_PUBLISHERS: usize = 8;
 const MAX_SUBSCRIBERS: usize = 8;
 const MAX_NODES: usize = 16;
 
-pub type Pub<T> = Publisher<ipc::Service, T, ()>;
-pub type Sub<T> = Subscriber<ipc::Service, T, ()>;
+/// A message as it travels on the bus: the same bytes (`repr(transparent)`), under the
+/// versioned type name iceoryx2 compares between peers. The flight core's messages
+/// cannot name iceoryx2, so the bus layer gives them their names here.
+#[derive(Debug, Clone, Copy)]
+#[repr(transparent)]
+pub struct Wire<T>(pub T);
+
+/// A fixed-size `#[repr(C)]` message that may travel on the bus, with its versioned
+/// type name (`taiji::v1::EstimateMsg`: outside clients use the same names).
+pub trait Payload: Debug + Copy + 'static {
+    const TYPE_NAME: &'static str;
+}
+
+// SAFETY: `Wire<T>` is `repr(transparent)` over a `Payload`, and every `Payload` is a
+// `#[repr(C)]` struct of integers, floats and arrays of them: no pointers, no
+// references, the same layout in every process of one layout version (whose number is
+// in the name, so peers of other layouts refuse each other).
+unsafe impl<T: Payload> ZeroCopySend for Wire<T> {
+    unsafe fn type_name() -> &'static str {
+        T::TYPE_NAME
+    }
+}
+
+macro_rules! payloads {
+    ($($t:ident),*) => {
+        $(impl Payload for $t {
+            const TYPE_NAME: &'static str = concat!("taiji::v1::", stringify!($t));
+        })*
+    };
+}
+payloads!(
+    TorqueCommand,
+    TruthState,
+    SensorSample,
+    EstimateMsg,
+    Progress,
+    Control
+);
+
+pub type Pub<T> = Publisher<ipc::Service, Wire<T>, ()>;
+pub type Sub<T> = Subscriber<ipc::Service, Wire<T>, ()>;
 
 /// iceoryx2 configuration of a run: the default with our resource prefix.
 pub fn config(prefix: &str) -> Result<Config, String> {
@@ -74,19 +114,19 @@ pub fn node(name: &str, prefix: &str) -> Result<Node<ipc::Service>, String> {
         .map_err(|e| format!("cannot create iceoryx2 node {name}: {e:?}"))
 }
 
-fn service<T: Debug + ZeroCopySend>(
+fn service<T: Payload>(
     node: &Node<ipc::Service>,
     name: &str,
     queue: usize,
 ) -> Result<
-    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>,
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, Wire<T>, ()>,
     String,
 > {
     let sn: ServiceName = name
         .try_into()
         .map_err(|e| format!("invalid service name {name}: {e:?}"))?;
     node.service_builder(&sn)
-        .publish_subscribe::<T>()
+        .publish_subscribe::<Wire<T>>()
         .max_publishers(MAX_PUBLISHERS)
         .max_subscribers(MAX_SUBSCRIBERS)
         .max_nodes(MAX_NODES)
@@ -101,7 +141,7 @@ fn service<T: Debug + ZeroCopySend>(
                      ({}, message layout version {}): a process of another build (or an \
                      outside client with another layout) holds the bus; use the same \
                      build everywhere or another --bus-prefix",
-                    std::any::type_name::<T>(),
+                    T::TYPE_NAME,
                     crate::msg::LAYOUT_VERSION
                 )
             } else {
@@ -132,25 +172,19 @@ fn max_queue_of(name: &str) -> usize {
     }
 }
 
-pub fn publisher<T: Debug + ZeroCopySend>(
-    node: &Node<ipc::Service>,
-    name: &str,
-) -> Result<Pub<T>, String> {
+pub fn publisher<T: Payload>(node: &Node<ipc::Service>, name: &str) -> Result<Pub<T>, String> {
     service::<T>(node, name, max_queue_of(name))?
         .publisher_builder()
         .create()
         .map_err(|e| format!("cannot create publisher on {name}: {e:?}"))
 }
 
-pub fn subscriber<T: Debug + ZeroCopySend>(
-    node: &Node<ipc::Service>,
-    name: &str,
-) -> Result<Sub<T>, String> {
+pub fn subscriber<T: Payload>(node: &Node<ipc::Service>, name: &str) -> Result<Sub<T>, String> {
     subscriber_with_queue(node, name, queue_of(name))
 }
 
 /// A subscriber with its own queue depth (the recorder's is deeper).
-pub fn subscriber_with_queue<T: Debug + ZeroCopySend>(
+pub fn subscriber_with_queue<T: Payload>(
     node: &Node<ipc::Service>,
     name: &str,
     q: usize,
@@ -163,19 +197,19 @@ pub fn subscriber_with_queue<T: Debug + ZeroCopySend>(
 }
 
 /// Publish one message by value into a loaned shared-memory sample (no heap allocation).
-pub fn publish<T: Debug + ZeroCopySend + Copy>(p: &Pub<T>, value: T) -> Result<(), String> {
+pub fn publish<T: Payload>(p: &Pub<T>, value: T) -> Result<(), String> {
     let sample = p.loan_uninit().map_err(|e| format!("loan failed: {e:?}"))?;
     sample
-        .write_payload(value)
+        .write_payload(Wire(value))
         .send()
         .map(|_| ())
         .map_err(|e| format!("send failed: {e:?}"))
 }
 
 /// Receive the next message by value, if any.
-pub fn receive<T: Debug + ZeroCopySend + Copy>(s: &Sub<T>) -> Result<Option<T>, String> {
+pub fn receive<T: Payload>(s: &Sub<T>) -> Result<Option<T>, String> {
     match s.receive() {
-        Ok(Some(sample)) => Ok(Some(*sample.payload())),
+        Ok(Some(sample)) => Ok(Some(sample.payload().0)),
         Ok(None) => Ok(None),
         Err(e) => Err(format!("receive failed: {e:?}")),
     }
@@ -514,5 +548,30 @@ mod tests {
         assert!(!is_global_mgmt(&name, "taij_", ".global_mgmt"));
         let dynamic = format!("taiji_{hash}_{hash}.dynamic");
         assert!(!is_global_mgmt(&dynamic, "taiji_", ".global_mgmt"));
+    }
+
+    #[test]
+    fn every_bus_type_name_carries_the_layout_version() {
+        let v = format!("taiji::v{}::", crate::msg::LAYOUT_VERSION);
+        for name in [
+            TorqueCommand::TYPE_NAME,
+            TruthState::TYPE_NAME,
+            SensorSample::TYPE_NAME,
+            EstimateMsg::TYPE_NAME,
+            Progress::TYPE_NAME,
+            Control::TYPE_NAME,
+        ] {
+            assert!(name.starts_with(&v), "{name} lacks {v}");
+        }
+        // iceoryx2 sees the versioned name, and the wire type has the message's layout.
+        // SAFETY: type_name only returns a string.
+        assert_eq!(
+            unsafe { <Wire<EstimateMsg> as ZeroCopySend>::type_name() },
+            EstimateMsg::TYPE_NAME
+        );
+        assert_eq!(
+            std::mem::size_of::<Wire<SensorSample>>(),
+            std::mem::size_of::<SensorSample>()
+        );
     }
 }

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use taiji::bus;
+use taiji::msg::Control;
 
 const CHILD_ENV: &str = "TAIJI_BUS_TEST_CHILD";
 const PREFIX_ENV: &str = "TAIJI_BUS_TEST_PREFIX";
@@ -33,13 +34,15 @@ fn bus_child() {
     }
     let node = bus::node(&format!("child-{role}"), &prefix).unwrap();
     if role == "pub" {
-        let p = bus::publisher::<u64>(&node, SERVICE).unwrap();
+        let p = bus::publisher::<Control>(&node, SERVICE).unwrap();
         for i in 0.. {
-            bus::publish(&p, i).unwrap();
+            let mut c = Control::default();
+            c.header.seq = i;
+            bus::publish(&p, c).unwrap();
             std::thread::sleep(Duration::from_millis(5));
         }
     } else {
-        let s = bus::subscriber::<u64>(&node, SERVICE).unwrap();
+        let s = bus::subscriber::<Control>(&node, SERVICE).unwrap();
         loop {
             while bus::receive(&s).unwrap().is_some() {}
             std::thread::sleep(Duration::from_millis(5));

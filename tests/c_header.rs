@@ -10,9 +10,11 @@ fn generate() -> String {
     let mut out = Vec::new();
     cbindgen::Builder::new()
         .with_config(config)
-        .with_src(root.join("src/capi.rs"))
+        .with_src(root.join("crates/taiji-core/src/capi.rs"))
+        .with_src(root.join("crates/taiji-core/src/msg.rs"))
+        .with_src(root.join("crates/taiji-core/src/estimate/config.rs"))
+        // The set's own messages (truth, progress, control), for outside bus clients.
         .with_src(root.join("src/msg.rs"))
-        .with_src(root.join("src/estimate/config.rs"))
         .generate()
         .expect("cbindgen parses the C ABI")
         .write(&mut out);

@@ -1,49 +1,20 @@
-//! Estimators: the joint angle-domain estimator that reaches the CRLB, the paper's
-//! route for comparison, and the static-state Kalman filter both build on.
-pub mod config;
-#[cfg(feature = "std")]
+//! The estimators as a stage of the simulation and the process set. The estimators
+//! themselves are the flight core's (`taiji_core::estimate`), re-exported here; this
+//! layer adds the one stage type that holds either, and the fuzz harness.
+pub use taiji_core::estimate::*;
+
 pub mod fuzz;
-pub mod integrity;
-pub mod joint;
-pub mod kalman;
-pub mod paper;
-pub mod snapshot;
 
-pub use config::EstimatorConfig;
-pub use joint::JointEstimator;
-
-#[cfg(feature = "std")]
 use crate::msg::{EstimateMsg, SensorSample, EST_FINAL};
-
-/// Which estimator a run uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Method {
-    /// Joint angle-domain estimation of β, r1, r2 with the SRP whitened (default).
-    #[default]
-    Joint,
-    /// The paper's route: double differentiation, 0.05 Hz low-pass, static KF, CoM KF.
-    Paper,
-}
-
-impl Method {
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Joint => "joint",
-            Method::Paper => "paper",
-        }
-    }
-}
 
 /// Either estimator behind one stage interface (no dynamic dispatch; boxed because the
 /// joint estimator's state is ~50 KB).
-#[cfg(feature = "std")]
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub enum Estimator {
     Joint(Box<JointEstimator>),
     Paper(Box<paper::PaperEstimator>),
 }
 
-#[cfg(feature = "std")]
 impl Estimator {
     pub fn new(method: Method, cfg: EstimatorConfig) -> Self {
         match method {

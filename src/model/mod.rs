@@ -1,7 +1,6 @@
-//! Physical models: attitude dynamics, thrusters, noise generators and the plant.
-pub mod attitude;
+//! Physical models of the simulation: the plant and its thrusters, and the noise
+//! generators. The attitude kinematics are the flight core's.
+pub use taiji_core::model::attitude;
 pub mod noise;
-#[cfg(feature = "std")]
 pub mod plant;
-#[cfg(feature = "std")]
 pub mod thruster;

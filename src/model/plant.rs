@@ -1,7 +1,7 @@
 //! The plant: spacecraft attitude, thrusters, SRP and the TM accelerations of eq. 15.
 
 use super::attitude::RigidBody;
-use super::noise::{white_sigma, PowerLawBank};
+use super::noise::{white_sigma, Generate, PowerLawBank};
 use super::thruster::Thrusters;
 use crate::msg::{Header, TruthState};
 use crate::rng::{gauss, stream, Rng, Stream};

@@ -26,11 +26,9 @@ const SOURCES: &[&[u8]] = &[
     include_bytes!("../scenario.rs"),
     include_bytes!("../model/plant.rs"),
     include_bytes!("../model/thruster.rs"),
-    include_bytes!("../model/attitude.rs"),
     include_bytes!("../model/noise.rs"),
-    include_bytes!("../estimate/joint.rs"),
-    include_bytes!("../estimate/config.rs"),
-    include_bytes!("../estimate/integrity.rs"),
+    // Every source of the flight core (the estimator, its models), hashed by build.rs.
+    env!("TAIJI_CORE_SOURCE_HASH").as_bytes(),
 ];
 
 #[derive(serde::Serialize, serde::Deserialize)]

@@ -128,8 +128,7 @@ struct Normal {
 /// The estimator's whole state: fixed-size, plain data (`Pod`: every field a number,
 /// no padding), so a checkpoint is its bytes and any bytes that pass the checkpoint's
 /// checks are a valid state.
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable, serde::Serialize, serde::Deserialize)]
 #[repr(C)]
 pub struct JointEstimator {
     cfg: EstimatorConfig,
@@ -165,7 +164,7 @@ pub struct JointEstimator {
     m_filt: Gram,
     bank: PowerLawBank,
     wp: SMatrix<f64, MAX_POLES, MAX_POLES>,
-    #[cfg_attr(feature = "std", serde(with = "poles_serde"))]
+    #[serde(with = "poles_serde")]
     wx: [[f64; MAX_POLES]; NS],
     /// Gain of the SRP state onto the whitened common-mode channel.
     hn: f64,
@@ -309,7 +308,7 @@ impl JointEstimator {
             ps[P_THD + a] = 1e-4;
         }
         let mut wp = SMatrix::zeros();
-        for k in 0..bank.n {
+        for k in 0..bank.poles() {
             wp[(k, k)] = bank.var[k];
         }
         JointEstimator {
@@ -385,7 +384,7 @@ impl JointEstimator {
     /// refused otherwise: an index out of range would stop a flight host).
     pub fn is_sane(&self) -> bool {
         self.cfg.check().is_ok()
-            && self.bank.n <= MAX_POLES
+            && self.bank.n <= MAX_POLES as u64
             && self.started <= 1
             && self.q_ref_set <= 1
             && self.solve_due[0] <= 1
@@ -1255,8 +1254,8 @@ impl JointEstimator {
     /// the same operations on every element, so the same bits (no fused multiply-add:
     /// Rust never contracts `a * b + c`).
     fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
-        #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::has_avx2() {
             // SAFETY: the CPU has AVX2, checked just now.
             unsafe { self.update_linear_avx2(s, dv) };
             return;
@@ -1264,7 +1263,7 @@ impl JointEstimator {
         self.update_linear_portable(s, dv);
     }
 
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
         self.update_linear_portable(s, dv);
@@ -1283,7 +1282,7 @@ impl JointEstimator {
         rank1_upper(&mut self.m_raw[reg], &s, 1.0);
 
         // Innovations filter of the common-mode SRP channel, applied to every signal.
-        let nb = self.bank.n;
+        let nb = self.bank.poles();
         let hn = self.hn;
         // Row sums of wp, summed column by column (each row's terms in the same order
         // as `Iterator::sum`, from −0): contiguous, so it vectorises.
@@ -1347,7 +1346,7 @@ impl JointEstimator {
 
     /// A sample without linear data: the SRP model still evolves.
     fn whitening_time_update(&mut self) {
-        let nb = self.bank.n;
+        let nb = self.bank.poles();
         for x in self.wx.iter_mut() {
             for k in 0..nb {
                 x[k] *= self.bank.a[k];
@@ -1597,8 +1596,8 @@ impl JointEstimator {
     /// multiply-adds) run compiled for it, like [`Self::update_linear`]: the same bits.
     #[inline(always)]
     fn add_group(row: &SVector<f64, 6>, m: &Gram, weight: f64, lin: &Linearised, out: &mut Sums) {
-        #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::has_avx2() {
             // SAFETY: the CPU has AVX2, checked just now.
             unsafe { Self::add_group_avx2(row, m, weight, lin, out) };
             return;
@@ -1606,7 +1605,7 @@ impl JointEstimator {
         Self::add_group_portable(row, m, weight, lin, out);
     }
 
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn add_group_avx2(
         row: &SVector<f64, 6>,
@@ -2051,7 +2050,6 @@ impl JointEstimator {
 
 /// Serde for the whitening filter's per-signal pole states (serde derives arrays up
 /// to 32 elements; there are `NS`): a tuple of `NS` arrays, as a derive would write.
-#[cfg(feature = "std")]
 mod poles_serde {
     use super::{MAX_POLES, NS};
     use serde::de::{Error, SeqAccess, Visitor};

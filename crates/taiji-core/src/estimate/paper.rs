@@ -20,8 +20,7 @@ const FC: f64 = 0.05;
 const SETTLE_S: f64 = 5.0 / FC;
 
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
-#[derive(Debug, Clone, Copy)]
-#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Biquad {
     b: [f64; 3],
     a: [f64; 2],
@@ -50,8 +49,7 @@ impl Biquad {
 }
 
 /// Paper-route streaming estimator.
-#[derive(Clone)]
-#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct PaperEstimator {
     cfg: EstimatorConfig,
     q_ref: Option<UnitQuaternion<f64>>,

@@ -283,29 +283,3 @@ pub unsafe extern "C" fn taiji_estimator_restore(
         Ok(TAIJI_OK)
     })())
 }
-
-/// Panics cannot happen on any input (fuzzed); should one, a flight host gets an
-/// abort, never an unwind into C. Only the C static library defines these (the `c-lib`
-/// feature without `std`): an embedding Rust firmware brings its own.
-#[cfg(all(feature = "c-lib", not(feature = "std"), not(test)))]
-mod c_lib {
-    extern "C" {
-        /// The C library's abort, always present in a C host.
-        fn abort() -> !;
-    }
-
-    #[panic_handler]
-    fn panic(_: &core::panic::PanicInfo) -> ! {
-        // SAFETY: a plain C function without arguments.
-        unsafe { abort() }
-    }
-
-    /// The precompiled `core` carries unwind tables that name this personality
-    /// routine; with `panic = "abort"` nothing ever unwinds, so it is never called
-    /// (and aborts if it were).
-    #[no_mangle]
-    pub extern "C" fn rust_eh_personality() {
-        // SAFETY: as above.
-        unsafe { abort() }
-    }
-}

@@ -3,8 +3,16 @@
 
 /// The estimator's table: plain numbers, `#[repr(C)]`, like a cFS table — the C ABI
 /// takes it as it is. Built by `Scenario::estimator_config` (std) or by the host.
-#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-#[cfg_attr(feature = "std", derive(serde::Serialize, serde::Deserialize))]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    bytemuck::Pod,
+    bytemuck::Zeroable,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 #[repr(C)]
 pub struct EstimatorConfig {
     /// Sample rate [Hz].
