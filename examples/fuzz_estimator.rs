@@ -9,7 +9,7 @@ fn main() {
         .unwrap_or(1_000_000);
     let seed: u64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(1);
     let t0 = std::time::Instant::now();
-    let s = taiji::estimate::fuzz::run(cases, seed);
+    let s = taiji::fuzz::run(cases, seed);
     println!(
         "{} samples stepped ({} rejected for some cause), {} non-finite estimates, {:.1} s",
         s.steps,

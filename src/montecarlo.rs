@@ -3,7 +3,8 @@
 use crate::campaign::{self, Threads};
 use crate::crlb::crlb;
 use crate::estimate::Method;
-use crate::report::{Report, REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use crate::report::Report;
+use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::Scenario;
 use serde::Serialize;
 

@@ -3,13 +3,9 @@
 
 use crate::crlb::Crlb;
 use crate::msg::EstimateMsg;
+pub use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::Scenario;
 use serde::{Deserialize, Serialize};
-
-/// Scale-factor requirement, relative per axis (0.03 %).
-pub const REQ_SCALE_FACTOR_REL: f64 = 3e-4;
-/// CoM requirement per axis [m].
-pub const REQ_COM_M: f64 = 75e-6;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Quantity {

@@ -156,7 +156,7 @@ fn before_the_first_solve_the_status_says_there_is_no_solution() {
 /// `cargo run --release --example fuzz_estimator -- 1000000` runs a longer campaign.
 #[test]
 fn arbitrary_samples_and_tick_orders_never_panic_nor_give_non_finite_estimates() {
-    let cases = taiji::estimate::fuzz::run(200_000, 7);
+    let cases = taiji::fuzz::run(200_000, 7);
     assert_eq!(cases.non_finite, 0);
     assert!(cases.steps >= 200_000);
 }

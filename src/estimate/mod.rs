@@ -1,9 +1,8 @@
 //! The estimators as a stage of the simulation and the process set. The estimators
 //! themselves are the flight core's (`taiji_core::estimate`), re-exported here; this
-//! layer adds the one stage type that holds either, and the fuzz harness.
+//! layer adds the one stage type that holds either (the fuzz harness, which drives the
+//! simulation, is `crate::fuzz`).
 pub use taiji_core::estimate::*;
-
-pub mod fuzz;
 
 use crate::msg::{EstimateMsg, SensorSample, EST_FINAL};
 

@@ -14,7 +14,7 @@
 use crate::campaign::Threads;
 use crate::crlb::{crlb_at_rate, crlb_on, Crlb};
 use crate::maneuver::{axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline};
-use crate::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::{k_from_beta, Maneuver, Scenario, Schedule};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;

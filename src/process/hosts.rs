@@ -13,7 +13,7 @@
 //! `header.origin_ns` = that time and `header.due_ns` = how long it held it, so the
 //! round trip is measured on one clock (hosts share none): hop ≈ round trip / 2.
 
-use super::supervisor::SupervisorArgs;
+use super::set::{Reap, Set, SupervisorArgs, SupervisorError};
 use crate::bus;
 use crate::launch::LaunchDescription;
 use crate::msg::{Header, Progress, CMD_STOP, STATE_DONE, STATE_READY};
@@ -494,12 +494,11 @@ pub fn my_host(
 pub(crate) fn agent_watch(
     node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
     progress: &bus::Sub<Progress>,
-    set: &mut super::supervisor::Set,
+    set: &mut Set,
     launch: &LaunchDescription,
     me: &str,
     args: &SupervisorArgs,
-) -> Result<Option<u64>, super::supervisor::SupervisorError> {
-    use super::supervisor::{Reap, SupervisorError};
+) -> Result<Option<u64>, SupervisorError> {
     use crate::launch::Restart;
     use crate::msg::{Control, PROC_ESTIMATOR};
     let set_err = SupervisorError::Set;
@@ -517,7 +516,7 @@ pub(crate) fn agent_watch(
     let mut boss_heard: Option<Instant> = None;
     let mut silent_logged = false;
     let t_start = Instant::now();
-    let tick_of_estimator = |set: &super::supervisor::Set| {
+    let tick_of_estimator = |set: &Set| {
         set.members
             .iter()
             .find(|m| m.id == PROC_ESTIMATOR)

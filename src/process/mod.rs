@@ -13,6 +13,7 @@ pub mod hosts;
 pub mod outbox;
 pub mod plant;
 pub mod recorder;
+pub mod set;
 pub mod supervisor;
 
 use crate::bus::{self, Pub, Sub};

@@ -1,0 +1,446 @@
+//! Joint streaming estimator of β1, β2, r1, r2 (and nuisances) that reaches the
+//! Cramér–Rao bound (docs/method.md explains the method and why).
+//!
+//! Every measurement residual is a linear combination of *data signals* (voltages,
+//! their single and double integrals, star-tracker angles, 1, t) with coefficients that
+//! are smooth functions of the parameters. So the weighted least-squares cost is
+//! `Σ_g c_g(p)ᵀ M_g c_g(p)`, where the Gram matrices `M_g` of the (whitened) signals are
+//! fixed-size sufficient statistics accumulated sample by sample. The coloured,
+//! common-mode SRP noise lies along one direction of the linear channels; that
+//! component is whitened with the innovations filter of its state-space model (the
+//! same causal filter applied to every signal, i.e. to measurement and regressors
+//! alike), the orthogonal components are white. Solving is Gauss–Newton on 30
+//! parameters from those statistics, warm-started, every `solve_every` samples; the
+//! covariance is the inverse Gauss–Newton Hessian, i.e. the Fisher information.
+//!
+//! Groups of residuals, per sample:
+//! * star tracker, per axis: θ_st − κ − θ0 − θ̇0 t − ½(β1 Φ1 + β2 Φ2)   (angle domain)
+//! * angular consistency, per axis: β1 ΔV1 − β2 ΔV2   (both IS see the same ω̇)
+//! * linear, per IS and axis (eq. 15, in volts): ΣV − [A(ω, ω̇) r + (Rᵀ − I) a_srp] / k − b' − α' t
+//!   with ω̇ = ½(β1 ΔV1 + β2 ΔV2), ω = β1 Ψ1, k = G β (eq. 2), and the SRP turned by
+//!   the exact rotation R̂ of the attitude propagated with the running β̂ (and pulled
+//!   onto the star tracker after bridged ticks), linearised in β1 − β̂1:
+//!   (Rᵀ − I) a_srp = −(β1 Φ1) × b + W b, W = R̂ᵀ − I + [Φ̂]×.
+//!
+//! Inputs are gated before they reach the statistics (`integrity`, docs/integrity.md):
+//! tick order, flags, range, stuck channels, the two IS against each other, the
+//! linear residuals of the current solution and the star tracker against the
+//! propagated attitude; each rejection is counted by cause. Every solve judges each
+//! group's χ²/dof and sets the status word.
+
+use super::config::EstimatorConfig;
+use super::integrity::{RatioFit, Stuck, Track, GATE};
+#[allow(unused_imports)]
+use crate::math::{self, Real};
+use crate::model::noise::{PowerLawBank, MAX_POLES};
+use crate::msg::*;
+use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
+
+mod bridge;
+mod gates;
+mod layout;
+mod model;
+mod outputs;
+mod sample;
+mod solve;
+mod star;
+mod whiten;
+
+use gates::*;
+use layout::*;
+pub use layout::{NP, NS, P_BETA, P_R};
+use model::*;
+use solve::*;
+use whiten::*;
+
+/// The estimator's whole state: fixed-size, plain data (`Pod`: every field a number,
+/// no padding), so a checkpoint is its bytes and any bytes that pass the checkpoint's
+/// checks are a valid state.
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable, serde::Serialize, serde::Deserialize)]
+#[repr(C)]
+pub struct JointEstimator {
+    cfg: EstimatorConfig,
+    /// 1 once the first usable sample set the references (a word, not a `bool`: the
+    /// state is plain data, so any checkpoint bytes are a valid state).
+    started: u64,
+    /// Next tick expected: every tick below it was processed or bridged.
+    next_tick: u64,
+    /// Ticks processed or bridged since the first usable sample (the solve schedule).
+    n_ticks: u64,
+    /// A tick too far ahead to bridge, seen last (a second one after it confirms a
+    /// stream that starts late).
+    /// (set, tick).
+    jump_candidate: [u64; 2],
+    sum_ref: [[f64; 3]; 2],
+    q_ref: UnitQuaternion<f64>,
+    q_ref_set: u64,
+    psi: [[f64; 3]; 2],
+    phi: [[f64; 3]; 2],
+    dv_last: [[f64; 3]; 2],
+    /// Attitude propagated with the running β̂1 and its first-order part ∫ β̂1 ⊙ Ψ1 dt
+    /// [rad]: exact in the attitude however far it wanders, linear in β1 − β̂1.
+    q_model: UnitQuaternion<f64>,
+    phi_hat: [f64; 3],
+    m_star: [SMatrix<f64, 5, 5>; 3],
+    /// Innovations filter of the star-tracker residual, per axis: the IS angular noise
+    /// double-integrated into Φ is an integrated random walk (angle, rate) [rad, rad/s];
+    /// `st_x` is each signal's filter state, `st_p` the shared state covariance.
+    st_x: [[[f64; 2]; 5]; 3],
+    st_p: [[[f64; 2]; 2]; 3],
+    m_ang: [SMatrix<f64, 2, 2>; 3],
+    m_raw: [Gram; N_REG],
+    m_filt: Gram,
+    bank: PowerLawBank,
+    wp: SMatrix<f64, MAX_POLES, MAX_POLES>,
+    #[serde(with = "poles_serde")]
+    wx: [[f64; MAX_POLES]; NS],
+    /// Gain of the SRP state onto the whitened common-mode channel.
+    hn: f64,
+    /// Row mapping the 6 linear residuals onto that channel: u0ᵀ L0⁻¹.
+    t_u: SVector<f64, 6>,
+    p: Par,
+    p_prior: Par,
+    p_sigma: Par,
+    sigma: Par,
+    solved_tick: u64,
+    /// A solve is due (`solve_every` ticks passed since the last one was due): (due, tick).
+    solve_due: [u64; 2],
+    n_used: u64,
+    n_rejected: u64,
+    seq: u64,
+    /// Star-tracker samples used.
+    n_star: u64,
+    /// Integrity: rejections by cause, this tick's causes, status word, χ²/dof per
+    /// group at the last solve, the weights that give inconsistent groups their
+    /// observed noise, and the resulting σ inflation.
+    causes: [u64; N_CAUSES],
+    tick_mask: u64,
+    status: u64,
+    chi2: [f64; N_GROUPS],
+    group_weight: [f64; N_GROUPS],
+    inflation: f64,
+    stuck: [Stuck; 2],
+    /// Cross-IS angular test: fitted β2/β1 voltage ratio per axis.
+    ratio: [RatioFit; 3],
+    /// Variance of the sample-to-sample change of ω̇ per axis [rad²/s⁴]: the error of
+    /// bridging a sample with the previous ω̇ (the star filter's process noise then).
+    jerk_var: [f64; 3],
+    /// Consecutive ticks bridged without any angular data, and the last ω̇ voltages
+    /// measured before them: when data return, a jump between the two (a torque edge
+    /// inside the gap) leaves an unknown rate error that the star filter must allow.
+    bridge_run: [u64; 3],
+    /// Ticks on which some axis had no angular data at all.
+    n_bridged: u64,
+    dv_anchor: [[f64; 3]; 2],
+    /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
+    /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
+    /// [rad], drift rate [rad/s], β1 − β1,prior [rad s⁻² V⁻¹]) and its covariance.
+    /// The drift also follows IS1's double-integrated ω̇ noise, which grows without
+    /// bound in long campaigns; the β state keeps the scale error out of it.
+    drift_x: [[f64; 4]; 3],
+    drift_p: [[[f64; 4]; 4]; 3],
+    /// Linear test: whitened residual rows (5 complement + common mode) of the
+    /// current solution's coefficients, their tracks and the last accepted signals.
+    gate_c: SMatrix<f64, 6, NS>,
+    gate_w: SMatrix<f64, 6, 6>,
+    gate_s: Sig,
+    lin_track: [Track; 6],
+    /// Lone-IS test: residual of each IS's linear channel (row 3 i + j of `gate_c`, in
+    /// volts, not whitened) at the current solution, learned from accepted samples.
+    lone_track: [Track; 6],
+    /// Star-tracker test: attitude residual at the prior β, per axis [rad].
+    star_track: [Track; 3],
+}
+
+/// The drift filter's error as white noise of the linear channels: its variance times
+/// this many correlation lengths. The error is no white noise: an integrated random
+/// walk (the rate steps of bridged ticks) tracked with a bandwidth near the maneuver's
+/// frequencies, where the CoM signal is; one correlation length left r_z's
+/// (err/σ)² at 4.2 with 5 % IS dropouts (30 seeds), 10 gives 0.85–1.2 there and a
+/// conservative 0.1–0.3 at 1–2 % (where r_z's error is at its bound anyway).
+const TURN_WEIGHT: f64 = 10.0;
+
+/// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
+const ALPHA_LIN: f64 = 1.0 / 64.0;
+const ALPHA_STAR: f64 = 1.0 / 16.0;
+const ALPHA_JERK: f64 = 1.0 / 256.0;
+/// Margin on the measurement range for the voltage range test (priors and ripple).
+const RANGE_MARGIN: f64 = 1.25;
+/// Degrees of freedom a group needs before its χ² is judged.
+const CHI2_MIN_DOF: f64 = 2000.0;
+/// A group is inconsistent above 1 + max(this, 10 √(2/dof)) (model approximations
+/// stay well below it on clean data; an unmodelled effect or a wrong noise level
+/// does not).
+const CHI2_TOL: f64 = 0.25;
+impl JointEstimator {
+    pub fn new(cfg: EstimatorConfig) -> Self {
+        let bank = PowerLawBank::new(cfg.srp_asd_at_3mhz, 3e-3, 2.0 / 3.0, cfg.fs);
+        let mut p = Par::zeros();
+        let mut ps = Par::zeros();
+        for i in 0..2 {
+            for a in 0..3 {
+                p[P_BETA + 3 * i + a] = cfg.beta_prior[i][a];
+                ps[P_BETA + 3 * i + a] = 0.05 * cfg.beta_prior[i][a];
+                p[P_R + 3 * i + a] = cfg.com_prior_m[i][a];
+                ps[P_R + 3 * i + a] = 0.05;
+                ps[P_B + 3 * i + a] = 1.0;
+                ps[P_AL + 3 * i + a] = 1e-3;
+            }
+        }
+        for a in 0..3 {
+            ps[P_TH0 + a] = 1e-2;
+            ps[P_THD + a] = 1e-4;
+        }
+        let mut wp = SMatrix::zeros();
+        for k in 0..bank.poles() {
+            wp[(k, k)] = bank.var[k];
+        }
+        JointEstimator {
+            cfg,
+            started: 0,
+            next_tick: 0,
+            n_ticks: 0,
+            jump_candidate: [0; 2],
+            sum_ref: [[0.0; 3]; 2],
+            q_ref: UnitQuaternion::identity(),
+            q_ref_set: 0,
+            psi: [[0.0; 3]; 2],
+            phi: [[0.0; 3]; 2],
+            dv_last: [[0.0; 3]; 2],
+            q_model: UnitQuaternion::identity(),
+            phi_hat: [0.0; 3],
+            m_star: [SMatrix::zeros(); 3],
+            st_x: [[[0.0; 2]; 5]; 3],
+            st_p: [[[0.0; 2]; 2]; 3],
+            m_ang: [SMatrix::zeros(); 3],
+            m_raw: [Gram::zeros(); N_REG],
+            m_filt: Gram::zeros(),
+            bank,
+            wp,
+            wx: [[0.0; MAX_POLES]; NS],
+            hn: 0.0,
+            t_u: SVector::zeros(),
+            p,
+            p_prior: p,
+            p_sigma: ps,
+            sigma: ps,
+            solved_tick: 0,
+            solve_due: [0; 2],
+            n_used: 0,
+            n_rejected: 0,
+            seq: 0,
+            n_star: 0,
+            causes: [0; N_CAUSES],
+            tick_mask: 0,
+            status: ST_NO_SOLUTION,
+            chi2: [0.0; N_GROUPS],
+            group_weight: [1.0; N_GROUPS],
+            inflation: 1.0,
+            stuck: [Stuck::default(); 2],
+            ratio: [RatioFit::default(); 3],
+            jerk_var: [0.0; 3],
+            bridge_run: [0; 3],
+            n_bridged: 0,
+            dv_anchor: [[0.0; 3]; 2],
+            drift_x: [[0.0; 4]; 3],
+            drift_p: core::array::from_fn(|a| {
+                let mut p = [[0.0; 4]; 4];
+                p[0][0] = 1e-4;
+                p[3][3] = (0.05 * cfg.beta_prior[0][a]).powi(2);
+                p
+            }),
+            gate_c: SMatrix::zeros(),
+            gate_w: SMatrix::zeros(),
+            gate_s: Sig::zeros(),
+            lin_track: [Track::default(); 6],
+            lone_track: [Track::default(); 6],
+            star_track: [Track::default(); 3],
+        }
+    }
+
+    /// Builds the estimator in place (the C ABI's caller-owned memory).
+    pub fn init_in_place(dst: &mut Self, cfg: EstimatorConfig) {
+        *dst = Self::new(cfg);
+    }
+
+    /// Could this state have come from `new` and `update`s? Its table passes its
+    /// check and its counts index within their arrays (a restored checkpoint is
+    /// refused otherwise: an index out of range would stop a flight host).
+    pub fn is_sane(&self) -> bool {
+        self.cfg.check().is_ok()
+            && self.bank.n <= MAX_POLES as u64
+            && self.started <= 1
+            && self.q_ref_set <= 1
+            && self.solve_due[0] <= 1
+    }
+
+    /// Every tick below this one has been processed or bridged.
+    pub fn next_tick(&self) -> u64 {
+        self.next_tick
+    }
+
+    pub fn config(&self) -> &EstimatorConfig {
+        &self.cfg
+    }
+
+    fn n_is(&self) -> usize {
+        self.cfg.n_is.min(2) as usize
+    }
+
+    /// Weight of IS l in the two-IS average angular acceleration.
+    fn w(&self, l: usize) -> f64 {
+        if l < self.n_is() {
+            1.0 / self.n_is() as f64
+        } else {
+            0.0
+        }
+    }
+
+    fn k_of(&self, p: &Par, i: usize, j: usize) -> f64 {
+        self.cfg.geometry_m[i][PERM[j]] * p[P_BETA + 3 * i + PERM[j]]
+    }
+
+    /// Process one sensor sample and, when one is due, solve; returns the estimate
+    /// message for this tick (the last solution, refreshed every `solve_every` ticks).
+    /// `update` then `solve_scheduled`, as a host calling them separately would.
+    pub fn step(&mut self, s: &SensorSample) -> EstimateMsg {
+        self.update(s);
+        self.solve_scheduled();
+        self.message(self.next_tick.saturating_sub(1))
+    }
+
+    /// Take one sensor sample into the statistics (no solve: bounded work, the
+    /// bridging of up to `max_gap_ticks` missing ticks before it aside). Any content,
+    /// header or tick order is accepted without panic: what cannot be trusted is
+    /// rejected and counted. Returns this call's rejection causes (bit `1 << CAUSE_*`);
+    /// `solve_due` says whether a solve is due.
+    pub fn update(&mut self, s: &SensorSample) -> u64 {
+        let tick = s.header.tick;
+        self.tick_mask = 0;
+        if tick < self.next_tick {
+            // A duplicate, or a tick that arrived after a later one (already bridged).
+            self.reject(CAUSE_TICK_ORDER);
+            return self.tick_mask;
+        }
+        let gap = tick - self.next_tick;
+        if gap > self.cfg.max_gap_ticks || tick == u64::MAX {
+            // Before anything is accumulated a stream may start late (a recording's
+            // first tick), but only two consecutive ticks say so: one wild tick (a
+            // garbage header) must not move the timeline.
+            let confirmed = self.started == 0
+                && self.jump_candidate[0] == 1
+                && self.jump_candidate[1] == tick.wrapping_sub(1);
+            if !confirmed || tick == u64::MAX {
+                self.jump_candidate = [1, tick];
+                self.reject(CAUSE_TICK_JUMP);
+                if self.started != 0 {
+                    self.status |= ST_DEGRADED;
+                }
+                return self.tick_mask;
+            }
+        } else {
+            for k in 0..gap {
+                self.bridge(self.next_tick + k);
+            }
+            if gap > 10 {
+                // Over a second without data the propagated attitude may have stepped
+                // away from the star tracker's: the star test learns its offset anew
+                // rather than rejecting every sample until it gives up.
+                self.star_track = [Track::default(); 3];
+            }
+        }
+        self.jump_candidate = [0; 2];
+        self.process(tick, s);
+        self.next_tick = tick + 1;
+        self.tick_mask
+    }
+
+    /// Has `solve_every` ticks' worth of data come in since the last due solve?
+    pub fn solve_due(&self) -> bool {
+        self.solve_due[0] != 0
+    }
+
+    /// The scheduled solve: one Gauss–Newton iteration (warm-started) if one is due.
+    /// Returns whether it ran.
+    pub fn solve_scheduled(&mut self) -> bool {
+        if !self.solve_due() {
+            return false;
+        }
+        self.solve_now();
+        true
+    }
+
+    /// One Gauss–Newton iteration on everything taken so far, now (a host may solve at
+    /// its own rate; `step` solves exactly when one is due). Returns whether the
+    /// iteration succeeded (a failure keeps the previous solution and sets
+    /// `ST_SOLVE_FAILED`).
+    pub fn solve_now(&mut self) -> bool {
+        let tick = if self.solve_due() {
+            self.solve_due[1]
+        } else {
+            self.next_tick.saturating_sub(1)
+        };
+        self.solve_due = [0; 2];
+        if self.started == 0 {
+            return false;
+        }
+        self.solve(1, true);
+        self.solved_tick = tick;
+        self.status & ST_SOLVE_FAILED == 0
+    }
+
+    /// Final solution: iterate to convergence, with the weak priors (as in the run).
+    pub fn finish(&mut self) -> EstimateMsg {
+        self.solve_scheduled();
+        self.tick_mask = 0;
+        let last = self.next_tick.saturating_sub(1);
+        if self.started != 0 {
+            if self.solve(20, true) {
+                self.status &= !ST_NOT_CONVERGED;
+            } else {
+                self.status |= ST_NOT_CONVERGED;
+            }
+        }
+        self.solved_tick = last;
+        self.message(last)
+    }
+}
+
+/// Serde for the whitening filter's per-signal pole states (serde derives arrays up
+/// to 32 elements; there are `NS`): a tuple of `NS` arrays, as a derive would write.
+mod poles_serde {
+    use super::{MAX_POLES, NS};
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    type Poles = [[f64; MAX_POLES]; NS];
+
+    pub fn serialize<S: Serializer>(v: &Poles, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_tuple(NS)?;
+        for x in v {
+            t.serialize_element(x)?;
+        }
+        t.end()
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Poles, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Poles;
+            fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+                write!(f, "{NS} arrays of {MAX_POLES} pole states")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut a: A) -> Result<Poles, A::Error> {
+                let mut out = [[0.0; MAX_POLES]; NS];
+                for (i, x) in out.iter_mut().enumerate() {
+                    *x = a
+                        .next_element()?
+                        .ok_or_else(|| Error::invalid_length(i, &self))?;
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_tuple(NS, V)
+    }
+}

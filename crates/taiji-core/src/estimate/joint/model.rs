@@ -1,0 +1,139 @@
+//! The model: each residual group's coefficients on the data signals as functions of
+//! the parameters, and the SRP's direction and DC.
+
+use super::*;
+
+/// Residual coefficients of every group for one parameter vector.
+#[derive(Clone, Copy)]
+pub(super) struct Coeffs {
+    pub(super) lin: SMatrix<f64, 6, NS>,
+    pub(super) star: [SVector<f64, 5>; 3],
+    pub(super) ang: [SVector<f64, 2>; 3],
+}
+
+/// Residual coefficients at the current parameters and their derivatives by each;
+/// `turn` holds the β-derivatives of the SRP's turn that `dc` leaves out (the turn is
+/// no evidence about β), per β and linear row, on the signals `TURN_COLS`.
+pub(super) struct Linearised<'a> {
+    pub(super) c0: &'a Coeffs,
+    pub(super) dc: &'a [Coeffs; NP],
+    pub(super) turn: &'a [SMatrix<f64, 6, 6>; 6],
+}
+
+pub(super) fn skew(r: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -r.z, r.y, r.z, 0.0, -r.x, -r.y, r.x, 0.0)
+}
+
+impl JointEstimator {
+    /// DC SRP acceleration in the body frame [m/s²]: the fitted DC of the linear
+    /// channels (reference sample plus bias), averaged over the IS.
+    pub(super) fn srp_dc(&self, p: &Par) -> [f64; 3] {
+        let n = self.n_is();
+        let mut bc = [0.0; 3];
+        for i in 0..n {
+            for (j, b) in bc.iter_mut().enumerate() {
+                *b += self.k_of(p, i, j) * (self.sum_ref[i][j] + p[P_B + 3 * i + j]) / n as f64;
+            }
+        }
+        bc
+    }
+
+    /// Direction of the coloured SRP noise in volts per slot, from the fitted DC: the
+    /// reference sample alone also holds the maneuver's A r at the first tick (≈1 %).
+    pub(super) fn srp_direction(&self, p: &Par) -> SVector<f64, 6> {
+        let bc = self.srp_dc(p);
+        let g0 = Vector3::from(bc).norm().max(1e-30);
+        let mut h = SVector::<f64, 6>::zeros();
+        for s in 0..3 * self.n_is() {
+            h[s] = bc[s % 3] / self.k_of(p, s / 3, s % 3) / g0;
+        }
+        h
+    }
+
+    pub(super) fn coeffs(&self, p: &Par) -> Coeffs {
+        let n = self.n_is();
+        let mut lin = SMatrix::<f64, 6, NS>::zeros();
+        let bc = self.srp_dc(p);
+        let beta1 = |a: usize| p[P_BETA + a];
+        for i in 0..n {
+            for j in 0..3 {
+                let row = 3 * i + j;
+                let inv_k = 1.0 / self.k_of(p, i, j);
+                let r = |a: usize| p[P_R + 3 * i + a];
+                let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+                lin[(row, S_SUM + row)] = 1.0;
+                // ω̇ × r with ω̇ the IS average.
+                for l in 0..n {
+                    let bl = |a: usize| p[P_BETA + 3 * l + a];
+                    lin[(row, S_DV + 3 * l + j1)] -= inv_k * self.w(l) * bl(j1) * r(j2);
+                    lin[(row, S_DV + 3 * l + j2)] += inv_k * self.w(l) * bl(j2) * r(j1);
+                }
+                // ω × (ω × r) = Σ_{a≠j} (ω_j ω_a r_a − r_j ω_a²), ω = β1 Ψ1.
+                for a in [j1, j2] {
+                    lin[(row, S_PP + prod(j, a))] -= inv_k * beta1(j) * beta1(a) * r(a);
+                    lin[(row, S_PP + prod(a, a))] += inv_k * r(j) * beta1(a) * beta1(a);
+                }
+                // SRP direction turning with the attitude: a_srp = R̂ᵀ b − (β1 Φ1 − Φ̂) × b
+                // to first order in β1 − β̂1, i.e. b − (β1 Φ1) × b + W b.
+                if self.drifted() {
+                    // The DC only: with the attitude uncertain after bridged ticks,
+                    // the fluctuation's turn is below what is known of the attitude
+                    // (measured: turning the measured SRP then cost r_z accuracy).
+                    lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * bc[j2];
+                    lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
+                } else {
+                    // −θ × a(t) with the SRP as measured, a_m(t) = k_1m (ΣV_1m,ref +
+                    // ε_m(t)): the reference sample's on Φ1, its change (`S_TF`). The
+                    // SRP's fluctuation δ(t) turns with the attitude too, (Rᵀ − I) δ ŝ,
+                    // up to 5×10⁻¹⁴ m/s² across the sun; taken as white noise it kept
+                    // r_z at 1.3× its bound at 10⁴ s and (err/σ)² at 2.2–3.2 at
+                    // 10⁵–3×10⁵ s.
+                    let (k1, k2) = (self.k_of(p, 0, j1), self.k_of(p, 0, j2));
+                    lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * k2 * self.sum_ref[0][j2];
+                    lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * k1 * self.sum_ref[0][j1];
+                    lin[(row, S_TF + j)] = inv_k;
+                }
+                for m in 0..3 {
+                    lin[(row, S_W + 3 * j + m)] = -inv_k * bc[m];
+                }
+                lin[(row, S_ONE)] = -p[P_B + row];
+                lin[(row, S_T)] = -p[P_AL + row];
+            }
+        }
+        let star = core::array::from_fn(|a| {
+            SVector::<f64, 5>::new(
+                1.0,
+                -p[P_TH0 + a],
+                -p[P_THD + a],
+                -self.w(0) * p[P_BETA + a],
+                -self.w(1) * p[P_BETA + 3 + a],
+            )
+        });
+        let ang = core::array::from_fn(|a| {
+            SVector::<f64, 2>::new(1.0, -p[P_BETA + 3 + a] / p[P_BETA + a])
+        });
+        Coeffs { lin, star, ang }
+    }
+
+    /// Mean squares per regime for the noise model: (samples, ΣV² per slot, ω̇² per IS/axis).
+    pub(super) fn regime_stats(&self, p: &Par, reg: usize) -> (f64, [f64; 6], [[f64; 3]; 2]) {
+        let m = &self.m_raw[reg];
+        let cnt = m[(S_ONE, S_ONE)];
+        let mut msq = [0.0; 6];
+        let mut wsq = [[0.0; 3]; 2];
+        if cnt < 1.0 {
+            return (0.0, msq, wsq);
+        }
+        for i in 0..self.n_is() {
+            for j in 0..3 {
+                let s = 3 * i + j;
+                let rf = self.sum_ref[i][j];
+                msq[s] = rf * rf
+                    + 2.0 * rf * m[(S_SUM + s, S_ONE)] / cnt
+                    + m[(S_SUM + s, S_SUM + s)] / cnt;
+                wsq[i][j] = p[P_BETA + 3 * i + j].powi(2) * m[(S_DV + s, S_DV + s)] / cnt;
+            }
+        }
+        (cnt, msq, wsq)
+    }
+}

@@ -1,0 +1,90 @@
+//! Outputs: the estimate message, σ from the Fisher information, and the parameter
+//! vectors the bound and the tests use.
+
+use super::*;
+
+impl JointEstimator {
+    /// 1σ at `p` without priors, as the solve reports it (the sandwich of
+    /// `sandwich_var`: the Fisher information of the linear, star-tracker and angular
+    /// groups, with β's uncertainty reaching r through the SRP's turn). The
+    /// Cramér–Rao bound when `p` is the truth and the statistics were accumulated from
+    /// noise-free signals.
+    pub fn fisher_sigma(&self, p: &Par) -> Option<Par> {
+        let n = self.normal_equations(p, false);
+        let (_, hinv) = Self::newton_step(&n.hm, &n.g)?;
+        Self::sandwich_var(&n, &hinv).map(|var| var.map(|v| v.max(0.0).sqrt()))
+    }
+
+    /// Fit the nuisances (θ0, θ̇0, b', α') with β and r held at their values in `p`,
+    /// without priors: the reference point of the Cramér–Rao bound.
+    pub fn nuisance_fit(&self, mut p: Par) -> Par {
+        for _ in 0..6 {
+            let Normal { mut hm, mut g, .. } = self.normal_equations(&p, false);
+            for k in P_BETA..P_TH0 {
+                for j in 0..NP {
+                    hm[(k, j)] = 0.0;
+                    hm[(j, k)] = 0.0;
+                }
+                hm[(k, k)] = 1.0;
+                g[k] = 0.0;
+            }
+            let Some((delta, _)) = Self::newton_step(&hm, &g) else {
+                break;
+            };
+            p += delta;
+        }
+        p
+    }
+
+    /// Parameter vector with β, r set (nuisances at their reference values).
+    pub fn params_with(&self, beta: &[[f64; 3]; 2], r: &[[f64; 3]; 2]) -> Par {
+        let mut p = self.p_prior;
+        for i in 0..2 {
+            for a in 0..3 {
+                p[P_BETA + 3 * i + a] = beta[i][a];
+                p[P_R + 3 * i + a] = r[i][a];
+            }
+        }
+        p
+    }
+
+    /// The estimate message from the current solution.
+    pub fn message(&mut self, tick: u64) -> EstimateMsg {
+        let mut m = EstimateMsg {
+            header: Header::at(self.seq, tick, self.cfg.fs),
+            ..Default::default()
+        };
+        self.seq += 1;
+        Self::fill(&self.cfg, &self.p, &self.sigma, &mut m);
+        m.solved_tick = self.solved_tick;
+        m.n_used = self.n_used;
+        m.n_rejected = self.n_rejected;
+        let ticks = self.n_used + self.n_rejected;
+        let degraded = self.n_rejected * 50 > ticks
+            || self.causes[CAUSE_TICK_JUMP] > 0
+            || self.causes[CAUSE_STAR_OUTLIER] * 50 > self.n_star.max(1);
+        m.status = self.status | if degraded { ST_DEGRADED } else { 0 };
+        m.rejected_by_cause = self.causes;
+        m.tick_rejections = self.tick_mask;
+        m.chi2_per_dof = self.chi2;
+        m.sigma_inflation = self.inflation;
+        m
+    }
+
+    /// β, k, r and their σ from a parameter vector and its 1σ.
+    pub fn fill(cfg: &EstimatorConfig, p: &Par, sigma: &Par, m: &mut EstimateMsg) {
+        for i in 0..cfg.n_is.min(2) as usize {
+            for a in 0..3 {
+                m.beta[i][a] = p[P_BETA + 3 * i + a];
+                m.beta_sigma[i][a] = sigma[P_BETA + 3 * i + a];
+                m.r_b[i][a] = p[P_R + 3 * i + a];
+                m.r_sigma[i][a] = sigma[P_R + 3 * i + a];
+            }
+            for j in 0..3 {
+                let g = cfg.geometry_m[i][PERM[j]];
+                m.k[i][j] = g * m.beta[i][PERM[j]];
+                m.k_sigma[i][j] = g * m.beta_sigma[i][PERM[j]];
+            }
+        }
+    }
+}

@@ -1,0 +1,230 @@
+//! One sample's path through the estimator: the references of the first usable
+//! sample, the gates, attitude and signals, and the statistics it adds to.
+
+use super::*;
+
+impl JointEstimator {
+    /// First usable sample: references, the coloured-noise direction and whitening,
+    /// and the residual rows the linear input test uses.
+    pub(super) fn start(&mut self, data: &[IsData; 2]) {
+        let n = self.n_is();
+        for i in 0..n {
+            self.sum_ref[i] = data[i].sum;
+        }
+        // SRP direction at the priors: the IS average in m/s² cancels the differential
+        // A r of the first tick, and its volts per IS use the same prior k as the noise
+        // model below, so it lies in that model's common-mode subspace.
+        let h = self.srp_direction(&self.p);
+        let mut msq = [0.0; 6];
+        for s in 0..3 * n {
+            msq[s] = self.sum_ref[s / 3][s % 3].powi(2);
+        }
+        let r0 = self.white_cov(&self.p, &msq, &[[0.0; 3]; 2]);
+        if let Some((linv, u, hn)) = Self::whitening(&r0, &h) {
+            self.t_u = linv.transpose() * u;
+            self.hn = hn;
+            let rows = Self::complement_rows(&linv, &u);
+            for k in 0..5 {
+                self.gate_w.set_row(k, &rows.row(k));
+            }
+            self.gate_w.set_row(5, &self.t_u.transpose());
+        }
+        self.gate_c = self.coeffs(&self.p).lin;
+        self.started = 1;
+    }
+
+    /// A tick processed or bridged: solve on schedule.
+    pub(super) fn tick_done(&mut self, tick: u64) {
+        self.n_ticks += 1;
+        if self.n_ticks % self.cfg.solve_every == 0 {
+            self.solve_due = [1, tick];
+        }
+    }
+
+    pub(super) fn process(&mut self, tick: u64, s: &SensorSample) {
+        let n = self.n_is();
+        let (mut ok, mut axis_ok) = self.is_checks(s);
+        // Per axis: did both IS pass the cross test (the pair then enters the
+        // angular-consistency group and the ratio fit)?
+        let mut pair = [false; 3];
+        if n == 2 {
+            let (d0, d1) = (s.is[0].angular_volts(), s.is[1].angular_volts());
+            let tested: [bool; 3] = core::array::from_fn(|a| axis_ok[0][a] && axis_ok[1][a]);
+            pair = self.angular_consistent(&d0, &d1, &tested);
+            if (0..3).any(|a| tested[a] && !pair[a]) {
+                // One of them is corrupted, its linear data too: the sample's linear
+                // data are not used. The attitude must still be propagated, and bridging
+                // with the previous ω̇ would cost far more than either IS: on the failed
+                // axis, keep the one nearer the previous ω̇.
+                self.reject(CAUSE_ANGULAR_MISMATCH);
+                ok = [false; 2];
+                let sums = [s.is[0].linear_volts(), s.is[1].linear_volts()];
+                for a in (0..3).filter(|&a| tested[a] && !pair[a]) {
+                    let t = self.trusted_is(a, [&d0, &d1], [&sums[0], &sums[1]]);
+                    axis_ok[0][a] = t[0];
+                    axis_ok[1][a] = t[1];
+                    // Should the kept IS be the corrupted one, the propagated rate is off
+                    // by dt times the mismatch from here on: the drift filter must allow
+                    // that step of its rate, or it would smear the ramp over the maneuver.
+                    let c = &self.cfg;
+                    let step = (c.beta_prior[0][a] * d0[a] - c.beta_prior[1][a] * d1[a]) / c.fs;
+                    if step.is_finite() {
+                        self.drift_p[a][2][2] += step * step;
+                    }
+                }
+            }
+            for a in (0..3).filter(|&a| pair[a]) {
+                self.ratio[a].add(d0[a], d1[a]);
+            }
+        }
+        let data = [is_data(&s.is[0]), is_data(&s.is[1])];
+        let all_valid = (0..n).all(|i| ok[i]);
+        if self.started == 0 {
+            if all_valid {
+                self.start(&data);
+            } else {
+                self.n_rejected += 1;
+                return;
+            }
+        }
+        // Angular voltages for the integrators; a rejected IS axis borrows the other's,
+        // and with neither the previous ω̇ bridges it.
+        let mut dv = self.angular_inputs(&data, &axis_ok);
+        if n == 2 {
+            for a in 0..3 {
+                if self.bridge_run[a] > 0 && (axis_ok[0][a] || axis_ok[1][a]) {
+                    self.interpolate_bridge(a, &dv);
+                }
+            }
+        }
+        let saved = (self.psi, self.phi, self.dv_last);
+        let (mut psi_mid, phi_mid) = self.integrate(&dv);
+        let t = (self.n_ticks + 1) as f64 / self.cfg.fs;
+        // The linear data, once they pass their test (the signals need this sample's
+        // attitude step, not yet taken).
+        let mut lin_sig = None;
+        if all_valid {
+            let turn = self.srp_turn(&psi_mid);
+            let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &turn, t);
+            if self.linear_consistent(&sig) {
+                lin_sig = Some(sig);
+            } else {
+                self.reject(CAUSE_LINEAR_OUTLIER);
+                if n == 1 {
+                    // One IS: its angular voltages may be the corrupted ones.
+                    axis_ok = [[false; 3]; 2];
+                    (self.psi, self.phi, self.dv_last) = saved;
+                    dv = self.angular_inputs(&data, &axis_ok);
+                    (psi_mid, _) = self.integrate(&dv);
+                }
+            }
+        }
+        if n == 2 && !all_valid && self.lone_misfit(&data, &mut axis_ok, &dv, &psi_mid, &phi_mid, t)
+        {
+            self.reject(CAUSE_LINEAR_OUTLIER);
+            (self.psi, self.phi, self.dv_last) = saved;
+            dv = self.angular_inputs(&data, &axis_ok);
+            (psi_mid, _) = self.integrate(&dv);
+        }
+        self.propagate_model(&psi_mid);
+        let n_ang: [usize; 3] = core::array::from_fn(|a| (0..n).filter(|&i| axis_ok[i][a]).count());
+        // Only clean samples teach the spread of ω̇'s change.
+        for a in 0..3 {
+            if n_ang[a] == n && (n == 1 || pair[a]) {
+                self.learn_jerk(a, &dv, &saved.2);
+            }
+        }
+        if let Some(sig) = lin_sig {
+            self.n_used += 1;
+            self.update_linear(&sig, &dv);
+            self.gate_s = sig;
+        } else {
+            self.n_rejected += 1;
+            self.whitening_time_update();
+        }
+        for a in (0..3).filter(|&a| pair[a]) {
+            // Residual ΔV1 − (β2/β1) ΔV2 [V], weighted with its noise at the priors
+            // (readout and drive ripple), so the group constrains the ratio only and
+            // cannot pull the common scale.
+            let c = &self.cfg;
+            let rho = c.beta_prior[1][a] / c.beta_prior[0][a];
+            let var = 2.0 * (c.sigma_angular / c.beta_prior[0][a]).powi(2)
+                + c.sigma_ripple.powi(2) * (dv[0][a].powi(2) + (rho * dv[1][a]).powi(2));
+            let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
+            rank1_upper(&mut self.m_ang[a], &v, 1.0 / var);
+        }
+        if n_ang.contains(&0) {
+            self.n_bridged += 1;
+        }
+        for a in 0..3 {
+            if n_ang[a] == 0 {
+                self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
+                self.drift_bridged(a);
+            } else {
+                self.close_bridge(a, &dv);
+            }
+        }
+        self.star_time_update(&dv, &n_ang);
+        let kappa = self.kappa();
+        self.update_star(s, &kappa, t);
+        self.tick_done(tick);
+    }
+
+    /// The SRP in IS1's channels against the reference sample [V], inertial: the
+    /// maneuver's A r̂ / k̂ (this sample's ω̇, ω at the running solution) and the
+    /// running DC turned by θ̂ = β̂1 Φ1 taken out. Both are small (3 % and 5×10⁻⁴ of
+    /// the SRP), so their running errors stay far below the fluctuation. `s` holds
+    /// this sample's signals up to `S_TF`.
+    pub(super) fn srp_change(&self, s: &Sig, phi_mid: &[[f64; 3]; 2]) -> [f64; 3] {
+        let bc = self.srp_dc(&self.p);
+        let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
+        let turn = theta.cross(&Vector3::from(bc));
+        core::array::from_fn(|m| {
+            let mut eps = s[S_SUM + m] + turn[m] / self.k_of(&self.p, 0, m);
+            for c in (S_DV..S_DV + 6).chain(S_PP..S_PP + 6) {
+                eps += self.gate_c[(m, c)] * s[c];
+            }
+            eps
+        })
+    }
+
+    /// Signals of the linear group for one sample.
+    pub(super) fn signals(
+        &self,
+        data: &[IsData; 2],
+        dv: &[[f64; 3]; 2],
+        psi_mid: &[[f64; 3]; 2],
+        phi_mid: &[[f64; 3]; 2],
+        w_turn: &Matrix3<f64>,
+        t: f64,
+    ) -> Sig {
+        let mut s = Sig::zeros();
+        for i in 0..self.n_is() {
+            for j in 0..3 {
+                s[S_SUM + 3 * i + j] = data[i].sum[j] - self.sum_ref[i][j];
+                s[S_DV + 3 * i + j] = dv[i][j];
+            }
+        }
+        for a in 0..3 {
+            for b in a..3 {
+                s[S_PP + prod(a, b)] = psi_mid[0][a] * psi_mid[0][b];
+            }
+        }
+        for a in 0..3 {
+            s[S_PHI + a] = phi_mid[0][a];
+            for m in 0..3 {
+                s[S_W + 3 * a + m] = w_turn[(a, m)];
+            }
+        }
+        let eps = self.srp_change(&s, phi_mid);
+        let a_eps = Vector3::from_fn(|m, _| self.k_of(&self.p, 0, m) * eps[m]);
+        let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
+        let tf = theta.cross(&a_eps);
+        for j in 0..3 {
+            s[S_TF + j] = tf[j];
+        }
+        s[S_ONE] = 1.0;
+        s[S_T] = t;
+        s
+    }
+}

@@ -1,0 +1,435 @@
+//! The solve: Gauss–Newton normal equations from the Gram statistics, the step, the
+//! sandwich covariance (β's error carried through the SRP's turn), χ²/dof per group
+//! and the status word.
+
+use super::*;
+
+/// The Gauss–Newton sums a residual group adds to: H, g, and the cross term Jᵀ W Δ
+/// of the turn's β-derivatives Δ (`Linearised::turn`). (Each group's χ² is
+/// `group_costs`'s.)
+pub(super) struct Sums<'a> {
+    pub(super) hm: &'a mut SMatrix<f64, NP, NP>,
+    pub(super) g: &'a mut Par,
+    pub(super) cross: &'a mut SMatrix<f64, NP, 6>,
+}
+
+/// Gauss–Newton normal equations at a parameter vector: H (the cut Jacobian's, priors
+/// as asked), g, and the cross term of the turn's β-derivatives.
+pub(super) struct Normal {
+    pub(super) hm: SMatrix<f64, NP, NP>,
+    pub(super) g: Par,
+    pub(super) cross: SMatrix<f64, NP, 6>,
+}
+
+impl JointEstimator {
+    /// One residual group's row: its Gauss–Newton terms into (H, g) and the cross term.
+    /// Where the CPU has AVX2 its matrix products (most of a solve's ~10⁶
+    /// multiply-adds) run compiled for it, like [`Self::update_linear`]: the same bits.
+    #[inline(always)]
+    pub(super) fn add_group(
+        row: &SVector<f64, 6>,
+        m: &Gram,
+        weight: f64,
+        lin: &Linearised,
+        out: &mut Sums,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::has_avx2() {
+            // SAFETY: the CPU has AVX2, checked just now.
+            unsafe { Self::add_group_avx2(row, m, weight, lin, out) };
+            return;
+        }
+        Self::add_group_portable(row, m, weight, lin, out);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn add_group_avx2(
+        row: &SVector<f64, 6>,
+        m: &Gram,
+        weight: f64,
+        lin: &Linearised,
+        out: &mut Sums,
+    ) {
+        Self::add_group_portable(row, m, weight, lin, out);
+    }
+
+    #[inline(always)]
+    pub(super) fn add_group_portable(
+        row: &SVector<f64, 6>,
+        m: &Gram,
+        weight: f64,
+        lin: &Linearised,
+        out: &mut Sums,
+    ) {
+        let (c0, dc) = (lin.c0, lin.dc);
+        let c: Sig = c0.lin.transpose() * row;
+        if c.iter().all(|v| *v == 0.0) {
+            return;
+        }
+        let d = SMatrix::<f64, NS, NP>::from_fn(|s, k| {
+            (0..6).map(|r| row[r] * dc[k].lin[(r, s)]).sum()
+        });
+        let md = m * d;
+        *out.hm += d.transpose() * md * weight;
+        *out.g += md.transpose() * c * weight;
+        // Jᵀ W Δ: Δ's rows are zero but on the turn's six signals.
+        for (col, &sc) in TURN_COLS.iter().enumerate() {
+            for b in 0..6 {
+                let dd: f64 = (0..6).map(|r| row[r] * lin.turn[b][(r, col)]).sum();
+                if dd != 0.0 {
+                    for i in 0..NP {
+                        out.cross[(i, b)] += md[(sc, i)] * dd * weight;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Gauss–Newton normal equations (H, g) at `p`, and the cross term of the turn's
+    /// β-derivatives (`sandwich_var`); with `priors`, the weak ground priors are
+    /// included (they only matter before every axis has been excited). Each group
+    /// enters with its weight (1, or 1/(χ²/dof) when its noise proved larger than
+    /// modelled).
+    pub(super) fn normal_equations(&self, p: &Par, priors: bool) -> Normal {
+        let c0 = self.coeffs(p);
+        let mut dc = [Coeffs {
+            lin: SMatrix::zeros(),
+            star: [SVector::zeros(); 3],
+            ang: [SVector::zeros(); 3],
+        }; NP];
+        let mut turn = [SMatrix::<f64, 6, 6>::zeros(); 6];
+        for (k, d) in dc.iter_mut().enumerate() {
+            let hk = 1e-6 * self.p_sigma[k];
+            let mut pp = *p;
+            pp[k] += hk;
+            let cp = self.coeffs(&pp);
+            pp[k] -= 2.0 * hk;
+            let cm = self.coeffs(&pp);
+            let f = 0.5 / hk;
+            d.lin = (cp.lin - cm.lin) * f;
+            if (P_BETA..P_BETA + 6).contains(&k) {
+                // The SRP turns with the attitude β1 Φ1 + drift, but its β-dependence
+                // is no evidence about β: the star tracker measures β far better, and
+                // a turn model off by 10⁻¹⁷ m/s² (a 10⁻⁸ rad drift error once ticks
+                // are bridged; the measured SRP's running corrections) poses as a
+                // 10⁻⁶ scale error (βy 7σ off at 10⁵ s). The coefficient still uses
+                // β1, so at the solution the attitude is the final β's. IS2's β
+                // counts too: its channels carry the turned SRP divided by its
+                // k = G β2 (with IS1's β alone, 5 % dropouts left the common β scale 9×
+                // its bound off and 3.5× outside its σ). Measured at 10⁴ s without
+                // faults: β's error the same with or without this evidence.
+                // What is left out is kept: β's uncertainty still reaches r through
+                // the turn (σ, `sandwich_var`).
+                for row in 0..6 {
+                    for (col, &c) in TURN_COLS.iter().enumerate() {
+                        turn[k - P_BETA][(row, col)] = d.lin[(row, c)];
+                        d.lin[(row, c)] = 0.0;
+                    }
+                }
+            }
+            for a in 0..3 {
+                d.star[a] = (cp.star[a] - cm.star[a]) * f;
+                d.ang[a] = (cp.ang[a] - cm.ang[a]) * f;
+            }
+        }
+        let mut hm = SMatrix::<f64, NP, NP>::zeros();
+        let mut g = Par::zeros();
+        if priors {
+            for k in 0..NP {
+                let w = 1.0 / self.p_sigma[k].powi(2);
+                hm[(k, k)] += w;
+                g[k] += w * (p[k] - self.p_prior[k]);
+            }
+        } else {
+            // Parameters of an absent IS are not part of the problem.
+            for k in 0..NP {
+                if !self.param_used(k) {
+                    hm[(k, k)] += 1.0 / self.p_sigma[k].powi(2);
+                }
+            }
+        }
+        let gw = self.group_weight;
+        let mut cross = SMatrix::<f64, NP, 6>::zeros();
+        // A closure, out of line: its matrix products (tens of kB) take the stack only
+        // while it runs (the solve's stack is a flight figure).
+        let lin = Linearised {
+            c0: &c0,
+            dc: &dc,
+            turn: &turn,
+        };
+        let mut add = |row: &SVector<f64, 6>, m: &Gram, grp: usize| {
+            let mut out = Sums {
+                hm: &mut hm,
+                g: &mut g,
+                cross: &mut cross,
+            };
+            Self::add_group(row, m, gw[grp], &lin, &mut out);
+        };
+        let h = self.srp_direction(p);
+        for reg in 0..N_REG {
+            let Some((rows, m)) = self.regime_rows(p, reg, &h) else {
+                continue;
+            };
+            for t in 0..5 {
+                add(&rows.row(t).transpose(), &m, GROUP_LINEAR);
+            }
+        }
+        add(&self.t_u, &symmetric(&self.m_filt), GROUP_COMMON_MODE);
+        for a in 0..3 {
+            let m = symmetric(&self.m_star[a]);
+            let d = SMatrix::<f64, 5, NP>::from_fn(|s, k| dc[k].star[a][s]);
+            let md = m * d;
+            hm += d.transpose() * md * gw[GROUP_STAR];
+            g += md.transpose() * c0.star[a] * gw[GROUP_STAR];
+            let m = symmetric(&self.m_ang[a]);
+            let d = SMatrix::<f64, 2, NP>::from_fn(|s, k| dc[k].ang[a][s]);
+            let md = m * d;
+            hm += d.transpose() * md * gw[GROUP_ANGULAR];
+            g += md.transpose() * c0.ang[a] * gw[GROUP_ANGULAR];
+        }
+        Normal { hm, g, cross }
+    }
+
+    /// The SRP-free whitened rows (5 × 6) of regime `reg`'s linear residuals at `p`,
+    /// with its Gram matrix; `None` for an empty regime or a singular noise model.
+    pub(super) fn regime_rows(
+        &self,
+        p: &Par,
+        reg: usize,
+        h: &SVector<f64, 6>,
+    ) -> Option<(SMatrix<f64, 5, 6>, Gram)> {
+        let (cnt, msq, wsq) = self.regime_stats(p, reg);
+        if cnt < 1.0 {
+            return None;
+        }
+        let r = self.white_cov(p, &msq, &wsq);
+        let (linv, u, _) = Self::whitening(&r, h)?;
+        Some((
+            Self::complement_rows(&linv, &u),
+            symmetric(&self.m_raw[reg]),
+        ))
+    }
+
+    /// Degrees of freedom of each group's χ² (residuals accumulated).
+    pub(super) fn group_dof(&self) -> [f64; N_GROUPS] {
+        let n = self.n_is();
+        let cnt: f64 = self.m_raw.iter().map(|m| m[(S_ONE, S_ONE)]).sum();
+        [
+            (3 * n - 1) as f64 * cnt,
+            cnt,
+            3.0 * self.n_star as f64,
+            if n == 2 { 3.0 * cnt } else { 0.0 },
+        ]
+    }
+
+    /// Judge each group's χ²/dof: a group whose residuals are larger than its noise
+    /// model allows is inconsistent; it is then weighted with its observed noise (so
+    /// σ grows by √(χ²/dof)) instead of printing a tight σ the data do not support.
+    pub(super) fn judge_consistency(&mut self, cost: &[f64; N_GROUPS]) {
+        let dof = self.group_dof();
+        let mut inconsistent = false;
+        let mut inflation: f64 = 1.0;
+        for k in 0..N_GROUPS {
+            self.chi2[k] = if dof[k] > 0.0 { cost[k] / dof[k] } else { 0.0 };
+            let limit = 1.0 + CHI2_TOL.max(10.0 * (2.0 / dof[k].max(1.0)).sqrt());
+            if dof[k] >= CHI2_MIN_DOF && nan_or_above(self.chi2[k], limit) {
+                inconsistent = true;
+                let x = if self.chi2[k].is_finite() {
+                    self.chi2[k]
+                } else {
+                    1e300
+                };
+                self.group_weight[k] = 1.0 / x;
+                inflation = inflation.max(x.sqrt());
+            } else {
+                self.group_weight[k] = 1.0;
+            }
+        }
+        self.inflation = inflation;
+        if inconsistent {
+            self.status |= ST_INCONSISTENT;
+        } else {
+            self.status &= !ST_INCONSISTENT;
+        }
+    }
+
+    /// A tick was bridged: the propagated attitude has drifted and leans on the star
+    /// tracker (see `normal_equations`). Even a few bridged ticks count: each starts a
+    /// ramp of the attitude (white torque noise moves ω̇ by ~10⁻¹⁰ rad/s² between
+    /// samples), and 10 of them in 10⁵ ticks (1 % dropouts per IS) put r_z's
+    /// (err/σ)² at 5.8 while the old threshold of 0.1 % waited.
+    pub(super) fn drifted(&self) -> bool {
+        self.n_bridged > 0
+    }
+
+    pub(super) fn param_used(&self, k: usize) -> bool {
+        let second = (P_BETA + 3..P_BETA + 6).contains(&k)
+            || (P_R + 3..P_R + 6).contains(&k)
+            || (P_B + 3..P_B + 6).contains(&k)
+            || (P_AL + 3..P_AL + 6).contains(&k);
+        !(second && self.n_is() < 2)
+    }
+
+    /// Solve H δ = −g with Jacobi scaling; also returns H⁻¹.
+    pub(super) fn newton_step(
+        hm: &SMatrix<f64, NP, NP>,
+        g: &Par,
+    ) -> Option<(Par, SMatrix<f64, NP, NP>)> {
+        let sc = Par::from_fn(|k, _| 1.0 / hm[(k, k)].max(1e-300).sqrt());
+        let hs = SMatrix::<f64, NP, NP>::from_fn(|i, j| hm[(i, j)] * sc[i] * sc[j]);
+        let ch = hs.cholesky()?;
+        let gs = g.component_mul(&sc);
+        let delta = -ch.solve(&gs).component_mul(&sc);
+        let inv = ch.inverse();
+        Some((delta, SMatrix::from_fn(|i, j| inv[(i, j)] * sc[i] * sc[j])))
+    }
+
+    /// Variance of the estimate [parameter units²]: the sandwich A⁻¹ H A⁻ᵀ. The
+    /// solution solves Jᵀ W e = 0 with the cut Jacobian J (the SRP's turn is no
+    /// evidence about β), while the data depend on β through the turn too (J + Δ):
+    /// an error δβ moves the solution by −A⁻¹ Jᵀ W Δ δβ, A = H + Jᵀ W Δ. H⁻¹ alone
+    /// would leave that out: r_z's error is 15 % above its σ without it (300 seeds,
+    /// (err/σ)² 1.33), as β's error, taken from the star tracker, turns the SRP.
+    ///
+    /// A = H + C, C nonzero in the six β columns only (C = X V, X = `cross`, V the
+    /// selector of those columns), so with U = H⁻¹ X and W = U (I₆ + V U)⁻¹,
+    /// A⁻¹ H A⁻ᵀ = K H⁻¹ Kᵀ with K = I − W V: only the diagonal is built, from H⁻¹
+    /// (the step's own inverse) and 30 × 6 products.
+    pub(super) fn sandwich_var(n: &Normal, hinv: &SMatrix<f64, NP, NP>) -> Option<Par> {
+        let u: SMatrix<f64, NP, 6> = hinv * n.cross;
+        let vu = SMatrix::<f64, 6, 6>::from_fn(|b, c| u[(P_BETA + b, c)]);
+        let m = (SMatrix::<f64, 6, 6>::identity() + vu).try_inverse()?;
+        let w = u * m;
+        let var = Par::from_fn(|k, _| {
+            let mut v = hinv[(k, k)];
+            for b in 0..6 {
+                v -= 2.0 * w[(k, b)] * hinv[(k, P_BETA + b)];
+                for c in 0..6 {
+                    v += w[(k, b)] * hinv[(P_BETA + b, P_BETA + c)] * w[(k, c)];
+                }
+            }
+            v
+        });
+        var.iter().all(|v| v.is_finite()).then_some(var)
+    }
+
+    /// Gauss–Newton iterations from the current solution; true when converged. A
+    /// failed step (singular normal equations, a non-finite step) keeps the previous
+    /// solution and says so in the status word.
+    pub fn solve(&mut self, iterations: usize, priors: bool) -> bool {
+        for _ in 0..iterations {
+            let n = self.normal_equations(&self.p, priors);
+            let step = Self::newton_step(&n.hm, &n.g)
+                .filter(|(d, _)| d.iter().all(|x| x.is_finite()))
+                .and_then(|(d, hinv)| Some((d, Self::sandwich_var(&n, &hinv)?)));
+            let Some((delta, var)) = step else {
+                self.status |= ST_SOLVE_FAILED;
+                return false;
+            };
+            self.p += delta;
+            self.sigma = var.map(|v| v.max(0.0).sqrt());
+            self.status &= !(ST_SOLVE_FAILED | ST_NO_SOLUTION);
+            let cost = self.group_costs(&self.p);
+            self.judge_consistency(&cost);
+            self.refresh_gate();
+            let converged = (0..NP).all(|k| delta[k].abs() < 1e-4 * self.sigma[k].max(1e-300));
+            if converged {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Each group's χ² at `p`, with the rows `normal_equations` uses.
+    pub(super) fn group_costs(&self, p: &Par) -> [f64; N_GROUPS] {
+        let c0 = self.coeffs(p);
+        let mut cost = [0.0; N_GROUPS];
+        let lin = |row: &SVector<f64, 6>, m: &Gram| {
+            let c: Sig = c0.lin.transpose() * row;
+            c.dot(&(m * c))
+        };
+        let h = self.srp_direction(p);
+        for reg in 0..N_REG {
+            let Some((rows, m)) = self.regime_rows(p, reg, &h) else {
+                continue;
+            };
+            for t in 0..5 {
+                cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), &m);
+            }
+        }
+        cost[GROUP_COMMON_MODE] = lin(&self.t_u, &symmetric(&self.m_filt));
+        for a in 0..3 {
+            cost[GROUP_STAR] += c0.star[a].dot(&(symmetric(&self.m_star[a]) * c0.star[a]));
+            cost[GROUP_ANGULAR] += c0.ang[a].dot(&(symmetric(&self.m_ang[a]) * c0.ang[a]));
+        }
+        cost
+    }
+
+    /// The linear input test follows the new solution: its residual rows change, and
+    /// its tracks' levels move with them (at the last accepted sample).
+    pub(super) fn refresh_gate(&mut self) {
+        let new = self.coeffs(&self.p).lin;
+        let raw = (new - self.gate_c) * self.gate_s;
+        let shift = self.gate_w * raw;
+        for k in 0..6 {
+            self.lin_track[k].shift(shift[k]);
+            self.lone_track[k].shift(raw[k]);
+        }
+        self.gate_c = new;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A symmetric positive-definite H of widely spread scales (as the parameters'
+    /// units make it) and a cross term on the β columns.
+    fn normal(cross_scale: f64) -> Normal {
+        let scale = Par::from_fn(|k, _| 10f64.powi((k % 7) as i32 * 2 - 6));
+        let b = SMatrix::<f64, NP, NP>::from_fn(|i, j| ((i * 31 + j * 17) % 13) as f64 - 6.0);
+        let spd = b * b.transpose() + SMatrix::<f64, NP, NP>::identity() * 50.0;
+        let hm = SMatrix::<f64, NP, NP>::from_fn(|i, j| spd[(i, j)] * scale[i] * scale[j]);
+        let cross = SMatrix::<f64, NP, 6>::from_fn(|i, c| {
+            cross_scale * (((i + 3 * c) % 5) as f64 - 2.0) * scale[i] * scale[P_BETA + c]
+        });
+        Normal {
+            hm,
+            g: Par::zeros(),
+            cross,
+        }
+    }
+
+    #[test]
+    fn without_the_turn_cross_term_the_sandwich_is_the_inverse_hessian() {
+        let n = normal(0.0);
+        let (_, hinv) = JointEstimator::newton_step(&n.hm, &n.g).unwrap();
+        let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
+        let inv = n.hm.try_inverse().unwrap();
+        for k in 0..NP {
+            assert!((var[k] / inv[(k, k)] - 1.0).abs() < 1e-9, "{k}");
+        }
+    }
+
+    #[test]
+    fn the_sandwich_is_a_inverse_h_a_inverse_transposed() {
+        let n = normal(3.0);
+        let (_, hinv) = JointEstimator::newton_step(&n.hm, &n.g).unwrap();
+        let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
+        let mut a = n.hm;
+        for c in 0..6 {
+            for i in 0..NP {
+                a[(i, P_BETA + c)] += n.cross[(i, c)];
+            }
+        }
+        let ai = a.try_inverse().unwrap();
+        let cov = ai * n.hm * ai.transpose();
+        for k in 0..NP {
+            assert!((var[k] / cov[(k, k)] - 1.0).abs() < 1e-8, "{k}");
+        }
+        // β's error reaching other parameters adds variance somewhere.
+        let inv = n.hm.try_inverse().unwrap();
+        assert!((0..NP).any(|k| var[k] > 1.01 * inv[(k, k)]));
+    }
+}

@@ -1,0 +1,236 @@
+//! Whitening: the white-noise covariance of the six linear residuals, its Cholesky
+//! rows, and the causal innovations filter of the coloured SRP that every signal of
+//! the linear group passes through before it enters the Gram matrices.
+
+use super::*;
+
+/// Symmetric rank-one update of the upper triangle: m += w v vᵀ. The hot loop of
+/// every sample: columns as slices (column-major, no index checks) so that the
+/// compiler vectorises it; each element gets the same one product and sum as before.
+#[inline(always)]
+pub(super) fn rank1_upper<const N: usize>(m: &mut SMatrix<f64, N, N>, v: &SVector<f64, N>, w: f64) {
+    let v = v.as_slice();
+    for (j, col) in m.as_mut_slice().chunks_exact_mut(N).enumerate() {
+        let vj = v[j] * w;
+        if vj == 0.0 {
+            continue;
+        }
+        for (mij, vi) in col[..=j].iter_mut().zip(&v[..=j]) {
+            *mij += vi * vj;
+        }
+    }
+}
+
+pub(super) fn symmetric<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+    SMatrix::from_fn(|i, j| if i <= j { m[(i, j)] } else { m[(j, i)] })
+}
+
+impl JointEstimator {
+    /// White-noise covariance of the six linear residuals [V²], given per-slot mean
+    /// squared voltage and per-IS, per-axis mean squared angular acceleration.
+    pub(super) fn white_cov(
+        &self,
+        p: &Par,
+        mean_sq_sum: &[f64; 6],
+        mean_sq_wdot: &[[f64; 3]; 2],
+    ) -> SMatrix<f64, 6, 6> {
+        let c = &self.cfg;
+        let mut r = SMatrix::<f64, 6, 6>::identity();
+        let n = self.n_is();
+        let mut v = [0.0; 3];
+        for (a, va) in v.iter_mut().enumerate() {
+            for (l, msq) in mean_sq_wdot.iter().enumerate().take(n) {
+                *va +=
+                    self.w(l).powi(2) * (c.sigma_angular.powi(2) + c.sigma_ripple.powi(2) * msq[a]);
+            }
+        }
+        // After bridged ticks the attitude that turns the SRP is uncertain (the drift
+        // filter's variance): −δθ × b, common to both IS, slowly varying. It enters as
+        // noise along the SRP's turn directions, its variance times its correlation
+        // length in samples (√(P_θθ/P_θ̇θ̇) f_s), so the common mode across the turn
+        // carries less weight instead of posing δθ × b as a CoM offset.
+        let turn = if self.drifted() {
+            let b = Vector3::from(self.srp_dc(p));
+            let mut t = [[0.0; 3]; 3];
+            for a in 0..3 {
+                let pd = &self.drift_p[a];
+                let corr = (pd[1][1] / pd[2][2].max(1e-300)).sqrt() * c.fs;
+                let var = TURN_WEIGHT * pd[1][1].max(0.0) * corr.clamp(1.0, 1e6);
+                let ca = b.cross(&Vector3::ith(a, 1.0));
+                for j in 0..3 {
+                    for j2 in 0..3 {
+                        t[j][j2] += var * ca[j] * ca[j2];
+                    }
+                }
+            }
+            t
+        } else {
+            [[0.0; 3]; 3]
+        };
+        for s in 0..3 * n {
+            for s2 in 0..3 * n {
+                let (i, j, i2, j2) = (s / 3, s % 3, s2 / 3, s2 % 3);
+                let (k, k2) = (self.k_of(p, i, j), self.k_of(p, i2, j2));
+                let xi = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i + a]));
+                let xi2 = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i2 + a]));
+                let mut val = (0..3)
+                    .map(|a| xi[(j, a)] * xi2[(j2, a)] * v[a])
+                    .sum::<f64>()
+                    / (k * k2);
+                if j == j2 {
+                    val += c.sigma_force.powi(2) / (k * k2);
+                }
+                if turn[j][j2].is_finite() {
+                    val += turn[j][j2] / (k * k2);
+                }
+                if s == s2 {
+                    val += (c.sigma_linear / k).powi(2) + c.sigma_ripple.powi(2) * mean_sq_sum[s];
+                }
+                r[(s, s2)] = val;
+            }
+        }
+        r
+    }
+
+    /// Whitening rows: `L⁻¹` of the white covariance, and the unit direction of the
+    /// coloured SRP in the whitened space, with its gain |L⁻¹ h|.
+    pub(super) fn whitening(
+        r: &SMatrix<f64, 6, 6>,
+        h: &SVector<f64, 6>,
+    ) -> Option<(SMatrix<f64, 6, 6>, SVector<f64, 6>, f64)> {
+        let l = r.cholesky()?.l();
+        let linv = l.try_inverse()?;
+        let hp = linv * h;
+        let hn = hp.norm();
+        Some((linv, hp / hn, hn))
+    }
+
+    /// Rows spanning the complement of `u` (Householder), times `linv`: 5 × 6.
+    pub(super) fn complement_rows(
+        linv: &SMatrix<f64, 6, 6>,
+        u: &SVector<f64, 6>,
+    ) -> SMatrix<f64, 5, 6> {
+        let mut e1 = SVector::<f64, 6>::zeros();
+        e1[0] = if u[0] >= 0.0 { 1.0 } else { -1.0 };
+        let v = u - e1;
+        let hh = if v.norm() < 1e-12 {
+            SMatrix::<f64, 6, 6>::identity()
+        } else {
+            SMatrix::<f64, 6, 6>::identity() - v * v.transpose() * (2.0 / v.norm_squared())
+        };
+        let rows: SMatrix<f64, 5, 6> = hh.fixed_rows::<5>(1).into_owned();
+        rows * linv
+    }
+
+    /// The linear group's statistics take one sample: the Gram matrix of its regime,
+    /// the SRP whitening filter and the whitened Gram matrix (most of a sample's work).
+    /// Where the CPU has AVX2 the same code runs compiled for it: 4 lanes instead of 2,
+    /// the same operations on every element, so the same bits (no fused multiply-add:
+    /// Rust never contracts `a * b + c`).
+    pub(super) fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::has_avx2() {
+            // SAFETY: the CPU has AVX2, checked just now.
+            unsafe { self.update_linear_avx2(s, dv) };
+            return;
+        }
+        self.update_linear_portable(s, dv);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+        self.update_linear_portable(s, dv);
+    }
+
+    #[inline(always)]
+    pub(super) fn update_linear_portable(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+        let s = *s;
+        let bp = self.cfg.beta_prior[0];
+        let mut reg = 0;
+        for a in 1..3 {
+            if (bp[a] * dv[0][a]).abs() > (bp[reg] * dv[0][reg]).abs() {
+                reg = a;
+            }
+        }
+        rank1_upper(&mut self.m_raw[reg], &s, 1.0);
+
+        // Innovations filter of the common-mode SRP channel, applied to every signal.
+        let nb = self.bank.poles();
+        let hn = self.hn;
+        // Row sums of wp, summed column by column (each row's terms in the same order
+        // as `Iterator::sum`, from −0): contiguous, so it vectorises.
+        let mut pg = [0.0; MAX_POLES];
+        pg[..nb].fill(-0.0);
+        for col in self.wp.as_slice().chunks_exact(MAX_POLES).take(nb) {
+            for (p, w) in pg[..nb].iter_mut().zip(&col[..nb]) {
+                *p += w;
+            }
+        }
+        let mut ptot = 0.0;
+        for pgi in &pg[..nb] {
+            ptot += *pgi;
+        }
+        let sv = hn * hn * ptot + 1.0;
+        let inv_sqrt = 1.0 / sv.sqrt();
+        let mut sf = Sig::zeros();
+        // Slices of the `nb` poles in use: the loops below vectorise (element by
+        // element the same operations in the same order as the plain loops).
+        let a = &self.bank.a[..nb];
+        let pg = &pg[..nb];
+        // Each signal's sum over its poles, in pole order from −0 (`Iterator::sum`),
+        // all signals side by side: 32 independent chains instead of one at a time.
+        let mut sums = [-0.0; NS];
+        for k in 0..nb {
+            for (sm, x) in sums.iter_mut().zip(&self.wx) {
+                *sm += x[k];
+            }
+        }
+        for ((m, x), sum) in self.wx.iter_mut().enumerate().zip(sums) {
+            let x = &mut x[..nb];
+            let pred = sum * hn;
+            let innov = s[m] - pred;
+            sf[m] = innov * inv_sqrt;
+            let g = hn * innov / sv;
+            for ((xk, ak), pk) in x.iter_mut().zip(a).zip(pg) {
+                *xk = ak * (*xk + pk * g);
+            }
+        }
+        rank1_upper(&mut self.m_filt, &sf, 1.0);
+        let c = hn * hn / sv;
+        // Column by column (wp is column-major); row i of column j as before:
+        // (wp_ij − c pg_i pg_j) a_i a_j.
+        let cpg: [f64; MAX_POLES] = core::array::from_fn(|i| c * pg.get(i).unwrap_or(&0.0));
+        for (j, col) in self
+            .wp
+            .as_mut_slice()
+            .chunks_exact_mut(MAX_POLES)
+            .take(nb)
+            .enumerate()
+        {
+            let (pj, aj) = (pg[j], a[j]);
+            for ((w, ci), ai) in col[..nb].iter_mut().zip(&cpg).zip(a) {
+                *w = (*w - ci * pj) * ai * aj;
+            }
+        }
+        for i in 0..nb {
+            self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
+        }
+    }
+
+    /// A sample without linear data: the SRP model still evolves.
+    pub(super) fn whitening_time_update(&mut self) {
+        let nb = self.bank.poles();
+        for x in self.wx.iter_mut() {
+            for k in 0..nb {
+                x[k] *= self.bank.a[k];
+            }
+        }
+        for i in 0..nb {
+            for j in 0..nb {
+                self.wp[(i, j)] *= self.bank.a[i] * self.bank.a[j];
+            }
+            self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
+        }
+    }
+}

@@ -1,0 +1,473 @@
+//! The layers of docs/architecture.md, held against the code's own imports: no import
+//! cycle between the files of a crate, and no import that runs up a layer. The table
+//! of layers is read from docs/architecture.md itself, so the document and the check
+//! cannot drift apart. The flight core is a crate of its own (crates/taiji-core), so
+//! the compiler already keeps it below everything else; its files are checked for
+//! cycles here too.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// A module path inside one crate, e.g. `["process", "hosts"]`; `[]` is the crate root.
+type ModPath = Vec<String>;
+
+/// Layers by number (lowest first), each with the module prefixes it holds.
+type Table = Vec<(u32, String, Vec<String>)>;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The layer table of docs/architecture.md: the rows of the Markdown table after the
+/// line `<!-- layers -->`, `| 2 | bus and runtime | bus, process, ... |`.
+fn table_from_doc(doc: &str) -> Table {
+    let mut rows = Vec::new();
+    let Some(start) = doc.find("<!-- layers -->") else {
+        return rows;
+    };
+    for line in doc[start..].lines().skip(1) {
+        let line = line.trim();
+        if line.is_empty() && !rows.is_empty() {
+            break;
+        }
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+        if cells.len() < 3 {
+            continue;
+        }
+        let Ok(n) = cells[0].parse::<u32>() else {
+            continue;
+        };
+        let mods = cells[2]
+            .split(',')
+            .map(|m| m.trim().trim_matches('`').to_string())
+            .filter(|m| !m.is_empty())
+            .collect();
+        rows.push((n, cells[1].to_string(), mods));
+    }
+    rows
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// `src/process/hosts.rs` → `[process, hosts]`; `mod.rs` and `lib.rs` name their folder.
+fn mod_path(src: &Path, file: &Path) -> ModPath {
+    let rel = file.strip_prefix(src).unwrap().with_extension("");
+    let mut parts: Vec<String> = rel
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    if matches!(parts.last().map(String::as_str), Some("mod" | "lib")) {
+        parts.pop();
+    }
+    parts
+}
+
+/// The code without comments, string literals and the unit tests at the end (tests
+/// may import anything).
+fn code_of(text: &str) -> String {
+    let mut out = String::new();
+    let lines: Vec<&str> = text.lines().collect();
+    for (i, line) in lines.iter().enumerate() {
+        if line.trim() == "#[cfg(test)]"
+            && lines
+                .get(i + 1)
+                .is_some_and(|n| n.trim_start().starts_with("mod "))
+        {
+            break;
+        }
+        let line = match line.find("//") {
+            Some(k) => &line[..k],
+            None => line,
+        };
+        // Blank out string literals (a path inside a message is no import).
+        let mut in_str = false;
+        let mut prev = ' ';
+        for ch in line.chars() {
+            if ch == '"' && prev != '\\' {
+                in_str = !in_str;
+                out.push('"');
+            } else if !in_str {
+                out.push(ch);
+            }
+            prev = ch;
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// `a::{b, c::{d, e}}, f` → `[a, b]`, `[a, c, d]`, `[a, c, e]`, `[f]`.
+fn expand(prefix: &[String], body: &str, out: &mut Vec<ModPath>) {
+    let (mut depth, mut cur, mut parts) = (0, String::new(), Vec::new());
+    for ch in body.chars() {
+        match ch {
+            '{' => depth += 1,
+            '}' => depth -= 1,
+            _ => {}
+        }
+        if ch == ',' && depth == 0 {
+            parts.push(std::mem::take(&mut cur));
+        } else {
+            cur.push(ch);
+        }
+    }
+    parts.push(cur);
+    for part in parts {
+        let part = part.trim();
+        if part.is_empty() {
+            continue;
+        }
+        if let (Some(open), true) = (part.find('{'), part.ends_with('}')) {
+            let mut p = prefix.to_vec();
+            p.extend(segments(&part[..open]));
+            expand(&p, &part[open + 1..part.len() - 1], out);
+        } else {
+            let name = part.split(" as ").next().unwrap_or(part);
+            let mut p = prefix.to_vec();
+            p.extend(segments(name));
+            out.push(p);
+        }
+    }
+}
+
+fn segments(path: &str) -> Vec<String> {
+    path.split("::")
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .collect()
+}
+
+/// Every path a file names: its `use` trees and inline `crate::…`/`super::…` paths.
+fn named_paths(code: &str) -> Vec<ModPath> {
+    let mut out = Vec::new();
+    let mut rest = code;
+    while let Some(k) = rest.find("use ") {
+        let boundary = k == 0 || !rest.as_bytes()[k - 1].is_ascii_alphanumeric();
+        let after = &rest[k + 4..];
+        match (boundary, after.find(';')) {
+            (true, Some(end)) => {
+                expand(&[], &after[..end], &mut out);
+                rest = &after[end..];
+            }
+            _ => rest = after,
+        }
+    }
+    for head in ["crate::", "super::"] {
+        let mut rest = code;
+        while let Some(k) = rest.find(head) {
+            let boundary = k == 0 || {
+                let c = rest.as_bytes()[k - 1];
+                !(c.is_ascii_alphanumeric() || c == b'_' || c == b':')
+            };
+            let tail = &rest[k..];
+            let end = tail
+                .find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
+                .unwrap_or(tail.len());
+            if boundary {
+                out.push(segments(&tail[..end]));
+            }
+            rest = &tail[end..];
+        }
+    }
+    out
+}
+
+/// The import graph of one crate's source folder: file → files it imports from.
+fn graph(src: &Path) -> BTreeMap<ModPath, BTreeSet<ModPath>> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let mods: BTreeMap<ModPath, PathBuf> = files
+        .iter()
+        .map(|f| (mod_path(src, f), f.clone()))
+        .collect();
+    let resolve = |p: &[String]| -> Option<ModPath> {
+        (1..=p.len())
+            .rev()
+            .map(|n| p[..n].to_vec())
+            .find(|q| mods.contains_key(q))
+    };
+    let mut g = BTreeMap::new();
+    for (m, file) in &mods {
+        let text = std::fs::read_to_string(file).unwrap();
+        let mut edges = BTreeSet::new();
+        for p in named_paths(&code_of(&text)) {
+            let target: ModPath = match p.first().map(String::as_str) {
+                Some("crate") => p[1..].to_vec(),
+                Some("super") => {
+                    // Each `super` is one module up (a file's module is its own name).
+                    let mut cur = m.clone();
+                    let mut q = &p[..];
+                    while q.first().is_some_and(|s| s == "super") {
+                        cur.pop();
+                        q = &q[1..];
+                    }
+                    cur.extend_from_slice(q);
+                    cur
+                }
+                Some("self") => {
+                    let mut cur = m.clone();
+                    cur.extend_from_slice(&p[1..]);
+                    cur
+                }
+                _ => continue,
+            };
+            if let Some(t) = resolve(&target) {
+                if &t != m && !t.is_empty() {
+                    edges.insert(t);
+                }
+            }
+        }
+        g.insert(m.clone(), edges);
+    }
+    g
+}
+
+fn name(m: &ModPath) -> String {
+    if m.is_empty() {
+        "lib".into()
+    } else {
+        m.join("/")
+    }
+}
+
+/// Strongly connected components with more than one file: the import cycles.
+fn cycles(g: &BTreeMap<ModPath, BTreeSet<ModPath>>) -> Vec<Vec<String>> {
+    // Tarjan's algorithm, iterative enough for a few hundred files.
+    struct T<'a> {
+        g: &'a BTreeMap<ModPath, BTreeSet<ModPath>>,
+        index: BTreeMap<&'a ModPath, usize>,
+        low: BTreeMap<&'a ModPath, usize>,
+        stack: Vec<&'a ModPath>,
+        on: BTreeSet<&'a ModPath>,
+        out: Vec<Vec<String>>,
+    }
+    fn visit<'a>(t: &mut T<'a>, v: &'a ModPath) {
+        let i = t.index.len();
+        t.index.insert(v, i);
+        t.low.insert(v, i);
+        t.stack.push(v);
+        t.on.insert(v);
+        for w in &t.g[v] {
+            if !t.index.contains_key(w) {
+                visit(t, w);
+                let lw = t.low[w];
+                let lv = t.low.get_mut(v).unwrap();
+                *lv = (*lv).min(lw);
+            } else if t.on.contains(w) {
+                let iw = t.index[w];
+                let lv = t.low.get_mut(v).unwrap();
+                *lv = (*lv).min(iw);
+            }
+        }
+        if t.low[v] == t.index[v] {
+            let mut scc = Vec::new();
+            while let Some(w) = t.stack.pop() {
+                t.on.remove(w);
+                scc.push(name(w));
+                if w == v {
+                    break;
+                }
+            }
+            if scc.len() > 1 {
+                scc.sort();
+                t.out.push(scc);
+            }
+        }
+    }
+    let mut t = T {
+        g,
+        index: BTreeMap::new(),
+        low: BTreeMap::new(),
+        stack: Vec::new(),
+        on: BTreeSet::new(),
+        out: Vec::new(),
+    };
+    for v in g.keys() {
+        if !t.index.contains_key(v) {
+            visit(&mut t, v);
+        }
+    }
+    t.out
+}
+
+/// Layer of a module: the row whose prefix matches most of its path.
+fn layer_of(table: &Table, m: &ModPath) -> Option<u32> {
+    let path = name(m);
+    table
+        .iter()
+        .flat_map(|(n, _, mods)| mods.iter().map(move |p| (*n, p)))
+        .filter(|(_, p)| path == **p || path.starts_with(&format!("{p}/")))
+        .max_by_key(|(_, p)| p.len())
+        .map(|(n, _)| n)
+}
+
+/// Every problem of one crate's sources against the table: cycles, imports up a
+/// layer, files in no layer.
+fn problems(src: &Path, table: Option<&Table>) -> Vec<String> {
+    let g = graph(src);
+    let mut out: Vec<String> = cycles(&g)
+        .into_iter()
+        .map(|c| format!("import cycle: {}", c.join(" ↔ ")))
+        .collect();
+    let Some(table) = table else {
+        return out;
+    };
+    for (m, edges) in &g {
+        if m.is_empty() {
+            continue; // lib.rs declares every module
+        }
+        let Some(lm) = layer_of(table, m) else {
+            out.push(format!(
+                "{} is in no layer of docs/architecture.md",
+                name(m)
+            ));
+            continue;
+        };
+        for t in edges {
+            if let Some(lt) = layer_of(table, t) {
+                if lt > lm {
+                    out.push(format!(
+                        "upward import: {} (layer {lm}) imports {} (layer {lt})",
+                        name(m),
+                        name(t)
+                    ));
+                }
+            }
+        }
+    }
+    out
+}
+
+fn architecture_table() -> Table {
+    let doc = std::fs::read_to_string(root().join("docs/architecture.md"))
+        .expect("docs/architecture.md states the layers");
+    let table = table_from_doc(&doc);
+    assert!(
+        table.len() >= 3,
+        "docs/architecture.md has no layer table after <!-- layers -->"
+    );
+    table
+}
+
+#[test]
+fn the_std_layer_has_no_cycle_and_no_upward_import() {
+    let table = architecture_table();
+    let found = problems(&root().join("src"), Some(&table));
+    assert!(found.is_empty(), "{}", found.join("\n"));
+}
+
+#[test]
+fn the_flight_core_has_no_import_cycle() {
+    let found = problems(&root().join("crates/taiji-core/src"), None);
+    assert!(found.is_empty(), "{}", found.join("\n"));
+}
+
+/// A throw-away crate source tree in a temporary folder.
+struct Tree(PathBuf);
+
+impl Tree {
+    fn new(tag: &str, files: &[(&str, &str)]) -> Tree {
+        let dir = std::env::temp_dir().join(format!("taiji-layers-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        for (path, text) in files {
+            let p = dir.join(path);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, text).unwrap();
+        }
+        Tree(dir)
+    }
+}
+
+impl Drop for Tree {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn tiny_table() -> Table {
+    table_from_doc(
+        "<!-- layers -->\n| layer | name | modules |\n|---|---|---|\n\
+         | 1 | low | `a`, `b` |\n| 2 | high | `c` |\n\n",
+    )
+}
+
+#[test]
+fn the_check_catches_a_cycle() {
+    let t = Tree::new(
+        "cycle",
+        &[
+            ("lib.rs", "pub mod a;\npub mod b;\npub mod c;\n"),
+            ("a.rs", "use crate::b::Thing;\n"),
+            ("b/mod.rs", "pub fn f() { crate::a::g() }\n"),
+            ("c.rs", "use crate::{a, b::Thing};\n"),
+        ],
+    );
+    let found = problems(&t.0, Some(&tiny_table()));
+    assert_eq!(found, ["import cycle: a ↔ b"], "{found:?}");
+}
+
+#[test]
+fn the_check_catches_an_upward_import_and_a_file_in_no_layer() {
+    let t = Tree::new(
+        "up",
+        &[
+            ("lib.rs", "pub mod a;\npub mod c;\npub mod d;\n"),
+            ("a.rs", "use crate::c::{self, Thing as Other};\n"),
+            (
+                "c.rs",
+                "use crate::a;\n// use crate::d; (a comment is no import)\n",
+            ),
+            (
+                "d.rs",
+                "fn f() { let s = \"crate::c::X\"; }\n#[cfg(test)]\nmod tests { use crate::c; }\n",
+            ),
+        ],
+    );
+    let found = problems(&t.0, Some(&tiny_table()));
+    assert!(
+        found.contains(&"upward import: a (layer 1) imports c (layer 2)".to_string()),
+        "{found:?}"
+    );
+    assert!(
+        found.contains(&"import cycle: a ↔ c".to_string()),
+        "{found:?}"
+    );
+    assert!(
+        found.contains(&"d is in no layer of docs/architecture.md".to_string()),
+        "{found:?}"
+    );
+    assert_eq!(found.len(), 3, "{found:?}");
+}
+
+#[test]
+fn super_paths_resolve_from_files_and_folders() {
+    let t = Tree::new(
+        "super",
+        &[
+            ("lib.rs", "pub mod p;\npub mod a;\n"),
+            ("a.rs", ""),
+            ("p/mod.rs", "mod q;\nuse super::a;\n"),
+            ("p/q.rs", "use super::r;\nuse super::super::a::X;\n"),
+            ("p/r.rs", ""),
+        ],
+    );
+    let g = graph(&t.0);
+    let names = |m: &[&str]| -> Vec<String> {
+        let k: ModPath = m.iter().map(|s| s.to_string()).collect();
+        g[&k].iter().map(name).collect()
+    };
+    assert_eq!(names(&["p"]), ["a"]);
+    assert_eq!(names(&["p", "q"]), ["a", "p/r"]);
+}
