@@ -1,12 +1,11 @@
 //! A counting global allocator for proving the filter loop allocation-free. A binary
 //! opts in with `#[global_allocator] static A: CountingAlloc = CountingAlloc;` and the
-//! loop reads `allocations()` before and after.
+//! loop reads `thread_allocations()` before and after (its own thread's: helper
+//! threads may allocate).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-static ALLOCS: AtomicU64 = AtomicU64::new(0);
+use std::sync::atomic::{AtomicBool, Ordering};
 
 thread_local! {
     /// This thread's allocations (a const-initialised `Cell`: reading it allocates
@@ -15,7 +14,6 @@ thread_local! {
 }
 
 fn count() {
-    ALLOCS.fetch_add(1, Ordering::Relaxed);
     let _ = MINE.try_with(|c| c.set(c.get() + 1));
 }
 static INSTALLED: AtomicBool = AtomicBool::new(false);
@@ -41,15 +39,6 @@ unsafe impl GlobalAlloc for CountingAlloc {
     unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
         count();
         System.realloc(p, l, n)
-    }
-}
-
-/// Allocations so far in this process, or `None` when `CountingAlloc` is not installed.
-pub fn allocations() -> Option<u64> {
-    if INSTALLED.load(Ordering::Relaxed) {
-        Some(ALLOCS.load(Ordering::Relaxed))
-    } else {
-        None
     }
 }
 

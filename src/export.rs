@@ -33,14 +33,6 @@ fn create(dir: &Path, name: &str) -> Result<std::io::BufWriter<std::fs::File>, S
         .map_err(|e| format!("cannot create {}: {e}", path.display()))
 }
 
-/// The raw bytes of a message (plain numbers, no padding left uninitialised: every
-/// message type spells its padding out as fields).
-fn bytes_of<T: Copy>(v: &T) -> &[u8] {
-    // SAFETY: T is one of our `#[repr(C)]` plain-number message types whose padding is
-    // explicit fields, so every byte is initialised.
-    unsafe { std::slice::from_raw_parts(v as *const T as *const u8, std::mem::size_of::<T>()) }
-}
-
 /// Writes the export of `rec` into `dir`; returns the number of samples.
 pub fn write(rec: &Recording, dir: &Path) -> Result<u64, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
@@ -56,7 +48,7 @@ pub fn write(rec: &Recording, dir: &Path) -> Result<u64, String> {
     let mut f = create(dir, SAMPLES_FILE)?;
     f.write_all(&header::<SensorSample>(n)).map_err(err)?;
     for sample in rec.samples() {
-        f.write_all(bytes_of(&sample?)).map_err(err)?;
+        f.write_all(bytemuck::bytes_of(&sample?)).map_err(err)?;
     }
     f.flush().map_err(err)?;
     Ok(n)

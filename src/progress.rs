@@ -24,11 +24,6 @@ impl Bar {
         Bar(Some(b))
     }
 
-    /// A hidden bar.
-    pub fn hidden() -> Self {
-        Bar(None)
-    }
-
     pub fn set(&self, pos: u64) {
         if let Some(b) = &self.0 {
             b.set_position(pos);

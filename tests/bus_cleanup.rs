@@ -14,17 +14,54 @@ const CHILD_ENV: &str = "TAIJI_BUS_TEST_CHILD";
 const PREFIX_ENV: &str = "TAIJI_BUS_TEST_PREFIX";
 const SERVICE: &str = "taiji/test/cleanup";
 
-/// Not a test of its own: the body of the child processes (publisher or subscriber)
-/// that the test below starts and kills.
-#[test]
-#[ignore]
-fn bus_child() {
-    let (Ok(role), Ok(prefix)) = (std::env::var(CHILD_ENV), std::env::var(PREFIX_ENV)) else {
+/// This test binary runs without libtest's harness (`harness = false` in Cargo.toml):
+/// started with `CHILD_ENV` set, it is one of the child processes the tests start and
+/// kill; otherwise it runs the tests.
+fn main() {
+    if let (Ok(role), Ok(prefix)) = (std::env::var(CHILD_ENV), std::env::var(PREFIX_ENV)) {
+        bus_child(&role, &prefix);
         return;
-    };
+    }
+    let tests: [(&str, fn()); 3] = [
+        (
+            "cleanup_of_a_connection_abandoned_half_made_does_not_hang",
+            cleanup_of_a_connection_abandoned_half_made_does_not_hang,
+        ),
+        (
+            "a_prefix_is_held_by_one_claimant_and_freed_when_it_dies",
+            a_prefix_is_held_by_one_claimant_and_freed_when_it_dies,
+        ),
+        (
+            "sweep_removes_only_empty_unreadable_objects_old_enough",
+            sweep_removes_only_empty_unreadable_objects_old_enough,
+        ),
+    ];
+    // `cargo test --test bus_cleanup -- NAME` runs the tests whose name contains NAME.
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    let mut failed = 0;
+    for (name, test) in tests {
+        if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
+            continue;
+        }
+        let ok = std::panic::catch_unwind(test).is_ok();
+        println!("test {name} ... {}", if ok { "ok" } else { "FAILED" });
+        failed += usize::from(!ok);
+    }
+    if failed > 0 {
+        println!("test result: FAILED. {failed} failed");
+        std::process::exit(101);
+    }
+    println!("test result: ok.");
+}
+
+/// The body of the child processes (publisher, subscriber or prefix holder).
+fn bus_child(role: &str, prefix: &str) {
     if role == "lock" {
         // Hold the prefix until killed.
-        let _lock = match bus::claim_prefix(&prefix).unwrap() {
+        let _lock = match bus::claim_prefix(prefix).unwrap() {
             bus::Claim::Won(lock) => lock,
             bus::Claim::Held { pid } => panic!("prefix held by {pid:?}"),
         };
@@ -32,7 +69,7 @@ fn bus_child() {
             std::thread::sleep(Duration::from_secs(1));
         }
     }
-    let node = bus::node(&format!("child-{role}"), &prefix).unwrap();
+    let node = bus::node(&format!("child-{role}"), prefix).unwrap();
     if role == "pub" {
         let p = bus::publisher::<Control>(&node, SERVICE).unwrap();
         for i in 0.. {
@@ -52,7 +89,6 @@ fn bus_child() {
 
 fn child(role: &str, prefix: &str) -> Child {
     Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", "bus_child", "--ignored", "--nocapture"])
         .env(CHILD_ENV, role)
         .env(PREFIX_ENV, prefix)
         .stdout(Stdio::null())
@@ -72,7 +108,6 @@ fn connections(prefix: &str) -> Vec<(PathBuf, u64)> {
         .collect()
 }
 
-#[test]
 fn cleanup_of_a_connection_abandoned_half_made_does_not_hang() {
     let prefix = format!("tjbus{}_", std::process::id());
     let mut kids = [child("sub", &prefix), child("pub", &prefix)];
@@ -126,7 +161,6 @@ fn shm_of(prefix: &str) -> Vec<String> {
         .collect()
 }
 
-#[test]
 fn a_prefix_is_held_by_one_claimant_and_freed_when_it_dies() {
     let prefix = format!("tjlock{}_", std::process::id());
     let mut holder = child("lock", &prefix);
@@ -165,7 +199,6 @@ fn a_prefix_is_held_by_one_claimant_and_freed_when_it_dies() {
     assert_eq!(bus::release(&prefix).unwrap().global_mgmt, 0);
 }
 
-#[test]
 fn sweep_removes_only_empty_unreadable_objects_old_enough() {
     let prefix = format!("tjsweep{}_", std::process::id());
     let make = |name: &str, len: u64, mode: u32, age: Duration| {

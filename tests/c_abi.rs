@@ -20,6 +20,7 @@ fn memory() -> Vec<u64> {
 
 fn init(mem: &mut [u64]) -> *mut u8 {
     let p = mem.as_mut_ptr() as *mut u8;
+    // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
     let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &config()) };
     assert_eq!(rc, TAIJI_OK);
     p
@@ -44,6 +45,7 @@ impl Garbage {
 fn garbage_sample(g: &mut Garbage) -> SensorSample {
     let mut raw = [0u8; std::mem::size_of::<SensorSample>()];
     g.fill(&mut raw);
+    // SAFETY: the source holds at least size_of::<T>() bytes; any bytes are a valid T (plain numbers).
     unsafe { std::ptr::read_unaligned(raw.as_ptr() as *const SensorSample) }
 }
 
@@ -62,6 +64,7 @@ fn null_pointers_get_an_error_code() {
     let null = std::ptr::null_mut();
     let s = SensorSample::default();
     let mut out = EstimateMsg::default();
+    // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
     unsafe {
         assert_eq!(
             taiji_estimator_init(null, 1 << 20, &config()),
@@ -116,9 +119,11 @@ fn misaligned_or_small_state_memory_is_refused() {
     let mut mem = memory();
     let base = mem.as_mut_ptr() as *mut u8;
     for off in 1..8 {
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         let rc = unsafe { taiji_estimator_init(base.add(off), mem.len() * 8 - 8, &config()) };
         assert_eq!(rc, TAIJI_ERR_ALIGNMENT, "offset {off}");
     }
+    // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
     let rc = unsafe { taiji_estimator_init(base, taiji_estimator_size() - 1, &config()) };
     assert_eq!(rc, TAIJI_ERR_SIZE);
 }
@@ -129,10 +134,12 @@ fn memory_that_was_never_initialised_is_refused() {
     for _ in 0..20 {
         let mut mem = memory();
         let bytes =
+            // SAFETY: the slice covers exactly the u64 buffer it is made from, which outlives it.
             unsafe { std::slice::from_raw_parts_mut(mem.as_mut_ptr() as *mut u8, mem.len() * 8) };
         g.fill(bytes);
         let p = mem.as_mut_ptr() as *mut u8;
         let mut out = EstimateMsg::default();
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         unsafe {
             assert_eq!(taiji_estimator_solve(p), TAIJI_ERR_STATE);
             assert_eq!(taiji_estimator_estimate(p, &mut out), TAIJI_ERR_STATE);
@@ -161,9 +168,11 @@ fn a_wrong_table_is_refused_and_leaves_no_estimator() {
     for (k, f) in bad.iter().enumerate() {
         let mut c = config();
         f(&mut c);
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &c) };
         assert_eq!(rc, TAIJI_ERR_CONFIG, "case {k}");
         assert_eq!(
+            // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
             unsafe { taiji_estimator_solve(p) },
             TAIJI_ERR_STATE,
             "case {k}"
@@ -173,7 +182,9 @@ fn a_wrong_table_is_refused_and_leaves_no_estimator() {
     for _ in 0..1000 {
         let mut raw = [0u8; std::mem::size_of::<EstimatorConfig>()];
         g.fill(&mut raw);
+        // SAFETY: the source holds at least size_of::<T>() bytes; any bytes are a valid T (plain numbers).
         let c: EstimatorConfig = unsafe { std::ptr::read_unaligned(raw.as_ptr() as *const _) };
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &c) };
         assert!(rc == TAIJI_ERR_CONFIG || rc == TAIJI_OK);
     }
@@ -190,14 +201,17 @@ fn garbage_samples_give_codes_and_a_finite_or_flagged_estimate() {
         if k % 3 == 0 {
             s.header.tick = k; // plausible ticks now and then, so more of it gets in
         }
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         let rc = unsafe { taiji_estimator_update(p, &s, &mut rejected, &mut flags) };
         assert_eq!(rc, TAIJI_OK);
         if flags & TAIJI_SOLVE_DUE != 0 {
+            // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
             let rc = unsafe { taiji_estimator_solve(p) };
             assert!(rc == TAIJI_OK || rc == TAIJI_ERR_SOLVE);
         }
     }
     let mut out = EstimateMsg::default();
+    // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
     assert_eq!(unsafe { taiji_estimator_finish(p, &mut out) }, TAIJI_OK);
     let finite = out
         .beta
@@ -219,25 +233,30 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
         s.header.tick = k;
         s.star.valid = 1;
         s.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         unsafe { taiji_estimator_update(p, &s, std::ptr::null_mut(), std::ptr::null_mut()) };
     }
     let mut buf = vec![0u8; taiji_checkpoint_size() + 3];
     let mut n = 0usize;
     // Unaligned buffer on purpose.
     let rc =
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         unsafe { taiji_estimator_checkpoint(p, buf.as_mut_ptr().add(3), buf.len() - 3, &mut n) };
     assert_eq!(rc, TAIJI_OK);
     assert_eq!(n, taiji_checkpoint_size());
+    // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
     let small = unsafe { taiji_estimator_checkpoint(p, buf.as_mut_ptr(), n - 1, &mut n) };
     assert_eq!(small, TAIJI_ERR_SIZE);
     let ck = buf[3..3 + n].to_vec();
     let mut mem2 = memory();
     let q = mem2.as_mut_ptr() as *mut u8;
     assert_eq!(
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         unsafe { taiji_estimator_restore(q, mem2.len() * 8, ck.as_ptr(), n) },
         TAIJI_OK
     );
     let (mut a, mut b) = (EstimateMsg::default(), EstimateMsg::default());
+    // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
     unsafe {
         taiji_estimator_estimate(p, &mut a);
         taiji_estimator_estimate(q, &mut b);
@@ -249,11 +268,13 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
         let i = (g.next() as usize) % bad.len();
         bad[i] ^= 1 << (g.next() % 8);
         let len = if k % 10 == 0 { i } else { bad.len() };
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         let rc = unsafe { taiji_estimator_restore(q, mem2.len() * 8, bad.as_ptr(), len) };
         assert!(
             [TAIJI_ERR_CHECKPOINT, TAIJI_ERR_VERSION, TAIJI_ERR_SIZE].contains(&rc),
             "byte {i}: code {rc}"
         );
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         assert_eq!(unsafe { taiji_estimator_solve(q) }, TAIJI_ERR_STATE);
     }
 }

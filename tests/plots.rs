@@ -52,9 +52,14 @@ fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
             "time [s]"
         };
         assert!(svg.contains(x_label), "{stem}: no x-axis label");
+        // The y-axis label is the text plotters rotates by 270°; it names a unit.
+        let y_labels = y_axis_labels(&svg);
         assert!(
-            svg.contains("ASD [") || svg.contains(" ["),
-            "{stem}: no y-axis label"
+            !y_labels.is_empty()
+                && y_labels
+                    .iter()
+                    .all(|l| l.contains(" [") && l.ends_with(']')),
+            "{stem}: y-axis labels without a unit: {y_labels:?}"
         );
         assert!(
             svg.matches("<polyline").count() >= 3,
@@ -173,4 +178,27 @@ fn convergence_starts_at_the_first_solve_and_keeps_the_two_sensors_apart() {
     assert_eq!(cmd.len(), 3);
     assert!(cmd.iter().all(|s| s.color == BLACK_INDEX));
     assert!(applied.iter().all(|s| s.color != BLACK_INDEX));
+}
+
+/// The texts of an SVG that are rotated by 270° (plotters' y-axis descriptions).
+fn y_axis_labels(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let (attrs, rest) = t.split_once('>')?;
+            attrs
+                .contains("rotate(270")
+                .then(|| rest.split('<').next().unwrap_or("").trim().to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn the_y_label_check_reads_only_rotated_text() {
+    let x_only = r#"<text x="1" y="2">time [s]</text>"#;
+    assert!(y_axis_labels(x_only).is_empty());
+    let both = r#"<text x="1">time [s]</text><text transform="rotate(270, 8, 2)">
+β [ppm]
+</text>"#;
+    assert_eq!(y_axis_labels(both), ["β [ppm]"]);
 }

@@ -430,13 +430,6 @@ impl InCharge {
         }
     }
 
-    /// Is this host's link silent now?
-    pub fn silent(&self, host: &str) -> bool {
-        self.remote
-            .iter()
-            .any(|h| h.name == host && h.silent_since.is_some())
-    }
-
     /// The report's `hosts`: where each process ran, the tunnel, the link events.
     pub fn report(&self, processes: &[(String, String)]) -> serde_json::Value {
         let rt = self.round_trip.summary_us();

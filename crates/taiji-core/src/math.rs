@@ -3,9 +3,11 @@
 //! (the platform's `exp` or `powf` may differ from libm's in the last bit).
 //!
 //! `Real` gives `f64` the methods `std` would, under the same names, so the maths
-//! reads as usual; in a std build the inherent methods win for the ones that are
-//! exact (`sqrt`, `round`, `ceil`, `powi(2)` = x·x), and the transcendental ones are
-//! called through this module's functions explicitly.
+//! reads as usual. Where std is linked anywhere in the build (the std binaries, unit
+//! tests), its inherent methods win for these exact operations (`sqrt`, `round`,
+//! `ceil`; a test checks they agree bit for bit); the no_std builds (the C library,
+//! bare metal) run these. The transcendental functions are called through this
+//! module's functions explicitly, so every build runs libm's.
 
 /// Methods `core` lacks on `f64`; exact operations only (identical in every build).
 pub trait Real: Sized {

@@ -2,9 +2,12 @@
 //! set, over iceoryx2 shared memory). Units in every field's comment; vectors carry
 //! their frame (`_b` body, `_bn` body relative to inertial). Times are integer ns.
 //!
-//! Every type here is `#[repr(C)]`, fixed-size and `ZeroCopySend`, with a stable
-//! `type_name` so that separately built binaries agree on the service's payload type.
+//! Every type here is `#[repr(C)]` and fixed-size, with its padding spelled out as
+//! fields. The bus layer (`taiji::bus::Wire`) gives each one it carries a stable,
+//! versioned iceoryx2 type name, so separately built binaries agree on the payload.
 
+// Unused where std is linked anywhere in the build (the std binaries, unit tests):
+// std's inherent f64 methods then win for these exact operations, with the same bits.
 #[allow(unused_imports)]
 use crate::math::Real;
 
@@ -16,7 +19,7 @@ use crate::math::Real;
 pub const LAYOUT_VERSION: u32 = 1;
 
 /// Common header of every message.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct Header {
     /// Per-publisher sequence number, from 0, no gaps.
@@ -39,7 +42,7 @@ pub struct Header {
 }
 
 /// Star-tracker sample.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct StarSample {
     /// Measured attitude (w, x, y, z) of B relative to N [-].
@@ -64,7 +67,7 @@ pub const ANGULAR_OF_PAIR: [usize; 3] = [2, 0, 1];
 pub const PAIR_OF_ANGULAR: [usize; 3] = [1, 2, 0];
 
 /// One IS's drive voltages for the interval (Table 1).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct IsSample {
     /// Electrode drive voltages [V], indexed [x, y, z][1, 2] as V_{j,1}, V_{j,2}.
@@ -103,7 +106,7 @@ impl StarSample {
 }
 
 /// Front-end electronics → estimator: everything the estimator may see.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct SensorSample {
     pub header: Header,
@@ -112,7 +115,7 @@ pub struct SensorSample {
 }
 
 /// Estimator → supervisor / recorder: the latest estimates with 1σ.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct EstimateMsg {
     pub header: Header,

@@ -53,6 +53,8 @@ fn detect_avx2() -> bool {
 /// XCR0, the OS's enabled register states.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "xsave")]
+/// # Safety
+/// The CPU must support xsave and the OS must have enabled it (OSXSAVE set).
 unsafe fn xgetbv0() -> u64 {
     core::arch::x86_64::_xgetbv(0)
 }

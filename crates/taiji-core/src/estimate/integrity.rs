@@ -13,8 +13,6 @@
 //! * [`RatioFit`]: the per-axis ratio of the two IS's angular voltages (β2/β1, the
 //!   same rotation seen twice), fitted from accepted samples only.
 
-#[allow(unused_imports)]
-use crate::math::{self, Real};
 /// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data lose
 /// about one sample per campaign, while an upset moving a voltage by a few noise σ
 /// already fails the cross-IS test (whose noise is far below a voltage's own).

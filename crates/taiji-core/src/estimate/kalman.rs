@@ -1,8 +1,10 @@
 //! Static-state Kalman filter (Φ = I, eq. 3–9) with the Joseph-form covariance update
 //! P = (I − K H) P (I − K H)ᵀ + K R Kᵀ (eq. 9 of the paper has a typo).
 
+// Unused where std is linked anywhere in the build (the std binaries, unit tests):
+// std's inherent f64 methods then win for these exact operations, with the same bits.
 #[allow(unused_imports)]
-use crate::math::{self, Real};
+use crate::math::Real;
 use nalgebra::{SMatrix, SVector};
 
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]

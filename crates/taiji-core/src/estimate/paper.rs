@@ -6,6 +6,8 @@
 
 use super::config::EstimatorConfig;
 use super::kalman::StaticKf;
+// Unused where std is linked anywhere in the build (the std binaries, unit tests):
+// std's inherent f64 methods then win for these exact operations, with the same bits.
 #[allow(unused_imports)]
 use crate::math::{self, Real};
 use crate::model::attitude::coupling_matrix;

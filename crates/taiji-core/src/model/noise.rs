@@ -2,6 +2,8 @@
 //! from a bank of first-order (AR(1)) filters. The estimator reuses the bank as the
 //! state-space model that whitens the coloured SRP noise.
 
+// Unused where std is linked anywhere in the build (the std binaries, unit tests):
+// std's inherent f64 methods then win for these exact operations, with the same bits.
 #[allow(unused_imports)]
 use crate::math::{self, Real};
 

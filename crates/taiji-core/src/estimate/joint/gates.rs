@@ -231,3 +231,59 @@ impl JointEstimator {
         ok
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nan_fails_every_threshold_test() {
+        assert!(nan_or_above(f64::NAN, 1.0));
+        assert!(nan_or_above(1.0 + 1e-12, 1.0));
+        assert!(!nan_or_above(1.0, 1.0));
+        assert!(!nan_or_above(f64::NEG_INFINITY, 1.0));
+    }
+
+    /// The range gate of one electrode pair sits at `RANGE_MARGIN` times the full
+    /// scale, in the prior's volts: the difference for the angular axis, the sum for
+    /// the linear one; anything not a number is out of range.
+    #[test]
+    fn the_range_gate_is_the_full_scale_times_its_margin() {
+        let cfg = test_config();
+        let e = JointEstimator::new(cfg);
+        for i in 0..2 {
+            for p in 0..3 {
+                let a = ANGULAR_OF_PAIR[p];
+                let b = cfg.beta_prior[i][a].abs();
+                let k = (cfg.geometry_m[i][PERM[p]] * cfg.beta_prior[i][PERM[p]]).abs();
+                let (ang, lin) = (
+                    RANGE_MARGIN * cfg.full_scale_angular / b,
+                    RANGE_MARGIN * cfg.full_scale_linear / k,
+                );
+                // Just inside either limit: accepted.
+                let half = 0.5 * 0.999;
+                assert!(e.pair_in_range(i, p, &[half * ang, -half * ang]), "{i} {p}");
+                assert!(e.pair_in_range(i, p, &[half * lin, half * lin]), "{i} {p}");
+                // Just beyond: refused.
+                let over = 0.5 * 1.001;
+                assert!(
+                    !e.pair_in_range(i, p, &[over * ang, -over * ang]),
+                    "{i} {p}"
+                );
+                assert!(!e.pair_in_range(i, p, &[over * lin, over * lin]), "{i} {p}");
+                assert!(!e.pair_in_range(i, p, &[f64::NAN, 0.0]), "{i} {p}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_rejection_counts_its_cause_and_marks_the_tick() {
+        let mut e = JointEstimator::new(test_config());
+        e.reject(CAUSE_STUCK);
+        e.reject(CAUSE_STUCK);
+        e.reject(CAUSE_STAR_OUTLIER);
+        assert_eq!(e.causes[CAUSE_STUCK], 2);
+        assert_eq!(e.causes[CAUSE_STAR_OUTLIER], 1);
+        assert_eq!(e.tick_mask, (1 << CAUSE_STUCK) | (1 << CAUSE_STAR_OUTLIER));
+    }
+}

@@ -30,8 +30,10 @@
 
 use super::config::EstimatorConfig;
 use super::integrity::{RatioFit, Stuck, Track, GATE};
+// Unused where std is linked anywhere in the build (the std binaries, unit tests):
+// std's inherent f64 methods then win for these exact operations, with the same bits.
 #[allow(unused_imports)]
-use crate::math::{self, Real};
+use crate::math::Real;
 use crate::model::noise::{PowerLawBank, MAX_POLES};
 use crate::msg::*;
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
@@ -442,5 +444,27 @@ mod poles_serde {
             }
         }
         d.deserialize_tuple(NS, V)
+    }
+}
+
+/// A table of the default Taiji case's magnitudes, for the unit tests of this folder.
+#[cfg(test)]
+pub(super) fn test_config() -> EstimatorConfig {
+    EstimatorConfig {
+        fs: 10.0,
+        n_is: 2,
+        geometry_m: [[0.02, 0.025, 0.03], [0.021, 0.024, 0.031]],
+        beta_prior: [[2e-6, 2.1e-6, 1.9e-6], [2.05e-6, 1.95e-6, 2e-6]],
+        com_prior_m: [[1e-4, -2e-4, 5e-5], [0.0, 1e-4, -1e-4]],
+        sigma_star_rad: 3.2e-7,
+        sigma_angular: 3e-10,
+        sigma_linear: 1e-12,
+        sigma_ripple: 1e-6,
+        srp_asd_at_3mhz: 1.1e-11,
+        sigma_force: 0.0,
+        solve_every: 600,
+        full_scale_linear: 1e-8,
+        full_scale_angular: 1e-7,
+        max_gap_ticks: 6000,
     }
 }

@@ -44,6 +44,8 @@ impl JointEstimator {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
+    /// # Safety
+    /// The CPU must support AVX2 (`simd::has_avx2`).
     pub(super) unsafe fn add_group_avx2(
         row: &SVector<f64, 6>,
         m: &Gram,
@@ -431,5 +433,41 @@ mod tests {
         // β's error reaching other parameters adds variance somewhere.
         let inv = n.hm.try_inverse().unwrap();
         assert!((0..NP).any(|k| var[k] > 1.01 * inv[(k, k)]));
+    }
+
+    /// On a linear least-squares problem one Gauss–Newton step from anywhere lands on
+    /// the solution of the normal equations, and its inverse is H⁻¹, whatever the
+    /// parameters' scales (the step equilibrates H before its Cholesky).
+    #[test]
+    fn one_gauss_newton_step_solves_a_linear_least_squares_problem() {
+        const M: usize = 45;
+        let scale = Par::from_fn(|k, _| 10f64.powi((k % 5) as i32 * 3 - 6));
+        let j = SMatrix::<f64, M, NP>::from_fn(|r, c| {
+            (((r * 13 + c * 7) % 11) as f64 - 5.0 + if r == c { 9.0 } else { 0.0 }) / scale[c]
+        });
+        let truth = Par::from_fn(|k, _| (k as f64 - 14.5) * scale[k]);
+        let y = j * truth;
+        let p0 = Par::from_fn(|k, _| 0.3 * scale[k]);
+        let h = j.transpose() * j;
+        let g = -(j.transpose() * (y - j * p0));
+        let (delta, hinv) = JointEstimator::newton_step(&h, &g).unwrap();
+        let p1 = p0 + delta;
+        for k in 0..NP {
+            assert!(
+                (p1[k] - truth[k]).abs() < 1e-8 * scale[k],
+                "{k}: {} vs {}",
+                p1[k],
+                truth[k]
+            );
+        }
+        let direct = h.try_inverse().unwrap();
+        for k in 0..NP {
+            assert!((hinv[(k, k)] / direct[(k, k)] - 1.0).abs() < 1e-8, "{k}");
+        }
+        // A singular H is refused, not solved.
+        let mut sing = h;
+        sing.set_column(3, &Par::zeros());
+        sing.set_row(3, &Par::zeros().transpose());
+        assert!(JointEstimator::newton_step(&sing, &g).is_none());
     }
 }

@@ -139,6 +139,8 @@ impl JointEstimator {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
+    /// # Safety
+    /// The CPU must support AVX2 (`simd::has_avx2`).
     pub(super) unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
         self.update_linear_portable(s, dv);
     }
@@ -232,5 +234,59 @@ impl JointEstimator {
             }
             self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A symmetric positive-definite 6 × 6 covariance of unequal scales.
+    fn cov() -> SMatrix<f64, 6, 6> {
+        let b = SMatrix::<f64, 6, 6>::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 - 2.0);
+        let s = SVector::<f64, 6>::from_fn(|i, _| 10f64.powi(i as i32 % 3 - 1));
+        let spd = b * b.transpose() + SMatrix::<f64, 6, 6>::identity() * 3.0;
+        SMatrix::from_fn(|i, j| spd[(i, j)] * s[i] * s[j])
+    }
+
+    #[test]
+    fn whitening_rows_make_the_covariance_the_identity() {
+        let r = cov();
+        let h = SVector::<f64, 6>::from_fn(|i, _| 1.0 + 0.3 * i as f64);
+        let (linv, u, hn) = JointEstimator::whitening(&r, &h).unwrap();
+        let white = linv * r * linv.transpose();
+        assert!((white - SMatrix::<f64, 6, 6>::identity()).abs().max() < 1e-12);
+        // u is the unit SRP direction in the whitened space, hn its gain.
+        assert!((u.norm() - 1.0).abs() < 1e-14);
+        assert!((linv * h - u * hn).norm() < 1e-12 * hn);
+    }
+
+    #[test]
+    fn complement_rows_are_white_and_blind_to_the_srp() {
+        let r = cov();
+        let h = SVector::<f64, 6>::from_fn(|i, _| (i as f64 - 2.5).powi(2) + 0.1);
+        let (linv, u, _) = JointEstimator::whitening(&r, &h).unwrap();
+        let rows = JointEstimator::complement_rows(&linv, &u);
+        // The five rows see the white noise as unit and independent ...
+        let white = rows * r * rows.transpose();
+        assert!((white - SMatrix::<f64, 5, 5>::identity()).abs().max() < 1e-12);
+        // ... and nothing of the coloured SRP along h.
+        assert!((rows * h).norm() < 1e-12 * (linv * h).norm());
+    }
+
+    #[test]
+    fn rank1_upper_adds_w_v_v_transposed_to_the_upper_triangle() {
+        let v = SVector::<f64, 5>::from_fn(|i, _| [0.5, 0.0, -2.0, 3.25, 1e-3][i]);
+        let m0 = SMatrix::<f64, 5, 5>::from_fn(|i, j| (i * 5 + j) as f64);
+        let mut m = m0;
+        rank1_upper(&mut m, &v, 0.75);
+        let direct = m0 + v * v.transpose() * 0.75;
+        for j in 0..5 {
+            for i in 0..5 {
+                let want = if i <= j { direct[(i, j)] } else { m0[(i, j)] };
+                assert!((m[(i, j)] - want).abs() < 1e-15, "({i}, {j})");
+            }
+        }
+        assert_eq!(symmetric(&m), symmetric(&m).transpose());
     }
 }
