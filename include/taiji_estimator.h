@@ -1,5 +1,49 @@
 /* taiji-calib: the joint estimator of the Taiji inertial-sensor calibration, as a C library.
- * Caller-owned state: taiji_estimator_size()/taiji_estimator_align(), then taiji_estimator_init().
+ *
+ * BUILD  cargo build --profile flight -p taiji-c   ->  target/flight/libtaiji.a
+ *        (no_std, panic = abort: nothing unwinds into C; link with -lm). Nothing is global
+ *        and nothing is allocated: all state is the caller's memory.
+ *
+ * MEMORY The state: taiji_estimator_size() bytes (about 64 KB) aligned to
+ *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
+ *        alignment. Stack per call, measured by painting on an emulated Cortex-M7 and on
+ *        x86-64 (docs/flight.md): update 6.7 KB; solve and finish 190 KB (the
+ *        Gauss-Newton Jacobian is built on the stack: run them on a task with >= 256 KB).
+ *
+ * TIME   Instructions per call on a Cortex-M7 over the default 10^4 s campaign
+ *        (tools/flight-qemu): update 33 840 typical, 47 440 worst (the first sample);
+ *        solve 6.9 M worst; finish 20.8 M. After a gap, update also bridges every missing
+ *        tick (at most max_gap_ticks of the table), each a propagation step.
+ *
+ * TICKS  Samples carry header.tick, the sample index from 0 at the campaign's start,
+ *        one per 1/fs. The estimator expects tick 0 first: a first tick N counts N ticks
+ *        as missing. A tick below the next expected is refused (CAUSE_TICK_ORDER); a gap
+ *        up to max_gap_ticks is bridged (CAUSE_TICK_MISSING per tick); a larger jump is
+ *        refused (CAUSE_TICK_JUMP) until a second sample confirms it. Only header.tick is
+ *        read; seq, times and epoch are the bus's.
+ *
+ * SOLVE  update sets TAIJI_SOLVE_DUE in *flags once every solve_every ticks (60 s of
+ *        data) and keeps it set until taiji_estimator_solve runs. Solving right after the
+ *        update that raised it gives results bit-identical to taiji-calib replay; solving
+ *        later (a slower rate group) takes the samples of the delay into that iteration
+ *        and gives slightly different (equally valid) estimates. A host that never solves
+ *        gets only finish's iterations, on all data: a degraded result.
+ *
+ * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.
+ *        finish is terminal and idempotent: it returns the same final estimate every
+ *        time, and update, solve and checkpoint after it return TAIJI_ERR_FINISHED. init
+ *        checks the host's header (TAIJI_ABI_ARGS) and refuses another with
+ *        TAIJI_ERR_VERSION; restore checks the checkpoint against the host's table.
+ *
+ * THREADS One state per estimator; calls on one state must not overlap (no locks
+ *        inside). Different states may be used from different threads. No call blocks,
+ *        sleeps, allocates or does I/O; none re-enters the library.
+ *
+ * EXPORT `taiji-calib export --telemetry F --out DIR` writes estimator_config.bin and
+ *        sensor_samples.bin: a 24-byte header (8 bytes magic "TJEXP001", u32 layout
+ *        version, u32 record size in bytes, u64 record count, little-endian), then the
+ *        records as the structs below (TaijiEstimatorConfig, TaijiSensorSample).
+ *
  * Every call returns TAIJI_OK (0) or a TAIJI_ERR_* code. Units are in each field's comment. */
 
 #ifndef TAIJI_ESTIMATOR_H
@@ -9,6 +53,11 @@
 
 #include <stddef.h>
 #include <stdint.h>
+/* What this header declares, for taiji_estimator_init to check against the library:
+ * taiji_estimator_init(mem, size, &table, TAIJI_ABI_ARGS). */
+#define TAIJI_ABI_ARGS TAIJI_ABI_VERSION, sizeof(struct TaijiEstimatorConfig), \
+    sizeof(struct TaijiSensorSample), sizeof(struct TaijiEstimateMsg)
+
 
 // Success.
 #define TAIJI_OK 0
@@ -37,6 +86,16 @@
 // The solve failed (singular normal equations); the previous solution is kept and the
 // estimate's status word says so.
 #define TAIJI_ERR_SOLVE 8
+
+// `update`, `solve` or `checkpoint` after `finish`: the campaign is over (`finish` and
+// `estimate` still return the final estimate).
+#define TAIJI_ERR_FINISHED 9
+
+// Version of this C interface: the functions' signatures and every layout they pass
+// (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
+// value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
+// another with `TAIJI_ERR_VERSION`.
+#define TAIJI_ABI_VERSION 2
 
 // `update` flag: a solve is due (the host may run it now or in its slower rate group).
 #define TAIJI_SOLVE_DUE 1
@@ -345,14 +404,28 @@ uint32_t taiji_layout_version(void);
 // Bytes a checkpoint needs.
 size_t taiji_checkpoint_size(void);
 
+// Version of this C interface (`TAIJI_ABI_VERSION` of the library's build).
+uint32_t taiji_abi_version(void);
+
 // Builds an estimator from the table `cfg` in the caller's memory `mem` of
 // `mem_size` bytes (at least `taiji_estimator_size()`, aligned to
 // `taiji_estimator_align()`). Nothing is allocated; `mem` is the whole state.
 //
+// The last four arguments are what the host was compiled against: pass
+// `TAIJI_ABI_ARGS` (the header's `TAIJI_ABI_VERSION` and the sizes of its
+// `TaijiEstimatorConfig`, `TaijiSensorSample` and `TaijiEstimateMsg`). A host built
+// against another header is refused with `TAIJI_ERR_VERSION` before anything is read.
+//
 // # Safety
 // `mem` must point to `mem_size` writable bytes and `cfg` to a readable table, or be
 // null (refused).
-int32_t taiji_estimator_init(uint8_t *mem, size_t mem_size, const struct TaijiEstimatorConfig *cfg);
+int32_t taiji_estimator_init(uint8_t *mem,
+                             size_t mem_size,
+                             const struct TaijiEstimatorConfig *cfg,
+                             uint32_t abi_version,
+                             size_t config_size,
+                             size_t sample_size,
+                             size_t estimate_size);
 
 // Takes one sensor sample (bounded work; no solve). `rejected` (may be null) receives
 // the causes this sample was rejected for (bit `1 << CAUSE_*`, 0 if accepted),
@@ -379,7 +452,9 @@ int32_t taiji_estimator_solve(uint8_t *mem);
 int32_t taiji_estimator_estimate(uint8_t *mem, struct TaijiEstimateMsg *out);
 
 // End of campaign: runs a due solve, iterates to convergence and writes the final
-// estimate (flagged `EST_FINAL`) into `out`.
+// estimate (flagged `EST_FINAL`) into `out`. Terminal and idempotent: a second call
+// writes the same estimate again, and `update`, `solve` and `checkpoint` are refused
+// from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh.
 //
 // # Safety
 // Pointers must be valid for their types or null (refused).
@@ -392,13 +467,20 @@ int32_t taiji_estimator_finish(uint8_t *mem, struct TaijiEstimateMsg *out);
 // `buf` must point to `len` writable bytes; other pointers valid or null.
 int32_t taiji_estimator_checkpoint(uint8_t *mem, uint8_t *buf, size_t len, size_t *written);
 
-// Restores the state in `mem` (as for `init`) from a checkpoint of `len` bytes. A
-// buffer that is not an intact checkpoint of this layout is refused and `mem` is
-// left uninitialised (calls on it return `TAIJI_ERR_STATE`).
+// Restores the state in `mem` (as for `init`) from a checkpoint of `len` bytes,
+// made under the table `cfg`. A buffer that is not an intact checkpoint of this
+// layout is refused (`TAIJI_ERR_CHECKPOINT`, `_SIZE`, `_VERSION`), and so is one made
+// under another table (`TAIJI_ERR_CONFIG`: the host's table is the authority); `mem`
+// is then left uninitialised (calls on it return `TAIJI_ERR_STATE`).
 //
 // # Safety
-// `mem` must point to `mem_size` writable bytes, `buf` to `len` readable bytes.
-int32_t taiji_estimator_restore(uint8_t *mem, size_t mem_size, const uint8_t *buf, size_t len);
+// `mem` must point to `mem_size` writable bytes, `buf` to `len` readable bytes, `cfg`
+// to a readable table.
+int32_t taiji_estimator_restore(uint8_t *mem,
+                                size_t mem_size,
+                                const uint8_t *buf,
+                                size_t len,
+                                const struct TaijiEstimatorConfig *cfg);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -8,6 +8,10 @@ use taiji::estimate::EstimatorConfig;
 use taiji::msg::{EstimateMsg, SensorSample};
 use taiji::scenario::Scenario;
 
+const CONFIG_SIZE: usize = std::mem::size_of::<EstimatorConfig>();
+const SAMPLE_SIZE: usize = std::mem::size_of::<SensorSample>();
+const ESTIMATE_SIZE: usize = std::mem::size_of::<EstimateMsg>();
+
 fn config() -> EstimatorConfig {
     let s = Scenario::default();
     s.estimator_config(&s.priors())
@@ -21,7 +25,17 @@ fn memory() -> Vec<u64> {
 fn init(mem: &mut [u64]) -> *mut u8 {
     let p = mem.as_mut_ptr() as *mut u8;
     // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-    let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &config()) };
+    let rc = unsafe {
+        taiji_estimator_init(
+            p,
+            mem.len() * 8,
+            &config(),
+            TAIJI_ABI_VERSION,
+            CONFIG_SIZE,
+            SAMPLE_SIZE,
+            ESTIMATE_SIZE,
+        )
+    };
     assert_eq!(rc, TAIJI_OK);
     p
 }
@@ -53,7 +67,15 @@ fn garbage_sample(g: &mut Garbage) -> SensorSample {
 fn size_and_alignment_are_queried_not_assumed() {
     assert!(taiji_estimator_size() >= std::mem::size_of::<u64>());
     assert!(taiji_estimator_align().is_power_of_two());
-    assert!(taiji_checkpoint_size() > taiji_estimator_size() - 8);
+    // The state (estimator, magic word, final estimate) stays within 64 KB; the
+    // checkpoint is the estimator's part with its header.
+    assert!(
+        taiji_estimator_size() <= 64 * 1024,
+        "{}",
+        taiji_estimator_size()
+    );
+    assert!(taiji_checkpoint_size() < taiji_estimator_size());
+    assert_eq!(taiji_abi_version(), TAIJI_ABI_VERSION);
     assert_eq!(taiji_layout_version(), taiji::msg::LAYOUT_VERSION);
 }
 
@@ -67,11 +89,27 @@ fn null_pointers_get_an_error_code() {
     // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
     unsafe {
         assert_eq!(
-            taiji_estimator_init(null, 1 << 20, &config()),
+            taiji_estimator_init(
+                null,
+                1 << 20,
+                &config(),
+                TAIJI_ABI_VERSION,
+                CONFIG_SIZE,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE
+            ),
             TAIJI_ERR_NULL
         );
         assert_eq!(
-            taiji_estimator_init(p, mem.len() * 8, std::ptr::null()),
+            taiji_estimator_init(
+                p,
+                mem.len() * 8,
+                std::ptr::null(),
+                TAIJI_ABI_VERSION,
+                CONFIG_SIZE,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE
+            ),
             TAIJI_ERR_NULL
         );
         assert_eq!(
@@ -86,7 +124,7 @@ fn null_pointers_get_an_error_code() {
             TAIJI_ERR_NULL
         );
         assert_eq!(
-            taiji_estimator_restore(null, 1 << 20, null, 0),
+            taiji_estimator_restore(null, 1 << 20, null, 0, &config()),
             TAIJI_ERR_NULL
         );
         let p = init(&mut mem);
@@ -120,11 +158,31 @@ fn misaligned_or_small_state_memory_is_refused() {
     let base = mem.as_mut_ptr() as *mut u8;
     for off in 1..8 {
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-        let rc = unsafe { taiji_estimator_init(base.add(off), mem.len() * 8 - 8, &config()) };
+        let rc = unsafe {
+            taiji_estimator_init(
+                base.add(off),
+                mem.len() * 8 - 8,
+                &config(),
+                TAIJI_ABI_VERSION,
+                CONFIG_SIZE,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE,
+            )
+        };
         assert_eq!(rc, TAIJI_ERR_ALIGNMENT, "offset {off}");
     }
     // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-    let rc = unsafe { taiji_estimator_init(base, taiji_estimator_size() - 1, &config()) };
+    let rc = unsafe {
+        taiji_estimator_init(
+            base,
+            taiji_estimator_size() - 1,
+            &config(),
+            TAIJI_ABI_VERSION,
+            CONFIG_SIZE,
+            SAMPLE_SIZE,
+            ESTIMATE_SIZE,
+        )
+    };
     assert_eq!(rc, TAIJI_ERR_SIZE);
 }
 
@@ -169,7 +227,17 @@ fn a_wrong_table_is_refused_and_leaves_no_estimator() {
         let mut c = config();
         f(&mut c);
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-        let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &c) };
+        let rc = unsafe {
+            taiji_estimator_init(
+                p,
+                mem.len() * 8,
+                &c,
+                TAIJI_ABI_VERSION,
+                CONFIG_SIZE,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE,
+            )
+        };
         assert_eq!(rc, TAIJI_ERR_CONFIG, "case {k}");
         assert_eq!(
             // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
@@ -185,7 +253,17 @@ fn a_wrong_table_is_refused_and_leaves_no_estimator() {
         // SAFETY: the source holds at least size_of::<T>() bytes; any bytes are a valid T (plain numbers).
         let c: EstimatorConfig = unsafe { std::ptr::read_unaligned(raw.as_ptr() as *const _) };
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-        let rc = unsafe { taiji_estimator_init(p, mem.len() * 8, &c) };
+        let rc = unsafe {
+            taiji_estimator_init(
+                p,
+                mem.len() * 8,
+                &c,
+                TAIJI_ABI_VERSION,
+                CONFIG_SIZE,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE,
+            )
+        };
         assert!(rc == TAIJI_ERR_CONFIG || rc == TAIJI_OK);
     }
 }
@@ -252,7 +330,7 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
     let q = mem2.as_mut_ptr() as *mut u8;
     assert_eq!(
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-        unsafe { taiji_estimator_restore(q, mem2.len() * 8, ck.as_ptr(), n) },
+        unsafe { taiji_estimator_restore(q, mem2.len() * 8, ck.as_ptr(), n, &config()) },
         TAIJI_OK
     );
     let (mut a, mut b) = (EstimateMsg::default(), EstimateMsg::default());
@@ -269,12 +347,172 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
         bad[i] ^= 1 << (g.next() % 8);
         let len = if k % 10 == 0 { i } else { bad.len() };
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-        let rc = unsafe { taiji_estimator_restore(q, mem2.len() * 8, bad.as_ptr(), len) };
+        let rc =
+            unsafe { taiji_estimator_restore(q, mem2.len() * 8, bad.as_ptr(), len, &config()) };
         assert!(
             [TAIJI_ERR_CHECKPOINT, TAIJI_ERR_VERSION, TAIJI_ERR_SIZE].contains(&rc),
             "byte {i}: code {rc}"
         );
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         assert_eq!(unsafe { taiji_estimator_solve(q) }, TAIJI_ERR_STATE);
+    }
+}
+
+/// A sample of tick `k` with a valid star tracker and quiet IS.
+fn quiet(k: u64) -> SensorSample {
+    let mut s = SensorSample::default();
+    s.header.tick = k;
+    s.star.valid = 1;
+    s.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+    s
+}
+
+#[test]
+fn a_host_built_against_another_header_is_refused_at_init() {
+    let mut mem = memory();
+    let p = mem.as_mut_ptr() as *mut u8;
+    let n = mem.len() * 8;
+    for (what, abi) in [
+        (
+            "an older interface",
+            [
+                TAIJI_ABI_VERSION as usize - 1,
+                CONFIG_SIZE,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE,
+            ],
+        ),
+        (
+            "another table",
+            [
+                TAIJI_ABI_VERSION as usize,
+                CONFIG_SIZE - 8,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE,
+            ],
+        ),
+        (
+            "another sample",
+            [
+                TAIJI_ABI_VERSION as usize,
+                CONFIG_SIZE,
+                SAMPLE_SIZE + 8,
+                ESTIMATE_SIZE,
+            ],
+        ),
+        (
+            "another estimate",
+            [
+                TAIJI_ABI_VERSION as usize,
+                CONFIG_SIZE,
+                SAMPLE_SIZE,
+                ESTIMATE_SIZE - 8,
+            ],
+        ),
+    ] {
+        // SAFETY: valid memory and table; only the header's description is wrong.
+        let rc =
+            unsafe { taiji_estimator_init(p, n, &config(), abi[0] as u32, abi[1], abi[2], abi[3]) };
+        assert_eq!(rc, TAIJI_ERR_VERSION, "{what}");
+        // SAFETY: as above.
+        assert_eq!(
+            unsafe { taiji_estimator_solve(p) },
+            TAIJI_ERR_STATE,
+            "{what}"
+        );
+    }
+}
+
+#[test]
+fn finish_is_terminal_and_idempotent() {
+    let mut mem = memory();
+    let p = init(&mut mem);
+    for k in 0..700 {
+        // SAFETY: an initialised state and a valid sample.
+        let rc = unsafe {
+            taiji_estimator_update(p, &quiet(k), std::ptr::null_mut(), std::ptr::null_mut())
+        };
+        assert_eq!(rc, TAIJI_OK);
+    }
+    let (mut a, mut b, mut c) = (
+        EstimateMsg::default(),
+        EstimateMsg::default(),
+        EstimateMsg::default(),
+    );
+    // SAFETY: an initialised state and valid outputs.
+    unsafe {
+        assert_eq!(taiji_estimator_finish(p, &mut a), TAIJI_OK);
+        assert_eq!(taiji_estimator_finish(p, &mut b), TAIJI_OK);
+        assert_eq!(taiji_estimator_estimate(p, &mut c), TAIJI_OK);
+    }
+    assert_eq!(a, b, "a second finish changed the estimate");
+    assert_eq!(a, c);
+    assert_ne!(a.flags & taiji::msg::EST_FINAL, 0);
+    let mut buf = vec![0u8; taiji_checkpoint_size()];
+    // SAFETY: as above.
+    unsafe {
+        assert_eq!(
+            taiji_estimator_update(p, &quiet(700), std::ptr::null_mut(), std::ptr::null_mut()),
+            TAIJI_ERR_FINISHED
+        );
+        assert_eq!(taiji_estimator_solve(p), TAIJI_ERR_FINISHED);
+        assert_eq!(
+            taiji_estimator_checkpoint(p, buf.as_mut_ptr(), buf.len(), std::ptr::null_mut()),
+            TAIJI_ERR_FINISHED
+        );
+    }
+}
+
+#[test]
+fn restore_is_checked_against_the_hosts_table() {
+    let mut mem = memory();
+    let p = init(&mut mem);
+    for k in 0..100 {
+        // SAFETY: an initialised state and a valid sample.
+        unsafe { taiji_estimator_update(p, &quiet(k), std::ptr::null_mut(), std::ptr::null_mut()) };
+    }
+    let mut buf = vec![0u8; taiji_checkpoint_size()];
+    let mut n = 0;
+    // SAFETY: as above, and a buffer of the checkpoint's size.
+    assert_eq!(
+        unsafe { taiji_estimator_checkpoint(p, buf.as_mut_ptr(), buf.len(), &mut n) },
+        TAIJI_OK
+    );
+    let mut other = config();
+    other.beta_prior[1][2] *= 1.01;
+    let mut mem2 = memory();
+    let q = mem2.as_mut_ptr() as *mut u8;
+    // SAFETY: valid memory, checkpoint and tables.
+    unsafe {
+        assert_eq!(
+            taiji_estimator_restore(q, mem2.len() * 8, buf.as_ptr(), n, &other),
+            TAIJI_ERR_CONFIG
+        );
+        assert_eq!(taiji_estimator_solve(q), TAIJI_ERR_STATE);
+        assert_eq!(
+            taiji_estimator_restore(q, mem2.len() * 8, buf.as_ptr(), n, &config()),
+            TAIJI_OK
+        );
+        assert_eq!(
+            taiji_estimator_restore(q, mem2.len() * 8, buf.as_ptr(), n, std::ptr::null()),
+            TAIJI_ERR_NULL
+        );
+    }
+}
+
+#[test]
+fn the_magic_word_over_zeros_is_no_state() {
+    let mut mem = memory();
+    mem[0] = u64::from_le_bytes(*b"TAIJIEST");
+    let p = mem.as_mut_ptr() as *mut u8;
+    let mut out = EstimateMsg::default();
+    // SAFETY: valid memory that holds no initialised estimator.
+    unsafe {
+        assert_eq!(taiji_estimator_estimate(p, &mut out), TAIJI_ERR_STATE);
+        assert_eq!(taiji_estimator_finish(p, &mut out), TAIJI_ERR_STATE);
+        assert_eq!(
+            taiji_estimator_update(p, &quiet(0), std::ptr::null_mut(), std::ptr::null_mut()),
+            TAIJI_ERR_STATE
+        );
     }
 }

@@ -144,7 +144,7 @@ int main(int argc, char **argv) {
     t_update = malloc((size_t)(n ? n : 1) * sizeof *t_update);
     if (!t_update) return 2;
 
-    CHECK(taiji_estimator_init(mem, sizeof state_mem, cfg));
+    CHECK(taiji_estimator_init(mem, sizeof state_mem, cfg, TAIJI_ABI_ARGS));
     for (i = 0; i < n; i++) {
         uint64_t rejected = 0;
         uint32_t flags = 0;
@@ -175,7 +175,7 @@ int main(int argc, char **argv) {
     /* A checkpoint round trip: the final estimate comes from the restored state. */
     CHECK(taiji_estimator_checkpoint(mem, ckpt_buf, sizeof ckpt_buf, &written));
     memset(state_mem, 0, sizeof state_mem);
-    CHECK(taiji_estimator_restore(mem, sizeof state_mem, ckpt_buf, written));
+    CHECK(taiji_estimator_restore(mem, sizeof state_mem, ckpt_buf, written, cfg));
     CHECK(taiji_estimator_finish(mem, &est));
 
     printf("{\n  \"inertial_sensors\": [\n");

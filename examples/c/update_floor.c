@@ -53,7 +53,7 @@ int main(int argc, char **argv) {
     if (!best || n == 0 || passes < 1) return 2;
     for (i = 0; i < n; i++) best[i] = 1e30;
     for (p = 0; p < passes; p++) {
-        if (taiji_estimator_init((uint8_t *)state_mem, sizeof state_mem, cfg) != TAIJI_OK) return 3;
+        if (taiji_estimator_init((uint8_t *)state_mem, sizeof state_mem, cfg, TAIJI_ABI_ARGS) != TAIJI_OK) return 3;
         for (i = 0; i < n; i++) {
             uint32_t flags = 0;
             double t0 = now_us(), d;

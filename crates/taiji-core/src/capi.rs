@@ -36,17 +36,31 @@ pub const TAIJI_ERR_VERSION: i32 = 7;
 /// estimate's status word says so.
 pub const TAIJI_ERR_SOLVE: i32 = 8;
 
+/// `update`, `solve` or `checkpoint` after `finish`: the campaign is over (`finish` and
+/// `estimate` still return the final estimate).
+pub const TAIJI_ERR_FINISHED: i32 = 9;
+
+/// Version of this C interface: the functions' signatures and every layout they pass
+/// (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
+/// value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
+/// another with `TAIJI_ERR_VERSION`.
+pub const TAIJI_ABI_VERSION: u32 = 2;
+
 /// `update` flag: a solve is due (the host may run it now or in its slower rate group).
 pub const TAIJI_SOLVE_DUE: u32 = 1;
 
 /// Marks initialised state ("TAIJIEST").
 const MAGIC: u64 = 0x5453_4549_4A49_4154;
 
-/// The caller-owned state: a magic word, then the estimator.
+/// The caller-owned state: a magic word, the estimator, and once the campaign is
+/// finished its final estimate (so `finish` is terminal and idempotent).
 #[repr(C)]
 struct State {
     magic: u64,
     est: JointEstimator,
+    /// 1 after `finish` (any other value than 0 counts as finished).
+    finished: u64,
+    final_msg: EstimateMsg,
 }
 
 /// Bytes the estimator's state needs.
@@ -88,11 +102,22 @@ fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
     Ok(unsafe { &mut *(mem as *mut State) })
 }
 
-/// The initialised state behind `mem`, or why not.
+/// The initialised state behind `mem`, or why not: the magic word, and a state that
+/// could have come from `init` and `update` (its table passes its check, its counts
+/// index within their arrays).
 fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
     let st = state_mut(mem, size_of::<State>())?;
-    if st.magic != MAGIC {
+    if st.magic != MAGIC || !st.est.is_sane() {
         return Err(TAIJI_ERR_STATE);
+    }
+    Ok(st)
+}
+
+/// The initialised state of a campaign still running.
+fn running<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
+    let st = live(mem)?;
+    if st.finished != 0 {
+        return Err(TAIJI_ERR_FINISHED);
     }
     Ok(st)
 }
@@ -103,9 +128,20 @@ fn code(r: Result<i32, i32>) -> i32 {
     }
 }
 
+/// Version of this C interface (`TAIJI_ABI_VERSION` of the library's build).
+#[no_mangle]
+pub extern "C" fn taiji_abi_version() -> u32 {
+    TAIJI_ABI_VERSION
+}
+
 /// Builds an estimator from the table `cfg` in the caller's memory `mem` of
 /// `mem_size` bytes (at least `taiji_estimator_size()`, aligned to
 /// `taiji_estimator_align()`). Nothing is allocated; `mem` is the whole state.
+///
+/// The last four arguments are what the host was compiled against: pass
+/// `TAIJI_ABI_ARGS` (the header's `TAIJI_ABI_VERSION` and the sizes of its
+/// `TaijiEstimatorConfig`, `TaijiSensorSample` and `TaijiEstimateMsg`). A host built
+/// against another header is refused with `TAIJI_ERR_VERSION` before anything is read.
 ///
 /// # Safety
 /// `mem` must point to `mem_size` writable bytes and `cfg` to a readable table, or be
@@ -115,8 +151,19 @@ pub unsafe extern "C" fn taiji_estimator_init(
     mem: *mut u8,
     mem_size: usize,
     cfg: *const EstimatorConfig,
+    abi_version: u32,
+    config_size: usize,
+    sample_size: usize,
+    estimate_size: usize,
 ) -> i32 {
     code((|| {
+        if abi_version != TAIJI_ABI_VERSION
+            || config_size != size_of::<EstimatorConfig>()
+            || sample_size != size_of::<SensorSample>()
+            || estimate_size != size_of::<EstimateMsg>()
+        {
+            return Err(TAIJI_ERR_VERSION);
+        }
         if cfg.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -126,6 +173,8 @@ pub unsafe extern "C" fn taiji_estimator_init(
         st.magic = 0;
         cfg.check().map_err(|_| TAIJI_ERR_CONFIG)?;
         JointEstimator::init_in_place(&mut st.est, cfg);
+        st.finished = 0;
+        st.final_msg = EstimateMsg::default();
         st.magic = MAGIC;
         Ok(TAIJI_OK)
     })())
@@ -145,7 +194,7 @@ pub unsafe extern "C" fn taiji_estimator_update(
     flags: *mut u32,
 ) -> i32 {
     code((|| {
-        let st = live(mem)?;
+        let st = running(mem)?;
         if sample.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -177,7 +226,7 @@ pub unsafe extern "C" fn taiji_estimator_update(
 #[no_mangle]
 pub unsafe extern "C" fn taiji_estimator_solve(mem: *mut u8) -> i32 {
     code((|| {
-        let st = live(mem)?;
+        let st = running(mem)?;
         if st.est.solve_now() {
             Ok(TAIJI_OK)
         } else {
@@ -197,7 +246,11 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
-        let m = st.est.message(st.est.next_tick().saturating_sub(1));
+        let m = if st.finished != 0 {
+            st.final_msg
+        } else {
+            st.est.message(st.est.next_tick().saturating_sub(1))
+        };
         // SAFETY: non-null, caller-provided.
         unsafe { out.write_unaligned(m) };
         Ok(TAIJI_OK)
@@ -205,7 +258,9 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
 }
 
 /// End of campaign: runs a due solve, iterates to convergence and writes the final
-/// estimate (flagged `EST_FINAL`) into `out`.
+/// estimate (flagged `EST_FINAL`) into `out`. Terminal and idempotent: a second call
+/// writes the same estimate again, and `update`, `solve` and `checkpoint` are refused
+/// from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh.
 ///
 /// # Safety
 /// Pointers must be valid for their types or null (refused).
@@ -216,8 +271,13 @@ pub unsafe extern "C" fn taiji_estimator_finish(mem: *mut u8, out: *mut Estimate
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
-        let mut m = st.est.finish();
-        m.flags |= EST_FINAL;
+        if st.finished == 0 {
+            let mut m = st.est.finish();
+            m.flags |= EST_FINAL;
+            st.final_msg = m;
+            st.finished = 1;
+        }
+        let m = st.final_msg;
         // SAFETY: non-null, caller-provided.
         unsafe { out.write_unaligned(m) };
         Ok(TAIJI_OK)
@@ -237,7 +297,7 @@ pub unsafe extern "C" fn taiji_estimator_checkpoint(
     written: *mut usize,
 ) -> i32 {
     code((|| {
-        let st = live(mem)?;
+        let st = running(mem)?;
         if buf.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -252,23 +312,29 @@ pub unsafe extern "C" fn taiji_estimator_checkpoint(
     })())
 }
 
-/// Restores the state in `mem` (as for `init`) from a checkpoint of `len` bytes. A
-/// buffer that is not an intact checkpoint of this layout is refused and `mem` is
-/// left uninitialised (calls on it return `TAIJI_ERR_STATE`).
+/// Restores the state in `mem` (as for `init`) from a checkpoint of `len` bytes,
+/// made under the table `cfg`. A buffer that is not an intact checkpoint of this
+/// layout is refused (`TAIJI_ERR_CHECKPOINT`, `_SIZE`, `_VERSION`), and so is one made
+/// under another table (`TAIJI_ERR_CONFIG`: the host's table is the authority); `mem`
+/// is then left uninitialised (calls on it return `TAIJI_ERR_STATE`).
 ///
 /// # Safety
-/// `mem` must point to `mem_size` writable bytes, `buf` to `len` readable bytes.
+/// `mem` must point to `mem_size` writable bytes, `buf` to `len` readable bytes, `cfg`
+/// to a readable table.
 #[no_mangle]
 pub unsafe extern "C" fn taiji_estimator_restore(
     mem: *mut u8,
     mem_size: usize,
     buf: *const u8,
     len: usize,
+    cfg: *const EstimatorConfig,
 ) -> i32 {
     code((|| {
-        if buf.is_null() {
+        if buf.is_null() || cfg.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
+        // SAFETY: non-null; read unaligned, so any readable bytes will do.
+        let cfg = unsafe { core::ptr::read_unaligned(cfg) };
         let st = state_mut(mem, mem_size)?;
         st.magic = 0;
         // SAFETY: non-null, `len` readable bytes.
@@ -278,7 +344,12 @@ pub unsafe extern "C" fn taiji_estimator_restore(
             snapshot::SnapshotError::Version => TAIJI_ERR_VERSION,
             _ => TAIJI_ERR_CHECKPOINT,
         })?;
+        if bytemuck::bytes_of(est.config()) != bytemuck::bytes_of(&cfg) {
+            return Err(TAIJI_ERR_CONFIG);
+        }
         st.est = est;
+        st.finished = 0;
+        st.final_msg = EstimateMsg::default();
         st.magic = MAGIC;
         Ok(TAIJI_OK)
     })())
