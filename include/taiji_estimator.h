@@ -6,21 +6,25 @@
  *
  * MEMORY The state: taiji_estimator_size() bytes (about 64 KB) aligned to
  *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
- *        alignment. Stack per call, measured by painting on an emulated Cortex-M7 and on
- *        x86-64 (docs/flight.md): update 6.7 KB; solve and finish 190 KB (the
- *        Gauss-Newton Jacobian is built on the stack: run them on a task with >= 256 KB).
+ *        alignment. Stack per call, measured by painting (docs/flight.md): update 6.7 KB;
+ *        solve and finish 190 KB on a Cortex-M7, 165 KB on x86-64 (the Gauss-Newton
+ *        Jacobian is built on the stack: run them on a task with >= 256 KB).
  *
- * TIME   Instructions per call on a Cortex-M7 over the default 10^4 s campaign
- *        (tools/flight-qemu): update 33 840 typical, 47 440 worst (the first sample);
- *        solve 6.9 M worst; finish 20.8 M. After a gap, update also bridges every missing
- *        tick (at most max_gap_ticks of the table), each a propagation step.
+ * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
+ *        update 34 400 typical, 48 000 worst (the first sample); solve 6.93 M worst;
+ *        finish 20.8 M. After a gap, update also bridges every missing tick, about
+ *        10 600 instructions each, up to max_gap_ticks of the table: 63.6 M after a
+ *        5 999-tick gap. A lower max_gap_ticks bounds that, at a price (TICKS below).
  *
  * TICKS  Samples carry header.tick, the sample index from 0 at the campaign's start,
  *        one per 1/fs. The estimator expects tick 0 first: a first tick N counts N ticks
  *        as missing. A tick below the next expected is refused (CAUSE_TICK_ORDER); a gap
- *        up to max_gap_ticks is bridged (CAUSE_TICK_MISSING per tick); a larger jump is
- *        refused (CAUSE_TICK_JUMP) until a second sample confirms it. Only header.tick is
- *        read; seq, times and epoch are the bus's.
+ *        up to max_gap_ticks is bridged (CAUSE_TICK_MISSING per tick). A larger jump is
+ *        refused (CAUSE_TICK_JUMP): before the first usable sample two consecutive ticks
+ *        confirm it (a stream that starts late); after it, the timeline cannot be
+ *        re-established and every later sample is refused too (status degraded): the
+ *        campaign must be restarted. Only header.tick is read; seq, times and epoch are
+ *        the bus's.
  *
  * SOLVE  update sets TAIJI_SOLVE_DUE in *flags once every solve_every ticks (60 s of
  *        data) and keeps it set until taiji_estimator_solve runs. Solving right after the
