@@ -162,6 +162,29 @@ pub struct JointEstimator {
 /// conservative 0.1–0.3 at 1–2 % (where r_z's error is at its bound anyway).
 const TURN_WEIGHT: f64 = 10.0;
 
+/// Weak priors of the solve, 1σ. Wide against what the data determine (β to
+/// 10⁻⁵ relative, r to µm), so they only keep the normal equations regular before the
+/// maneuver has excited every parameter; the ground calibration is far tighter.
+/// β: this fraction of its prior [-] (the scenario allows priors within 20 %).
+const PRIOR_BETA_REL: f64 = 0.05;
+/// CoM offset [m]: 5 cm, beyond any plausible test-mass offset.
+const PRIOR_COM_M: f64 = 0.05;
+/// Star-tracker reference offset θ0 [rad] (0.6°) and its rate θ̇0 [rad/s].
+const PRIOR_THETA0_RAD: f64 = 1e-2;
+const PRIOR_THETA_RATE_RAD_S: f64 = 1e-4;
+/// The drift filter's initial variance of θ0 [rad²]: the same prior, squared.
+const PRIOR_THETA0_VAR_RAD2: f64 = 1e-4;
+/// Linear-channel bias b' [V] and drift α' [V/s]: beyond any drive-voltage offset.
+const PRIOR_BIAS_V: f64 = 1.0;
+const PRIOR_DRIFT_V_S: f64 = 1e-3;
+/// Gauss–Newton iterations of `finish` (to convergence; the warm-started run needs
+/// 2–3, the rest is margin) and of a scheduled solve (one, warm-started).
+const FINISH_ITERATIONS: usize = 20;
+const SCHEDULED_ITERATIONS: usize = 1;
+/// A gap longer than this [s] may have let the propagated attitude step away from the
+/// star tracker's: the star test then learns its offset anew (in ticks: × fs).
+const STAR_RELEARN_GAP_S: f64 = 1.0;
+
 /// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
 const ALPHA_LIN: f64 = 1.0 / 64.0;
 const ALPHA_STAR: f64 = 1.0 / 16.0;
@@ -182,16 +205,16 @@ impl JointEstimator {
         for i in 0..2 {
             for a in 0..3 {
                 p[P_BETA + 3 * i + a] = cfg.beta_prior[i][a];
-                ps[P_BETA + 3 * i + a] = 0.05 * cfg.beta_prior[i][a];
+                ps[P_BETA + 3 * i + a] = PRIOR_BETA_REL * cfg.beta_prior[i][a];
                 p[P_R + 3 * i + a] = cfg.com_prior_m[i][a];
-                ps[P_R + 3 * i + a] = 0.05;
-                ps[P_B + 3 * i + a] = 1.0;
-                ps[P_AL + 3 * i + a] = 1e-3;
+                ps[P_R + 3 * i + a] = PRIOR_COM_M;
+                ps[P_B + 3 * i + a] = PRIOR_BIAS_V;
+                ps[P_AL + 3 * i + a] = PRIOR_DRIFT_V_S;
             }
         }
         for a in 0..3 {
-            ps[P_TH0 + a] = 1e-2;
-            ps[P_THD + a] = 1e-4;
+            ps[P_TH0 + a] = PRIOR_THETA0_RAD;
+            ps[P_THD + a] = PRIOR_THETA_RATE_RAD_S;
         }
         let mut wp = SMatrix::zeros();
         for k in 0..bank.poles() {
@@ -247,8 +270,8 @@ impl JointEstimator {
             drift_x: [[0.0; 4]; 3],
             drift_p: core::array::from_fn(|a| {
                 let mut p = [[0.0; 4]; 4];
-                p[0][0] = 1e-4;
-                p[3][3] = (0.05 * cfg.beta_prior[0][a]).powi(2);
+                p[0][0] = PRIOR_THETA0_VAR_RAD2;
+                p[3][3] = (PRIOR_BETA_REL * cfg.beta_prior[0][a]).powi(2);
                 p
             }),
             gate_c: SMatrix::zeros(),
@@ -344,10 +367,9 @@ impl JointEstimator {
             for k in 0..gap {
                 self.bridge(self.next_tick + k);
             }
-            if gap > 10 {
-                // Over a second without data the propagated attitude may have stepped
-                // away from the star tracker's: the star test learns its offset anew
-                // rather than rejecting every sample until it gives up.
+            if gap as f64 > STAR_RELEARN_GAP_S * self.cfg.fs {
+                // A long gap: the star test learns its offset anew rather than
+                // rejecting every sample until it gives up.
                 self.star_track = [Track::default(); 3];
             }
         }
@@ -386,7 +408,7 @@ impl JointEstimator {
         if self.started == 0 {
             return false;
         }
-        self.solve(1, true);
+        self.solve(SCHEDULED_ITERATIONS, true);
         self.solved_tick = tick;
         self.status & ST_SOLVE_FAILED == 0
     }
@@ -397,7 +419,7 @@ impl JointEstimator {
         self.tick_mask = 0;
         let last = self.next_tick.saturating_sub(1);
         if self.started != 0 {
-            if self.solve(20, true) {
+            if self.solve(FINISH_ITERATIONS, true) {
                 self.status &= !ST_NOT_CONVERGED;
             } else {
                 self.status |= ST_NOT_CONVERGED;

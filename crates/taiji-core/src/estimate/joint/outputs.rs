@@ -3,6 +3,14 @@
 
 use super::*;
 
+/// Gauss–Newton iterations of the bound's nuisance fit: the nuisances enter linearly
+/// but for the SRP's turn, so 2 suffice; 6 leave no doubt.
+const NUISANCE_ITERATIONS: usize = 6;
+
+/// The status says degraded when more than one input in this many was rejected (2 %):
+/// the estimate then rests on visibly less data than planned, and the bound with it.
+const DEGRADED_ONE_IN: u64 = 50;
+
 impl JointEstimator {
     /// 1σ at `p` without priors, as the solve reports it (the sandwich of
     /// `sandwich_var`: the Fisher information of the linear, star-tracker and angular
@@ -18,7 +26,7 @@ impl JointEstimator {
     /// Fit the nuisances (θ0, θ̇0, b', α') with β and r held at their values in `p`,
     /// without priors: the reference point of the Cramér–Rao bound.
     pub fn nuisance_fit(&self, mut p: Par) -> Par {
-        for _ in 0..6 {
+        for _ in 0..NUISANCE_ITERATIONS {
             let Normal { mut hm, mut g, .. } = self.normal_equations(&p, false);
             for k in P_BETA..P_TH0 {
                 for j in 0..NP {
@@ -60,9 +68,9 @@ impl JointEstimator {
         m.n_used = self.n_used;
         m.n_rejected = self.n_rejected;
         let ticks = self.n_used + self.n_rejected;
-        let degraded = self.n_rejected * 50 > ticks
+        let degraded = self.n_rejected * DEGRADED_ONE_IN > ticks
             || self.causes[CAUSE_TICK_JUMP] > 0
-            || self.causes[CAUSE_STAR_OUTLIER] * 50 > self.n_star.max(1);
+            || self.causes[CAUSE_STAR_OUTLIER] * DEGRADED_ONE_IN > self.n_star.max(1);
         m.status = self.status | if degraded { ST_DEGRADED } else { 0 };
         m.rejected_by_cause = self.causes;
         m.tick_rejections = self.tick_mask;

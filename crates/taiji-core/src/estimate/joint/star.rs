@@ -3,6 +3,11 @@
 
 use super::*;
 
+/// The star-tracker test's gate [σ], tighter than the other tests' `GATE` (5.5): a lost
+/// star-tracker sample costs little, and an upset of a quaternion component by 5 noise
+/// σ turns the attitude by 5σ.
+const STAR_GATE: f64 = 5.0;
+
 impl JointEstimator {
     /// Advance the star-tracker whitening filter by one sample: the angle error of the
     /// IS-propagated attitude ½(β1 Φ1 + β2 Φ2) grows as the double integral of the IS
@@ -77,9 +82,7 @@ impl JointEstimator {
             }
             *ea = theta[a] - pred;
         }
-        // Gate at 5σ rather than 5.5σ: a lost star-tracker sample costs little, and an
-        // upset of a quaternion component by 5 noise σ turns the attitude by 5σ.
-        let ok = (0..3).all(|a| self.star_track[a].check_within(e[a], var_star, 5.0));
+        let ok = (0..3).all(|a| self.star_track[a].check_within(e[a], var_star, STAR_GATE));
         for a in 0..3 {
             if ok {
                 self.star_track[a].learn(e[a], ALPHA_STAR);
