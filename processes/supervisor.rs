@@ -5,6 +5,10 @@ use taiji::process::supervisor::{run, Outcome, SupervisorArgs};
 fn main() -> std::process::ExitCode {
     taiji::process::init_logging();
     let mut args = SupervisorArgs::parse();
+    if let Some(format) = args.graph {
+        print!("{}", taiji::topology::graph(format));
+        return std::process::ExitCode::SUCCESS;
+    }
     args.record |= args.plots;
     let outcome = run(&args);
     match &outcome {

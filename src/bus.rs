@@ -2,14 +2,9 @@
 //! flow-control window, and construction of nodes and ports. All data services are
 //! zero-copy publish–subscribe of the fixed-size `msg` types.
 //!
-//! | service             | payload         | publisher  | subscribers                    |
-//! |---------------------|-----------------|------------|--------------------------------|
-//! | `taiji/torque_cmd`  | `TorqueCommand` | commander  | plant                          |
-//! | `taiji/truth`       | `TruthState`    | plant      | fee, recorder (never estimator)|
-//! | `taiji/sensor`      | `SensorSample`  | fee        | estimator, recorder            |
-//! | `taiji/estimate`    | `EstimateMsg`   | estimator  | supervisor, recorder           |
-//! | `taiji/progress`    | `Progress`      | every stage| upstream stage, supervisor     |
-//! | `taiji/control`     | `Control`       | supervisor | every stage                    |
+//! Which process publishes and subscribes to which service is the set's table,
+//! `crate::topology` (`tools/launch --graph` draws it); the payloads' bus names are
+//! `Payload::TYPE_NAME`.
 
 use crate::msg::{Control, EstimateMsg, Progress, SensorSample, TorqueCommand, TruthState};
 use iceoryx2::node::NodeView;

@@ -94,13 +94,13 @@ pub const DEFAULT: &str = include_str!("../tools/launch.toml");
 /// The recorder: optional, started with `--record` only.
 pub const RECORDER: &str = "taiji-recorder";
 
-/// The processes a set must contain.
-pub const REQUIRED: [&str; 4] = [
-    "taiji-commander",
-    "taiji-plant",
-    "taiji-fee",
-    "taiji-estimator",
-];
+/// The processes a set must contain (`topology::STAGES` marks them required).
+pub fn required() -> impl Iterator<Item = &'static str> {
+    crate::topology::STAGES
+        .iter()
+        .filter(|s| s.required)
+        .map(|s| s.process)
+}
 
 impl LaunchDescription {
     pub fn parse(text: &str, origin: &str) -> Result<Self, String> {
@@ -118,7 +118,7 @@ impl LaunchDescription {
                 ));
             }
         }
-        for name in REQUIRED {
+        for name in required() {
             let count = d.process.iter().filter(|p| p.name == name).count();
             if count != 1 {
                 return Err(format!(
@@ -129,12 +129,12 @@ impl LaunchDescription {
         if let Some(p) = d
             .process
             .iter()
-            .find(|p| !REQUIRED.contains(&p.name.as_str()) && p.name != RECORDER)
+            .find(|p| crate::topology::stage(&p.name).is_none())
         {
             return Err(format!(
-                "launch description {origin}: unknown process {:?} (known: {}, {RECORDER})",
+                "launch description {origin}: unknown process {:?} (known: {})",
                 p.name,
-                REQUIRED.join(", ")
+                crate::topology::processes().collect::<Vec<_>>().join(", ")
             ));
         }
         if let Some(p) = d.process.iter().find(|p| p.rt_priority > 99) {

@@ -40,3 +40,4 @@ pub mod rng;
 pub mod scenario;
 pub mod telemetry;
 pub mod timing;
+pub mod topology;

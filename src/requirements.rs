@@ -1,4 +1,4 @@
-//! The mission's calibration requirements (Taiji; SPEC §1): what a result is judged
+//! The mission's calibration requirements (Taiji; docs/physics.md): what a result is judged
 //! against by the report, the planner and the Monte Carlo summary alike.
 
 /// Scale-factor requirement, relative per axis (0.03 %).

@@ -231,7 +231,7 @@ fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     assert_eq!(t["latency_samples"], 3000);
     // Every stage says how it was scheduled (SCHED_FIFO where permitted, else normal).
     let sched = t["scheduling"].as_object().expect("timing.scheduling");
-    for stage in taiji::launch::REQUIRED {
+    for stage in taiji::launch::required() {
         let v = sched[stage].as_str().unwrap_or_default();
         assert!(
             v.starts_with("SCHED_FIFO") || v.starts_with("normal"),
@@ -539,7 +539,7 @@ fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
         t0.elapsed()
     );
     assert!(!out.join("report.json").exists());
-    for exe in taiji::launch::REQUIRED {
+    for exe in taiji::launch::required() {
         assert!(pids_with(&pfx, exe).is_empty(), "{exe} still running");
     }
     // An interrupted run cleans up after itself as well.

@@ -287,10 +287,11 @@ fn bad_telemetry_files_get_a_clear_error() {
 }
 
 #[test]
-fn the_readme_documents_the_layout_the_code_writes() {
-    let readme =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
-    assert!(readme.contains(&taiji::telemetry::layout::markdown_table()));
+fn the_docs_document_the_layout_the_code_writes() {
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/telemetry.md"))
+            .unwrap();
+    assert!(doc.contains(&taiji::telemetry::layout::markdown_table()));
 }
 
 /// The bits of every recorded value, truth and sensor streams alike.

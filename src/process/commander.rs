@@ -4,7 +4,7 @@
 use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::commander::Commander;
-use crate::msg::{TorqueCommand, PROC_COMMANDER, PROC_PLANT, STATE_DONE, STATE_RUNNING};
+use crate::msg::{TorqueCommand, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
@@ -35,14 +35,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let mut hold = fault_hold()?;
     let s = args.scenario()?;
     let period = args.period_ns(&s)?;
-    let mut link = Link::new(
-        "taiji-commander",
-        PROC_COMMANDER,
-        "commander",
-        None,
-        Some(("plant", PROC_PLANT)),
-        args,
-    )?;
+    let mut link = Link::new("taiji-commander", args)?;
     let out = bus::publisher::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
     let mut commander = Commander::new(&s);
     link.beat()?;

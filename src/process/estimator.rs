@@ -6,7 +6,7 @@ use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
 use crate::estimate::{Estimator, EstimatorConfig};
-use crate::msg::{SensorSample, PROC_ESTIMATOR, STATE_DONE, STATE_RUNNING};
+use crate::msg::{SensorSample, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
@@ -110,14 +110,7 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
         None => (Estimator::new(method, table.config), 0),
     };
     let mut ckpt = Checkpointer::with_write_delay(&ckpt_path, &est, fault_checkpoint_delay()?)?;
-    let mut link = Link::new(
-        "taiji-estimator",
-        PROC_ESTIMATOR,
-        "estimator",
-        Some("fee"),
-        None,
-        args,
-    )?;
+    let mut link = Link::new("taiji-estimator", args)?;
     let input = bus::subscriber::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
     // Estimates leave through their own thread (see `outbox`).
     let mut out = super::outbox::Outbox::start(&args.bus_prefix)?;

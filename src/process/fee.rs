@@ -6,7 +6,7 @@ use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::faults::Delivery;
 use crate::fee::FrontEnd;
-use crate::msg::{SensorSample, TruthState, PROC_ESTIMATOR, PROC_FEE, STATE_DONE, STATE_RUNNING};
+use crate::msg::{SensorSample, TruthState, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 
 /// Samples retained for a restarted estimator; must exceed the estimator's checkpoint
@@ -16,14 +16,7 @@ pub const RING: u64 = 8192;
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
-    let mut link = Link::new(
-        "taiji-fee",
-        PROC_FEE,
-        "fee",
-        Some("plant"),
-        Some(("estimator", PROC_ESTIMATOR)),
-        args,
-    )?;
+    let mut link = Link::new("taiji-fee", args)?;
     let input = bus::subscriber::<TruthState>(&link.node, bus::SVC_TRUTH)?;
     let out = bus::publisher::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
     let mut fee = FrontEnd::new(&s, seed, true);

@@ -41,29 +41,6 @@ const ACK_QUIET: Duration = Duration::from_millis(300);
 /// that the stop is repeated until the other hosts acknowledge it.
 pub const FAULT_DROP_STOPS: &str = "TAIJI_FAULT_DROP_STOPS";
 
-/// The chain and who uses which service ("supervisor": the one in charge).
-fn users(service: &str) -> &'static [&'static str] {
-    const ALL: &[&str] = &[
-        "taiji-commander",
-        "taiji-plant",
-        "taiji-fee",
-        "taiji-estimator",
-        "taiji-recorder",
-        "supervisor",
-    ];
-    match service {
-        bus::SVC_TORQUE => &["taiji-commander", "taiji-plant"],
-        bus::SVC_TRUTH => &["taiji-plant", "taiji-fee", "taiji-recorder"],
-        bus::SVC_SENSOR => &["taiji-fee", "taiji-estimator", "taiji-recorder"],
-        bus::SVC_ESTIMATE => &["taiji-estimator", "supervisor", "taiji-recorder"],
-        "taiji/wake/commander" => &["taiji-commander", "taiji-plant", "taiji-recorder"],
-        "taiji/wake/plant" => &["taiji-plant", "taiji-commander", "taiji-fee"],
-        "taiji/wake/fee" => &["taiji-fee", "taiji-plant", "taiji-estimator"],
-        "taiji/wake/estimator" => &["taiji-estimator", "taiji-fee"],
-        _ => ALL,
-    }
-}
-
 /// Services whose users run on more than one host: only these cross the link (the
 /// truth, for one, never reaches the flight computer).
 pub fn crossing_services(launch: &LaunchDescription, record: bool) -> Vec<String> {
@@ -91,7 +68,10 @@ pub fn crossing_services(launch: &LaunchDescription, record: bool) -> Vec<String
     ];
     all.into_iter()
         .filter(|s| {
-            let mut hosts: Vec<&str> = users(s).iter().filter_map(|u| host_of(u)).collect();
+            let mut hosts: Vec<&str> = crate::topology::users(s)
+                .iter()
+                .filter_map(|u| host_of(u))
+                .collect();
             hosts.sort_unstable();
             hosts.dedup();
             hosts.len() > 1

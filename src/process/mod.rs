@@ -178,27 +178,26 @@ const BEAT_NS: u64 = 50_000_000;
 pub const IDLE: Duration = Duration::from_millis(20);
 
 impl Link {
-    /// `stage` names this stage's wake-up event; `upstream`/`downstream` name its
-    /// neighbours' (`downstream` with its `PROC_*` id, whose credit it obeys).
-    pub fn new(
-        name: &str,
-        process: u32,
-        stage: &str,
-        upstream: Option<&str>,
-        downstream: Option<(&str, u32)>,
-        args: &BusArgs,
-    ) -> Result<Self, String> {
+    /// The link of the stage run by binary `process`: its wake-up event, and its
+    /// neighbours' from the set's table (`topology::STAGES`; it obeys the credit of
+    /// its downstream).
+    pub fn new(process: &str, args: &BusArgs) -> Result<Self, String> {
+        let stage = crate::topology::stage(process)
+            .ok_or_else(|| format!("{process} is no stage of the set (topology::STAGES)"))?;
+        let name = stage.process;
+        let downstream = stage.downstream.and_then(crate::topology::stage_named);
         let node = bus::node(name, &args.bus_prefix)?;
-        let wake = bus::listener(&node, &bus::wake_service(stage))?;
-        let wake_up = match upstream {
+        let wake = bus::listener(&node, &bus::wake_service(stage.name))?;
+        let wake_up = match stage.upstream {
             Some(u) => Some(bus::notifier(&node, &bus::wake_service(u))?),
             None => None,
         };
         let wake_down = match downstream {
-            Some((d, _)) => Some(bus::notifier(&node, &bus::wake_service(d))?),
+            Some(d) => Some(bus::notifier(&node, &bus::wake_service(d.name))?),
             None => None,
         };
-        let downstream_id = downstream.map(|(_, id)| id);
+        let downstream_id = downstream.map(|d| d.id);
+        let process = stage.id;
         let progress_pub = bus::publisher::<Progress>(&node, bus::SVC_PROGRESS)?;
         let progress_sub = bus::subscriber::<Progress>(&node, bus::SVC_PROGRESS)?;
         let control_sub = bus::subscriber::<Control>(&node, bus::SVC_CONTROL)?;

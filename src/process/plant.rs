@@ -4,21 +4,14 @@
 use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::model::plant::{Plant, PlantNoise};
-use crate::msg::{TorqueCommand, TruthState, PROC_FEE, PROC_PLANT, STATE_DONE, STATE_RUNNING};
+use crate::msg::{TorqueCommand, TruthState, STATE_DONE, STATE_RUNNING};
 use crate::timing::monotonic_ns;
 
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
     let realtime = args.realtime;
-    let mut link = Link::new(
-        "taiji-plant",
-        PROC_PLANT,
-        "plant",
-        Some("commander"),
-        Some(("fee", PROC_FEE)),
-        args,
-    )?;
+    let mut link = Link::new("taiji-plant", args)?;
     let input = bus::subscriber::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
     let out = bus::publisher::<TruthState>(&link.node, bus::SVC_TRUTH)?;
     let mut plant = Plant::new(&s, seed, PlantNoise::ALL);

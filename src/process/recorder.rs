@@ -14,7 +14,7 @@ use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::faults::{FaultScore, Injector};
 use crate::fee::FrontEnd;
-use crate::msg::{EstimateMsg, TruthState, EST_FINAL, PROC_RECORDER, STATE_DONE, STATE_RUNNING};
+use crate::msg::{EstimateMsg, TruthState, EST_FINAL, STATE_DONE, STATE_RUNNING};
 use crate::telemetry::{Meta, Writer, CHUNK_ROWS};
 use std::time::Duration;
 
@@ -48,14 +48,7 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     std::fs::create_dir_all(&args.run_dir)
         .map_err(|e| format!("cannot create {}: {e}", args.run_dir.display()))?;
     let path = args.run_dir.join(TELEMETRY_FILE);
-    let mut link = Link::new(
-        "taiji-recorder",
-        PROC_RECORDER,
-        "recorder",
-        Some("commander"),
-        None,
-        args,
-    )?;
+    let mut link = Link::new("taiji-recorder", args)?;
     let q = bus::RECORDER_QUEUE;
     let truth = bus::subscriber_with_queue::<TruthState>(&link.node, bus::SVC_TRUTH, q)?;
     let estimate = bus::subscriber_with_queue::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE, q)?;

@@ -5,7 +5,7 @@
 
 use crate::bus;
 use crate::launch::{ProcessSpec, Restart};
-use crate::msg::{Progress, PROC_COMMANDER, PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER};
+use crate::msg::Progress;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -17,6 +17,10 @@ use std::time::{Duration, Instant};
     about = "Run the calibration campaign through the iceoryx2 process set"
 )]
 pub struct SupervisorArgs {
+    /// Print the process set (processes, services and their payloads, the credit
+    /// chain) from its table as a Mermaid or DOT graph, and exit.
+    #[arg(long, value_enum)]
+    pub graph: Option<crate::topology::GraphFormat>,
     /// Launch description (default: the built-in one, identical to tools/launch.toml).
     #[arg(long)]
     pub launch: Option<PathBuf>,
@@ -58,17 +62,6 @@ pub struct SupervisorArgs {
     /// beside this executable).
     #[arg(long)]
     pub tunnel_bin: Option<PathBuf>,
-}
-
-/// Stage id of a process (its `PROC_*`), from its binary's name.
-pub(crate) fn proc_id(name: &str) -> u32 {
-    match name {
-        "taiji-commander" => PROC_COMMANDER,
-        "taiji-plant" => PROC_PLANT,
-        "taiji-fee" => PROC_FEE,
-        "taiji-recorder" => PROC_RECORDER,
-        _ => PROC_ESTIMATOR,
-    }
 }
 
 pub(crate) struct Member {

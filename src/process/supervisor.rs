@@ -11,7 +11,7 @@ use crate::msg::{
 };
 use crate::process::estimator::{EstimatorTable, CHECKPOINT_FILE, TABLE_FILE};
 pub use crate::process::set::SupervisorArgs;
-use crate::process::set::{proc_id, Member, Reap, Set, SupervisorError};
+use crate::process::set::{Member, Reap, Set, SupervisorError};
 use crate::report::Report;
 use crate::scenario::Scenario;
 use crate::timing::monotonic_ns;
@@ -447,7 +447,8 @@ fn supervise(
         match child {
             Ok(child) => set.members.push(Member {
                 spec: spec.clone(),
-                id: proc_id(&spec.name),
+                // The launch description's names were checked against the table.
+                id: crate::topology::stage(&spec.name).map_or(0, |st| st.id),
                 child,
                 host,
                 restarts: 0,
