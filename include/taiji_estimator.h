@@ -11,8 +11,8 @@
  *        Jacobian is built on the stack: run them on a task with >= 256 KB).
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
- *        update 34 400 typical, 48 000 worst (the first sample); solve 6.93 M worst;
- *        finish 20.8 M. After a gap, update also bridges every missing tick, about
+ *        update 99 200 typical, 112 800 worst (the first sample; each includes the
+ *        upset check and reseal, UPSETS below); solve 6.99 M worst; finish 20.8 M. After a gap, update also bridges every missing tick, about
  *        10 600 instructions each, up to max_gap_ticks of the table: 63.6 M after a
  *        5 999-tick gap. A lower max_gap_ticks bounds that, at a price (TICKS below).
  *
@@ -32,6 +32,15 @@
  *        later (a slower rate group) takes the samples of the delay into that iteration
  *        and gives slightly different (equally valid) estimates. A host that never solves
  *        gets only finish's iterations, on all data: a degraded result.
+ *
+ * UPSETS Every call first checks a digest of the whole state against the one the library
+ *        left (a fold of its words: any single flipped bit changes it) and returns
+ *        TAIJI_ERR_UPSET, reading nothing of it, when they differ; every call that
+ *        writes the state reseals it. A bit flipped while the state rests between calls
+ *        is therefore found before it is used: restore the last checkpoint (and replay
+ *        the samples since) or init. A flip during a call is not covered. The check
+ *        and the reseal cost two passes over the state (about 65 000 instructions on a
+ *        Cortex-M7); docs/integrity.md has the upset campaign.
  *
  * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.
  *        finish is terminal and idempotent: it returns the same final estimate every
@@ -95,11 +104,16 @@
 // `estimate` still return the final estimate).
 #define TAIJI_ERR_FINISHED 9
 
+// The state changed since the library last left it: a bit flipped in the caller's
+// memory between calls (an upset), or something else wrote to it. Nothing of it is
+// used; restore the last checkpoint (or init) to go on.
+#define TAIJI_ERR_UPSET 10
+
 // Version of this C interface: the functions' signatures and every layout they pass
 // (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
 // value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
 // another with `TAIJI_ERR_VERSION`.
-#define TAIJI_ABI_VERSION 2
+#define TAIJI_ABI_VERSION 3
 
 // `update` flag: a solve is due (the host may run it now or in its slower rate group).
 #define TAIJI_SOLVE_DUE 1

@@ -41,3 +41,4 @@ pub mod scenario;
 pub mod telemetry;
 pub mod timing;
 pub mod topology;
+pub mod upset;

@@ -516,3 +516,44 @@ fn the_magic_word_over_zeros_is_no_state() {
         );
     }
 }
+
+#[test]
+fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
+    let mut mem = memory();
+    let p = init(&mut mem);
+    for k in 0..50 {
+        // SAFETY: an initialised state and a valid sample.
+        unsafe { taiji_estimator_update(p, &quiet(k), std::ptr::null_mut(), std::ptr::null_mut()) };
+    }
+    let words = taiji_estimator_size() / 8;
+    let mut out = EstimateMsg::default();
+    for (w, b) in [
+        (1usize, 0u32),
+        (words / 2, 62),
+        (words - 1, 7),
+        (words - 2, 33),
+    ] {
+        mem[w] ^= 1 << b;
+        // SAFETY: an initialised state and valid outputs.
+        unsafe {
+            assert_eq!(
+                taiji_estimator_estimate(p, &mut out),
+                TAIJI_ERR_UPSET,
+                "word {w} bit {b}"
+            );
+            assert_eq!(
+                taiji_estimator_update(p, &quiet(50), std::ptr::null_mut(), std::ptr::null_mut()),
+                TAIJI_ERR_UPSET
+            );
+            assert_eq!(taiji_estimator_solve(p), TAIJI_ERR_UPSET);
+            assert_eq!(taiji_estimator_finish(p, &mut out), TAIJI_ERR_UPSET);
+        }
+        mem[w] ^= 1 << b;
+        // SAFETY: as above.
+        assert_eq!(
+            unsafe { taiji_estimator_estimate(p, &mut out) },
+            TAIJI_OK,
+            "word {w} bit {b} flipped back"
+        );
+    }
+}

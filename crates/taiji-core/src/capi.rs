@@ -40,11 +40,16 @@ pub const TAIJI_ERR_SOLVE: i32 = 8;
 /// `estimate` still return the final estimate).
 pub const TAIJI_ERR_FINISHED: i32 = 9;
 
+/// The state changed since the library last left it: a bit flipped in the caller's
+/// memory between calls (an upset), or something else wrote to it. Nothing of it is
+/// used; restore the last checkpoint (or init) to go on.
+pub const TAIJI_ERR_UPSET: i32 = 10;
+
 /// Version of this C interface: the functions' signatures and every layout they pass
 /// (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
 /// value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
 /// another with `TAIJI_ERR_VERSION`.
-pub const TAIJI_ABI_VERSION: u32 = 2;
+pub const TAIJI_ABI_VERSION: u32 = 3;
 
 /// `update` flag: a solve is due (the host may run it now or in its slower rate group).
 pub const TAIJI_SOLVE_DUE: u32 = 1;
@@ -61,11 +66,57 @@ struct State {
     /// 1 after `finish` (any other value than 0 counts as finished).
     finished: u64,
     final_msg: EstimateMsg,
+    /// Digest of everything above but the magic word, as the library left it: every
+    /// call checks it before it reads the state, and every call that writes reseals it,
+    /// so a bit flipped while the state rests between calls is found before it is used.
+    seal: u32,
+    _pad: u32,
+}
+
+/// The state's words that the seal covers (the estimator, `finished`, the final
+/// estimate: plain numbers, 8-aligned, whole words).
+fn sealed_words(st: &State) -> [&[u32]; 3] {
+    // Both are `repr(C)` numbers aligned to 8 with sizes in whole words (checked at
+    // compile time), so the casts cannot fail; were one to, it would seal nothing
+    // rather than panic.
+    [
+        bytemuck::try_cast_slice(bytemuck::bytes_of(&st.est)).unwrap_or(&[]),
+        bytemuck::try_cast_slice(bytemuck::bytes_of(&st.finished)).unwrap_or(&[]),
+        bytemuck::try_cast_slice(bytemuck::bytes_of(&st.final_msg)).unwrap_or(&[]),
+    ]
+}
+
+/// A 32-bit fold of the words: each block of eight is XORed into one word, and the
+/// running digest is rotated by one bit before each block. Any single flipped bit
+/// changes it; two cancel only in the same bit of blocks a multiple of 32 apart. It
+/// runs twice a call (check, reseal), so it is kept to a load and an XOR a word (the
+/// rotation is free on an ARM: a shifted operand).
+fn digest(st: &State) -> u32 {
+    let mut d = 0u32;
+    for words in sealed_words(st) {
+        let mut chunks = words.chunks_exact(8);
+        for c in &mut chunks {
+            let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
+            d = d.rotate_left(1) ^ x;
+        }
+        for w in chunks.remainder() {
+            d = d.rotate_left(1) ^ w;
+        }
+    }
+    d
+}
+
+fn reseal(st: &mut State) {
+    st.seal = digest(st);
 }
 
 /// Bytes the estimator's state needs.
 #[no_mangle]
 pub extern "C" fn taiji_estimator_size() -> usize {
+    // The seal covers the estimator and the final estimate as whole words.
+    const _: () =
+        assert!(size_of::<JointEstimator>() % 8 == 0 && align_of::<JointEstimator>() == 8);
+    const _: () = assert!(size_of::<EstimateMsg>() % 8 == 0 && align_of::<EstimateMsg>() == 8);
     size_of::<State>()
 }
 
@@ -107,10 +158,27 @@ fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
 /// index within their arrays).
 fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
     let st = state_mut(mem, size_of::<State>())?;
-    if st.magic != MAGIC || !st.est.is_sane() {
+    if st.magic != MAGIC {
+        return Err(TAIJI_ERR_STATE);
+    }
+    if digest(st) != st.seal {
+        return Err(TAIJI_ERR_UPSET);
+    }
+    if !st.est.is_sane() {
         return Err(TAIJI_ERR_STATE);
     }
     Ok(st)
+}
+
+/// Runs `f` on the running campaign's state and reseals it whatever `f` returns (a
+/// failed solve has written its status).
+fn mutate(mem: *mut u8, f: impl FnOnce(&mut State) -> Result<i32, i32>) -> i32 {
+    code((|| {
+        let st = running(mem)?;
+        let r = f(st);
+        reseal(st);
+        r
+    })())
 }
 
 /// The initialised state of a campaign still running.
@@ -175,6 +243,7 @@ pub unsafe extern "C" fn taiji_estimator_init(
         JointEstimator::init_in_place(&mut st.est, cfg);
         st.finished = 0;
         st.final_msg = EstimateMsg::default();
+        reseal(st);
         st.magic = MAGIC;
         Ok(TAIJI_OK)
     })())
@@ -193,8 +262,7 @@ pub unsafe extern "C" fn taiji_estimator_update(
     rejected: *mut u64,
     flags: *mut u32,
 ) -> i32 {
-    code((|| {
-        let st = running(mem)?;
+    mutate(mem, |st| {
         if sample.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -215,7 +283,7 @@ pub unsafe extern "C" fn taiji_estimator_update(
             unsafe { flags.write_unaligned(f) };
         }
         Ok(TAIJI_OK)
-    })())
+    })
 }
 
 /// One Gauss–Newton iteration on everything taken so far (warm-started; the host
@@ -225,14 +293,13 @@ pub unsafe extern "C" fn taiji_estimator_update(
 /// `mem` must be the state passed to `taiji_estimator_init`, or null (refused).
 #[no_mangle]
 pub unsafe extern "C" fn taiji_estimator_solve(mem: *mut u8) -> i32 {
-    code((|| {
-        let st = running(mem)?;
+    mutate(mem, |st| {
         if st.est.solve_now() {
             Ok(TAIJI_OK)
         } else {
             Err(TAIJI_ERR_SOLVE)
         }
-    })())
+    })
 }
 
 /// The current estimate (β, k, r with σ, status word, rejection counts) into `out`.
@@ -249,7 +316,10 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
         let m = if st.finished != 0 {
             st.final_msg
         } else {
-            st.est.message(st.est.next_tick().saturating_sub(1))
+            // The message counts itself (its sequence number): reseal.
+            let m = st.est.message(st.est.next_tick().saturating_sub(1));
+            reseal(st);
+            m
         };
         // SAFETY: non-null, caller-provided.
         unsafe { out.write_unaligned(m) };
@@ -276,6 +346,7 @@ pub unsafe extern "C" fn taiji_estimator_finish(mem: *mut u8, out: *mut Estimate
             m.flags |= EST_FINAL;
             st.final_msg = m;
             st.finished = 1;
+            reseal(st);
         }
         let m = st.final_msg;
         // SAFETY: non-null, caller-provided.
@@ -350,6 +421,7 @@ pub unsafe extern "C" fn taiji_estimator_restore(
         st.est = est;
         st.finished = 0;
         st.final_msg = EstimateMsg::default();
+        reseal(st);
         st.magic = MAGIC;
         Ok(TAIJI_OK)
     })())
