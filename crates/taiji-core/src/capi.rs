@@ -69,13 +69,20 @@ struct State {
     /// Digest of everything above but the magic word, as the library left it: every
     /// call checks it before it reads the state, and every call that writes reseals it,
     /// so a bit flipped while the state rests between calls is found before it is used.
-    seal: u32,
-    _pad: u32,
+    seal: u64,
 }
+
+/// The machine word the seal folds: 64 bits where the CPU has them (half the loads),
+/// 32 on a 32-bit CPU (where the rotation is free). The seal never leaves the state,
+/// so the two need not agree.
+#[cfg(target_pointer_width = "64")]
+type Word = u64;
+#[cfg(not(target_pointer_width = "64"))]
+type Word = u32;
 
 /// The state's words that the seal covers (the estimator, `finished`, the final
 /// estimate: plain numbers, 8-aligned, whole words).
-fn sealed_words(st: &State) -> [&[u32]; 3] {
+fn sealed_words(st: &State) -> [&[Word]; 3] {
     // Both are `repr(C)` numbers aligned to 8 with sizes in whole words (checked at
     // compile time), so the casts cannot fail; were one to, it would seal nothing
     // rather than panic.
@@ -86,13 +93,12 @@ fn sealed_words(st: &State) -> [&[u32]; 3] {
     ]
 }
 
-/// A 32-bit fold of the words: each block of eight is XORed into one word, and the
-/// running digest is rotated by one bit before each block. Any single flipped bit
-/// changes it; two cancel only in the same bit of blocks a multiple of 32 apart. It
-/// runs twice a call (check, reseal), so it is kept to a load and an XOR a word (the
-/// rotation is free on an ARM: a shifted operand).
-fn digest(st: &State) -> u32 {
-    let mut d = 0u32;
+/// A fold of the words: each block of eight is XORed into one word, and the running
+/// digest is rotated by one bit before each block. Any single flipped bit changes it;
+/// two cancel only in the same bit of blocks a multiple of the word's width apart. It
+/// runs twice a call (check, reseal), so it is kept to about a load and an XOR a word.
+fn digest(st: &State) -> u64 {
+    let mut d: Word = 0;
     for words in sealed_words(st) {
         let mut chunks = words.chunks_exact(8);
         for c in &mut chunks {
@@ -103,7 +109,7 @@ fn digest(st: &State) -> u32 {
             d = d.rotate_left(1) ^ w;
         }
     }
-    d
+    d as u64
 }
 
 fn reseal(st: &mut State) {
