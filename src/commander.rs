@@ -4,8 +4,8 @@
 //! With the cosine phase (+A for T/4, −A for T/2, +A for T/4) rate and angle return
 //! to zero at the end of every period and the attitude stays within ±A T²/(16 I).
 
-use crate::maneuver::Timeline;
 use crate::msg::{Header, TorqueCommand};
+use crate::scenario::maneuver::Timeline;
 use crate::scenario::Scenario;
 
 #[derive(Debug, Clone)]

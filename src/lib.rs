@@ -24,7 +24,7 @@ pub mod faults;
 pub mod fee;
 pub mod fuzz;
 pub mod launch;
-pub mod maneuver;
+
 pub mod model;
 pub mod montecarlo;
 pub mod msg;

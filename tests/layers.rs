@@ -321,6 +321,26 @@ fn problems(src: &Path, table: Option<&Table>) -> Vec<String> {
         .into_iter()
         .map(|c| format!("import cycle: {}", c.join(" ↔ ")))
         .collect();
+    // The same at the level of top-level modules (a folder counts as one): a folder
+    // and a file may not import each other either, through any of the folder's files.
+    let mut top: BTreeMap<ModPath, BTreeSet<ModPath>> = BTreeMap::new();
+    for (m, edges) in &g {
+        let Some(head) = m.first() else { continue };
+        let entry = top.entry(vec![head.clone()]).or_default();
+        for t in edges {
+            if let Some(th) = t.first().filter(|th| *th != head) {
+                entry.insert(vec![th.clone()]);
+            }
+        }
+    }
+    for t in top.values().flatten().cloned().collect::<Vec<_>>() {
+        top.entry(t).or_default();
+    }
+    out.extend(
+        cycles(&top)
+            .into_iter()
+            .map(|c| format!("import cycle between modules: {}", c.join(" ↔ "))),
+    );
     let Some(table) = table else {
         return out;
     };
@@ -415,7 +435,27 @@ fn the_check_catches_a_cycle() {
         ],
     );
     let found = problems(&t.0, Some(&tiny_table()));
-    assert_eq!(found, ["import cycle: a ↔ b"], "{found:?}");
+    assert_eq!(
+        found,
+        ["import cycle: a ↔ b", "import cycle between modules: a ↔ b"],
+        "{found:?}"
+    );
+}
+
+#[test]
+fn the_check_catches_a_cycle_through_a_folder() {
+    let t = Tree::new(
+        "folder",
+        &[
+            ("lib.rs", "pub mod a;\npub mod b;\n"),
+            ("a/mod.rs", "pub mod x;\npub mod y;\n"),
+            ("a/x.rs", "use crate::b::Thing;\n"),
+            ("a/y.rs", ""),
+            ("b.rs", "use crate::a::y::Other;\n"),
+        ],
+    );
+    let found = problems(&t.0, Some(&tiny_table()));
+    assert_eq!(found, ["import cycle between modules: a ↔ b"], "{found:?}");
 }
 
 #[test]
@@ -448,7 +488,7 @@ fn the_check_catches_an_upward_import_and_a_file_in_no_layer() {
         found.contains(&"d is in no layer of docs/architecture.md".to_string()),
         "{found:?}"
     );
-    assert_eq!(found.len(), 3, "{found:?}");
+    assert_eq!(found.len(), 4, "{found:?}");
 }
 
 #[test]

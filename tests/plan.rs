@@ -2,8 +2,8 @@
 //! hold, an impossible request names what binds it, and its bound predicts reality.
 
 use nalgebra::{Matrix3, Vector3};
-use taiji::maneuver::{torque_boost, Timeline};
 use taiji::plan::{self, PlanOptions};
+use taiji::scenario::maneuver::{torque_boost, Timeline};
 use taiji::scenario::Scenario;
 
 fn load(text: &str) -> Scenario {

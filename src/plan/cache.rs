@@ -18,7 +18,7 @@ use std::path::PathBuf;
 const SOURCES: &[&[u8]] = &[
     include_bytes!("mod.rs"),
     include_bytes!("cache.rs"),
-    include_bytes!("../maneuver.rs"),
+    include_bytes!("../scenario/maneuver.rs"),
     include_bytes!("../crlb.rs"),
     include_bytes!("../campaign.rs"),
     include_bytes!("../commander.rs"),

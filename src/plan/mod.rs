@@ -13,8 +13,10 @@
 
 use crate::campaign::Threads;
 use crate::crlb::{crlb_at_rate, crlb_on, Crlb};
-use crate::maneuver::{axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline};
 use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use crate::scenario::maneuver::{
+    axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline,
+};
 use crate::scenario::{k_from_beta, Maneuver, Scenario, Schedule};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
@@ -335,7 +337,7 @@ fn size(base: &Scenario, mut m: Maneuver) -> Option<Candidate> {
     })
 }
 
-use crate::maneuver::round_down_4;
+use crate::scenario::maneuver::round_down_4;
 
 /// The maneuver shapes for `base`'s window with `counts` whole periods per axis
 /// (sequential) or of the slow axis (simultaneous, the slow axis each of `slow`).
@@ -695,106 +697,6 @@ pub fn min_duration(s: &Scenario, margin: f64) -> Result<Plan, PlanError> {
     }
 }
 
-/// The maneuver a run used, for the report: its waveform and schedule, whether it was
-/// planned, its envelope over the priors' CoM box and the bound it predicts.
-#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
-pub struct ManeuverReport {
-    pub planned: bool,
-    pub waveform: String,
-    pub schedule: String,
-    pub axis_order: String,
-    pub frequencies_hz: [f64; 3],
-    pub periods: [u64; 3],
-    pub torque_amplitude_nm: [f64; 3],
-    pub start_phase: f64,
-    pub start_s: f64,
-    pub pause_in_outages: bool,
-    pub peak_acceleration_m_s2: f64,
-    pub peak_attitude_rad: f64,
-    pub peak_rate_rad_s: f64,
-    /// Worst Cramér–Rao bound / requirement, and its parameter.
-    pub predicted_worst_ratio: f64,
-    pub predicted_worst_parameter: String,
-    /// The planner's search: candidates weighed, its time [s], the binding constraint.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub search: Option<serde_json::Value>,
-}
-
-impl ManeuverReport {
-    /// One line for the result table.
-    pub fn line(&self) -> String {
-        let f: Vec<String> = if self.schedule == "sequential" {
-            vec![format!("{:.3e} Hz", self.frequencies_hz[0])]
-        } else {
-            self.frequencies_hz
-                .iter()
-                .map(|f| format!("{f:.3e}"))
-                .collect()
-        };
-        let f = if f.len() == 1 {
-            f[0].clone()
-        } else {
-            format!("[{}] Hz", f.join(", "))
-        };
-        format!(
-            "Maneuver ({}): {} {}{}, {f}, {:?} periods, torque [{:.3e}, {:.3e}, {:.3e}] N m; peak |A r| {:.2e} m/s², attitude {:.2e} rad; CRLB/requirement ≤ {:.3} ({})",
-            if self.planned { "planned" } else { "as given" },
-            self.schedule,
-            if self.schedule == "sequential" { self.axis_order.as_str() } else { "axes" },
-            if self.start_phase == 0.0 { String::new() } else { format!(", start phase {}", self.start_phase) },
-            self.periods,
-            self.torque_amplitude_nm[0],
-            self.torque_amplitude_nm[1],
-            self.torque_amplitude_nm[2],
-            self.peak_acceleration_m_s2,
-            self.peak_attitude_rad,
-            self.predicted_worst_ratio,
-            self.predicted_worst_parameter
-        )
-    }
-}
-
-/// Describe `s`'s maneuver with the bound `crlb` (and the plan that chose it).
-pub fn describe(s: &Scenario, crlb: Option<&Crlb>, plan: Option<&PlanInfo>) -> ManeuverReport {
-    let mv = &s.maneuver;
-    let boost = torque_boost(s);
-    let (periods, env) = match Timeline::new(s) {
-        Ok(t) => (t.periods(), Some(t.envelope(&inertia(s)))),
-        Err(_) => ([0; 3], None),
-    };
-    let (ratio, param) = match (crlb, plan) {
-        (Some(c), _) => worst_ratio(s, c),
-        (None, Some(p)) => (p.worst_ratio, p.worst_parameter.clone()),
-        _ => (f64::NAN, String::new()),
-    };
-    ManeuverReport {
-        planned: mv.planned,
-        waveform: if mv.start_phase == 0.0 {
-            "square, cosine phase".into()
-        } else {
-            format!("square, start phase {} period", mv.start_phase)
-        },
-        schedule: mv.schedule.name().into(),
-        axis_order: mv.axis_order.clone(),
-        frequencies_hz: axis_frequencies(s),
-        periods,
-        torque_amplitude_nm: mv.torque_amplitude_nm,
-        start_phase: mv.start_phase,
-        start_s: mv.start_s,
-        pause_in_outages: mv.pause_in_outages,
-        peak_acceleration_m_s2: env.as_ref().map_or(f64::NAN, |e| {
-            e.peak_acceleration(&offset_corners(s), boost).1
-        }),
-        peak_attitude_rad: env
-            .as_ref()
-            .map_or(f64::NAN, |e| e.peak_attitude_rad * boost),
-        peak_rate_rad_s: env.as_ref().map_or(f64::NAN, |e| e.peak_rate_rad_s * boost),
-        predicted_worst_ratio: ratio,
-        predicted_worst_parameter: param,
-        search: plan.map(PlanInfo::search_json),
-    }
-}
-
 /// `s` with its maneuver planned if it has none; what the plan was when one was made.
 /// A plan of the same scenario made before by the same code comes from the cache.
 pub fn resolve(s: Scenario) -> Result<(Scenario, Option<PlanInfo>), String> {
@@ -845,5 +747,7 @@ pub fn maneuver_toml(m: &Maneuver) -> String {
 }
 
 pub mod cache;
+mod describe;
+pub use describe::{describe, ManeuverReport};
 mod output;
 pub use output::write;

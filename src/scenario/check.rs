@@ -272,7 +272,7 @@ impl Scenario {
     /// The maneuver's own checks: its keys, its fit in the window, the thrusters' torque,
     /// the attitude and rate limits and the IS design limit on |A r| at the true offsets.
     fn validate_maneuver(&self, given: &dyn Fn(&str) -> bool) -> Result<(), ScenarioError> {
-        use crate::maneuver::{axis_frequencies, torque_boost, Timeline};
+        use crate::scenario::maneuver::{axis_frequencies, torque_boost, Timeline};
         let err = |k: &str, m: &str| Err(ScenarioError(format!("`{k}`: {m}")));
         let blame_second = |first: &str, second: &str| given(second) && !given(first);
         let mv = &self.maneuver;
@@ -437,7 +437,7 @@ impl Scenario {
                         one.maneuver.torque_amplitude_nm[a] = mv.torque_amplitude_nm[a];
                         let env = Timeline::new(&one).ok()?.envelope(&inertia);
                         (env.peak_acceleration(&truths, boost).1 > limit).then(|| {
-                            let t = crate::maneuver::round_down_4(
+                            let t = crate::scenario::maneuver::round_down_4(
                                 env.largest_scale(&truths, limit, boost) / boost
                                     * mv.torque_amplitude_nm[a],
                             );
@@ -451,7 +451,9 @@ impl Scenario {
                     let t: Vec<String> = mv
                         .torque_amplitude_nm
                         .iter()
-                        .map(|t| format!("{:.3e}", crate::maneuver::round_down_4(t * fits)))
+                        .map(|t| {
+                            format!("{:.3e}", crate::scenario::maneuver::round_down_4(t * fits))
+                        })
                         .collect();
                     format!("at most [{}] N m", t.join(", "))
                 }
@@ -545,7 +547,7 @@ impl Scenario {
         let f = if self.plan_pending {
             0.0
         } else {
-            crate::maneuver::axis_frequencies(self)
+            crate::scenario::maneuver::axis_frequencies(self)
                 .into_iter()
                 .fold(0.0, f64::max)
         };

@@ -5,12 +5,13 @@
 //! impossible values are rejected with a message that names the key.
 
 use crate::estimate::EstimatorConfig;
-use crate::model::noise::white_sigma;
 use serde::{Deserialize, Serialize};
 use std::fmt;
+use taiji_core::model::noise::white_sigma;
 
 mod check;
 pub mod faults;
+pub mod maneuver;
 
 /// Arc-second in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
