@@ -7,8 +7,9 @@
  * MEMORY The state: taiji_estimator_size() bytes (about 64 KB) aligned to
  *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
  *        alignment. Stack per call, measured by painting (docs/flight.md): update 6.7 KB;
- *        solve and finish 190 KB on a Cortex-M7, 165 KB on x86-64 (the Gauss-Newton
- *        Jacobian is built on the stack: run them on a task with >= 256 KB).
+ *        solve and finish 190 KB on a Cortex-M7, 243 KB on x86-64 with AVX2 (the
+ *        Gauss-Newton Jacobian and its products are built on the stack: run them on a
+ *        task with >= 256 KB, >= 320 KB on x86-64).
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
  *        update 99 200 typical, 112 800 worst (the first sample; each includes the
