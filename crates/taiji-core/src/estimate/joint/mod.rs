@@ -185,6 +185,13 @@ const SCHEDULED_ITERATIONS: usize = 1;
 /// star tracker's: the star test then learns its offset anew (in ticks: × fs).
 const STAR_RELEARN_GAP_S: f64 = 1.0;
 
+/// Most missing ticks one `update` bridges (each about 10⁴ instructions on a Cortex-M7:
+/// a propagation step of the attitude, the whitening filter and the star filter).
+/// After a longer gap the samples that arrive while the estimator catches up are
+/// bridged too, B − 1 ticks gained a call: a 600 s gap at 10 Hz costs about 86 s of
+/// data, and no call costs more than this many steps. Gaps up to it lose nothing.
+const BRIDGE_PER_UPDATE: u64 = 8;
+
 /// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
 const ALPHA_LIN: f64 = 1.0 / 64.0;
 const ALPHA_STAR: f64 = 1.0 / 16.0;
@@ -334,8 +341,8 @@ impl JointEstimator {
         self.message(self.next_tick.saturating_sub(1))
     }
 
-    /// Take one sensor sample into the statistics (no solve: bounded work, the
-    /// bridging of up to `max_gap_ticks` missing ticks before it aside). Any content,
+    /// Take one sensor sample into the statistics (no solve: bounded work, at most
+    /// `BRIDGE_PER_UPDATE` missing ticks bridged before it). Any content,
     /// header or tick order is accepted without panic: what cannot be trusted is
     /// rejected and counted. Returns this call's rejection causes (bit `1 << CAUSE_*`);
     /// `solve_due` says whether a solve is due.
@@ -364,13 +371,22 @@ impl JointEstimator {
                 return self.tick_mask;
             }
         } else {
-            for k in 0..gap {
-                self.bridge(self.next_tick + k);
-            }
             if gap as f64 > STAR_RELEARN_GAP_S * self.cfg.fs {
                 // A long gap: the star test learns its offset anew rather than
                 // rejecting every sample until it gives up.
                 self.star_track = [Track::default(); 3];
+            }
+            let n = gap.min(BRIDGE_PER_UPDATE);
+            for k in 0..n {
+                self.bridge(self.next_tick + k);
+            }
+            if n < gap {
+                // Catching up: the next updates bridge the rest of the gap, this
+                // sample's tick among it (counted there as missing), so one call's
+                // work stays bounded however long the gap.
+                self.next_tick += n;
+                self.jump_candidate = [0; 2];
+                return self.tick_mask;
             }
         }
         self.jump_candidate = [0; 2];
@@ -488,5 +504,73 @@ pub(super) fn test_config() -> EstimatorConfig {
         full_scale_linear: 1e-8,
         full_scale_angular: 1e-7,
         max_gap_ticks: 6000,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quiet(tick: u64) -> SensorSample {
+        let mut s = SensorSample::default();
+        s.header.tick = tick;
+        s.star.valid = 1;
+        s.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+        for i in 0..2 {
+            s.is[i].volts = [[1e-3, -1e-3], [2e-3, -2e-3], [1.5e-3, -1.5e-3]];
+        }
+        s
+    }
+
+    /// However long the gap (up to `max_gap_ticks`), one update bridges at most
+    /// `BRIDGE_PER_UPDATE` ticks; the estimator catches up over the next samples and
+    /// then takes samples again, with every tick of the timeline accounted for.
+    #[test]
+    fn an_update_after_a_long_gap_bridges_a_bounded_number_of_ticks() {
+        let mut e = JointEstimator::new(test_config());
+        for t in 0..100 {
+            e.update(&quiet(t));
+        }
+        let gap = 5999;
+        let mut tick = 100 + gap;
+        let mut calls = 0;
+        loop {
+            let (before, next) = (e.causes[CAUSE_TICK_MISSING], e.next_tick());
+            let mask = e.update(&quiet(tick));
+            let bridged = e.causes[CAUSE_TICK_MISSING] - before;
+            assert!(
+                bridged <= BRIDGE_PER_UPDATE,
+                "call {calls}: {bridged} ticks bridged"
+            );
+            calls += 1;
+            if e.next_tick() == tick + 1 {
+                // Caught up: this sample was taken.
+                assert_eq!(bridged, tick - next);
+                break;
+            }
+            assert_ne!(mask & (1 << CAUSE_TICK_MISSING), 0);
+            assert_eq!(e.next_tick(), next + BRIDGE_PER_UPDATE);
+            tick += 1;
+            assert!(calls < 2000, "never caught up");
+        }
+        // B − 1 ticks gained a call.
+        assert_eq!(
+            calls,
+            (gap as usize).div_ceil(BRIDGE_PER_UPDATE as usize - 1)
+        );
+        // Every tick from 0 on is either used or counted as rejected.
+        assert_eq!(e.n_used + e.n_rejected, tick + 1);
+    }
+
+    /// A gap up to the bound is bridged in the update that sees it, as before.
+    #[test]
+    fn a_short_gap_is_bridged_at_once() {
+        let mut e = JointEstimator::new(test_config());
+        for t in 0..10 {
+            e.update(&quiet(t));
+        }
+        e.update(&quiet(10 + BRIDGE_PER_UPDATE));
+        assert_eq!(e.next_tick(), 11 + BRIDGE_PER_UPDATE);
+        assert_eq!(e.causes[CAUSE_TICK_MISSING], BRIDGE_PER_UPDATE);
     }
 }
