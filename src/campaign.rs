@@ -9,6 +9,7 @@ use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::{EstimateMsg, SensorSample, TruthState};
 use crate::scenario::Scenario;
+use crate::stage::Stage;
 use crate::telemetry::{Sink, Telemetry};
 use std::sync::mpsc;
 
@@ -189,9 +190,10 @@ impl Sim {
         b.sample.clear();
         let end = (self.next + BATCH as u64).min(self.n);
         for tick in self.next..end {
-            let cmd = self.commander.step(tick);
-            let truth = self.plant.step(tick, &cmd.torque_cmd_b);
-            let mut sample = self.fee.step(&truth);
+            // The chain, each stage through its one lifecycle (`stage::Stage`).
+            let cmd = self.commander.process(tick, &());
+            let truth = self.plant.process(tick, &cmd);
+            let mut sample = self.fee.process(tick, &truth);
             let (d0, r0) = (b.delivered.len(), b.records.len());
             if let Some(inj) = self.inj.as_mut() {
                 if self.faults {
@@ -245,7 +247,7 @@ impl<P: FnMut(f64)> Est<'_, P> {
             }
             ri += nr;
             for (m, of, d, second) in &b.delivered[di..di + nd] {
-                let est = self.estimator.step(m);
+                let est = self.estimator.process(*of, m);
                 if let Some(sc) = self.score.as_mut() {
                     sc.observe(*of, *d, *second, est.tick_rejections);
                 }
@@ -365,7 +367,8 @@ fn run_with(
         mut progress,
         ..
     } = est;
-    let estimate = estimator.finish();
+    // The estimator's stop is its final estimate (always there).
+    let estimate = estimator.stop().unwrap_or_default();
     if let Some(t) = rec {
         t.record_estimate(&estimate)?;
     }

@@ -38,6 +38,7 @@ pub mod report_doc;
 pub mod requirements;
 pub mod rng;
 pub mod scenario;
+pub mod stage;
 pub mod telemetry;
 pub mod timing;
 pub mod topology;
