@@ -21,11 +21,11 @@ pub struct FuzzStats {
     pub causes: [u64; crate::msg::N_CAUSES],
 }
 
-/// SplitMix64: cheap, seeded bits.
-struct Bits(u64);
+/// SplitMix64: cheap, seeded bits (the fuzz and upset campaigns draw from it).
+pub(crate) struct Bits(pub(crate) u64);
 
 impl Bits {
-    fn next(&mut self) -> u64 {
+    pub(crate) fn next(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -33,7 +33,7 @@ impl Bits {
         z ^ (z >> 31)
     }
 
-    fn below(&mut self, n: u64) -> u64 {
+    pub(crate) fn below(&mut self, n: u64) -> u64 {
         self.next() % n.max(1)
     }
 }

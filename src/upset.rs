@@ -10,6 +10,7 @@
 
 use crate::capi::*;
 use crate::estimate::{EstimatorConfig, Method};
+use crate::fuzz::Bits;
 use crate::msg::{EstimateMsg, SensorSample, ST_UNVERIFIED};
 use crate::scenario::Scenario;
 use std::mem::size_of;
@@ -295,33 +296,22 @@ impl Campaign {
     }
 }
 
-/// SplitMix64 draws for the trials.
-pub struct Draws(pub u64);
-
-impl Draws {
-    pub fn draw(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// A flip at a random moment (before any update or before finish), word and bit.
-    pub fn flip(&mut self, samples: usize) -> Flip {
-        Flip {
-            at: (self.draw() % (samples as u64 + 1)) as usize,
-            word: (self.draw() % Campaign::state_words() as u64) as usize,
-            bit: (self.draw() % 64) as u32,
-        }
+/// A flip at a random moment (before any update or before finish), word and bit.
+fn draw_flip(bits: &mut Bits, samples: usize) -> Flip {
+    Flip {
+        at: bits.below(samples as u64 + 1) as usize,
+        word: bits.below(Campaign::state_words() as u64) as usize,
+        bit: bits.below(64) as u32,
     }
 }
 
 /// Counts of every outcome over `trials` random flips, on `threads` threads.
 pub fn run(c: &Campaign, trials: usize, seed: u64, threads: usize) -> Vec<(Outcome, usize, f64)> {
     let threads = threads.max(1);
-    let mut draws = Draws(seed);
-    let flips: Vec<Flip> = (0..trials).map(|_| draws.flip(c.samples.len())).collect();
+    let mut bits = Bits(seed);
+    let flips: Vec<Flip> = (0..trials)
+        .map(|_| draw_flip(&mut bits, c.samples.len()))
+        .collect();
     let results: Vec<(Outcome, f64)> = std::thread::scope(|sc| {
         let handles: Vec<_> = flips
             .chunks(trials.div_ceil(threads).max(1))
