@@ -1,10 +1,12 @@
 //! `taiji-commander`: publishes the maneuver's torque command per tick, paced by the
 //! downstream credit (accelerated) or by the clock (real-time).
 
+use super::driver::{self, Service, Turn};
 use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::commander::Commander;
-use crate::msg::{TorqueCommand, STATE_DONE, STATE_RUNNING};
+use crate::msg::{TorqueCommand, STATE_RUNNING};
+use crate::stage::Stage;
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
@@ -32,72 +34,97 @@ fn fault_hold() -> Result<Option<(u64, std::path::PathBuf)>, String> {
 }
 
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
-    let mut hold = fault_hold()?;
+    let hold = fault_hold()?;
     let s = args.scenario()?;
     let period = args.period_ns(&s)?;
-    let mut link = Link::new("taiji-commander", args)?;
-    let out = bus::publisher::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
-    let mut commander = Commander::new(&s);
-    link.beat()?;
-    // Start the clock only once the whole chain can take samples: tick 0 is due now.
-    while !(link.started() && link.downstream.primed && (!args.record || link.recorder.heard)) {
-        if let Some(e) = link.poll()?.or_else(|| link.idle(Duration::from_millis(1))) {
-            return Ok(e);
+    let mut link = Link::new(<Commander as Stage>::PROCESS, args)?;
+    let mut service = CommanderService {
+        out: bus::publisher::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?,
+        commander: Commander::new(&s),
+        n: s.n_samples(),
+        period,
+        record: args.record,
+        hold,
+        t0: None,
+        t: 0,
+    };
+    driver::drive(&mut link, &mut service)
+}
+
+struct CommanderService {
+    out: bus::Pub<TorqueCommand>,
+    commander: Commander,
+    n: u64,
+    /// Real-time tick period [ns] (0: accelerated, paced by the credit alone).
+    period: u64,
+    /// A recorder runs in the set: obey its credit too.
+    record: bool,
+    hold: Option<(u64, std::path::PathBuf)>,
+    /// When tick 0 was due [ns]; `None` until the whole chain can take samples.
+    t0: Option<u64>,
+    /// Next tick to publish.
+    t: u64,
+}
+
+impl CommanderService {
+    /// Is the fault-injection hold in force before tick `t`?
+    fn held(&mut self, t: u64) -> bool {
+        match &self.hold {
+            Some((at, path)) if t >= *at => {
+                if path.exists() {
+                    return true;
+                }
+                self.hold = None;
+                false
+            }
+            _ => false,
         }
     }
-    link.progress.state = STATE_RUNNING;
-    let n = s.n_samples();
-    let t0 = monotonic_ns();
-    let mut t = 0;
-    while t < n {
-        if let Some(e) = link.poll()? {
-            return Ok(e);
+}
+
+impl Service for CommanderService {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+        // Start the clock only once the whole chain can take samples: tick 0 is due now.
+        let Some(t0) = self.t0 else {
+            if link.started() && link.downstream.primed && (!self.record || link.recorder.heard) {
+                link.progress.state = STATE_RUNNING;
+                self.t0 = Some(monotonic_ns());
+                return Ok(Turn::Busy);
+            }
+            return Ok(Turn::Idle(Duration::from_millis(1)));
+        };
+        let t = self.t;
+        if t >= self.n {
+            return Ok(Turn::Done);
         }
-        let due = t0 + t * period;
-        if period > 0 {
+        let due = t0 + t * self.period;
+        if self.period > 0 {
             let now = monotonic_ns();
             if now < due {
-                let wait = Duration::from_nanos((due - now).min(1_000_000));
-                if let Some(e) = link.sleep(wait) {
-                    return Ok(e);
-                }
-                continue;
+                return Ok(Turn::Wait(Duration::from_nanos((due - now).min(1_000_000))));
             }
         }
-        if let Some((at, path)) = &hold {
-            if t >= *at {
-                if !path.exists() {
-                    hold = None;
-                } else if let Some(e) = link.idle(Duration::from_millis(2)) {
-                    return Ok(e);
-                }
-                continue;
-            }
+        if self.held(t) {
+            return Ok(Turn::Idle(Duration::from_millis(2)));
         }
-        let recorder_credit = !args.record
+        let recorder_credit = !self.record
             || (link.recorder.heard && t < link.recorder.next_tick + bus::RECORDER_WINDOW);
         if !(link.downstream.credit(t) && recorder_credit) {
-            if let Some(e) = link.idle(super::IDLE) {
-                return Ok(e);
-            }
-            continue;
+            return Ok(Turn::Idle(super::IDLE));
         }
-        let mut m = commander.step(t);
+        let mut m = self.commander.process(t, &());
         m.header.publish_ns = monotonic_ns();
-        if period > 0 {
+        if self.period > 0 {
             m.header.due_ns = due;
-            if m.header.publish_ns > due + period {
+            if m.header.publish_ns > due + self.period {
                 link.progress.missed_deadlines += 1;
             }
         }
-        bus::publish(&out, m)?;
-        link.sent(period > 0);
-        t += 1;
-        link.progress.next_tick = t;
-        link.progress.resume_tick = t;
-        if t % 32 == 0 {
-            link.beat()?;
-        }
+        bus::publish(&self.out, m)?;
+        link.sent(self.period > 0);
+        self.t = t + 1;
+        link.progress.next_tick = self.t;
+        link.progress.resume_tick = self.t;
+        Ok(Turn::Busy)
     }
-    link.linger(STATE_DONE)
 }

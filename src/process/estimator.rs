@@ -1,12 +1,14 @@
 //! `taiji-estimator`: the calibration filters on the sensor stream. Resumes from its
 //! checkpoint when restarted; allocates nothing in its loop (it counts and reports it).
 
+use super::driver::{self, Service, Turn};
 use super::{BusArgs, Exit, Link};
 use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
 use crate::estimate::{Estimator, EstimatorConfig};
-use crate::msg::{SensorSample, STATE_DONE, STATE_RUNNING};
+use crate::msg::{EstimateMsg, SensorSample, STATE_DONE, STATE_RUNNING};
+use crate::stage::Stage;
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
@@ -102,140 +104,179 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
     std::fs::create_dir_all(&args.run_dir)
         .map_err(|e| format!("cannot create {}: {e}", args.run_dir.display()))?;
     let ckpt_path = args.run_dir.join(CHECKPOINT_FILE);
-    let (mut est, mut next) = match checkpoint::load(&ckpt_path)? {
+    let (est, next) = match checkpoint::load(&ckpt_path)? {
         Some((est, next)) => {
             log::warn!("taiji-estimator: resuming from checkpoint at tick {next}");
             (est, next)
         }
         None => (Estimator::new(method, table.config), 0),
     };
-    let mut ckpt = Checkpointer::with_write_delay(&ckpt_path, &est, fault_checkpoint_delay()?)?;
-    let mut link = Link::new("taiji-estimator", args)?;
+    let ckpt = Checkpointer::with_write_delay(&ckpt_path, &est, fault_checkpoint_delay()?)?;
+    let mut link = Link::new(<Estimator as Stage>::PROCESS, args)?;
     let input = bus::subscriber::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
-    // Estimates leave through their own thread (see `outbox`).
-    let mut out = super::outbox::Outbox::start(&args.bus_prefix)?;
-    let n = table.n_samples;
     link.progress.next_tick = next;
     link.progress.resume_tick = next;
-    link.beat()?;
+    let mut service = EstimatorService {
+        input,
+        // Estimates leave through their own thread (see `outbox`).
+        out: super::outbox::Outbox::start(&args.bus_prefix)?,
+        est,
+        ckpt,
+        n: table.n_samples,
+        next,
+        period,
+        resync_ns,
+        allocs_before: None,
+        last_input: monotonic_ns(),
+        final_msg: None,
+        final_sent: 0,
+        drop_final: super::fault_count(FAULT_DROP_FINAL, 1)?,
+    };
+    driver::drive(&mut link, &mut service)
+}
 
-    // The loop runs without touching the heap once connected: allocations are
-    // counted from the first sample on (iceoryx2 allocates while it connects ports).
-    let mut allocs_before = None;
-    let mut done = false;
-    let mut last_input = monotonic_ns();
-    // The final estimate, kept to be sent again (sets over hosts), and when it last was.
-    let mut final_msg = None;
-    let mut final_sent = 0u64;
-    let mut drop_final = super::fault_count(FAULT_DROP_FINAL, 1)?;
-    let exit = loop {
-        if let Some(e) = link.poll()? {
-            break e;
+struct EstimatorService {
+    input: bus::Sub<SensorSample>,
+    out: super::outbox::Outbox,
+    est: Estimator,
+    ckpt: Checkpointer,
+    /// Samples in the campaign.
+    n: u64,
+    /// Next tick the estimator expects.
+    next: u64,
+    /// Real-time tick period [ns] (0: accelerated).
+    period: u64,
+    /// Ask for a resend after this long without a sample [ns] (0: never).
+    resync_ns: u64,
+    /// The thread's allocation count at the first sample: the loop runs without
+    /// touching the heap once connected (iceoryx2 allocates while it connects ports).
+    allocs_before: Option<u64>,
+    last_input: u64,
+    /// The final estimate, kept to be sent again (sets over hosts), and when it last was.
+    final_msg: Option<EstimateMsg>,
+    final_sent: u64,
+    drop_final: u32,
+}
+
+impl EstimatorService {
+    /// No sample: starved mid-campaign (samples lost on a link between hosts), or done
+    /// and still no stop (the final estimate lost as it crossed).
+    fn starved(&mut self, link: &mut Link) -> Result<Turn, String> {
+        // A new incarnation makes the front-end resend from `next`, and what is still in
+        // flight under the old one is dropped (`turn`): nothing lost, nothing twice.
+        let now = monotonic_ns();
+        let resync = self.resync_ns > 0 && now > self.last_input + self.resync_ns;
+        if resync && self.allocs_before.is_some() && self.final_msg.is_none() {
+            super::warn_without_alloc(format_args!(
+                "taiji-estimator: no sample for {} ms; asking the front-end to resend from tick {}",
+                self.resync_ns / 1_000_000,
+                self.next
+            ));
+            link.progress.incarnation = now;
+            link.beat()?;
+            self.last_input = now;
         }
-        // The front-end keeps every sample from the newest checkpoint on disk. The
-        // writer may finish while this loop waits for samples, and the front-end may be
-        // waiting for exactly this news (its ring full), so look on every pass.
-        if let Some(w) = ckpt.written() {
-            if w != link.progress.resume_tick {
-                link.progress.resume_tick = w;
-                link.beat()?;
-            }
+        // Resend the final estimate (same seq: receivers keep the first) until the
+        // supervisor in charge, having it, says stop.
+        let due = self.resync_ns > 0 && now > self.final_sent + self.resync_ns;
+        if let Some(f) = self.final_msg.filter(|_| due) {
+            super::warn_without_alloc(format_args!(
+                "taiji-estimator: no stop {} ms after the final estimate; sending it again",
+                self.resync_ns / 1_000_000
+            ));
+            self.out.send(f)?;
+            self.final_sent = now;
         }
-        let Some(sample) = bus::receive(&input)? else {
-            // Starved mid-campaign: samples were lost on a link between hosts. A new
-            // incarnation makes the front-end resend from `next`, and what is still in
-            // flight under the old one is dropped (below): nothing lost, nothing twice.
-            let now = monotonic_ns();
-            if resync_ns > 0 && allocs_before.is_some() && !done && now > last_input + resync_ns {
-                super::warn_without_alloc(format_args!(
-                    "taiji-estimator: no sample for {} ms; asking the front-end to resend from tick {next}",
-                    resync_ns / 1_000_000
-                ));
-                link.progress.incarnation = now;
-                link.beat()?;
-                last_input = now;
-            }
-            // Done, and still no stop: the final estimate may have been lost on the
-            // link (cut as it crossed). Resend it (same seq: receivers keep the first)
-            // until the supervisor in charge, having it, says stop.
-            if let Some(f) = final_msg.filter(|_| resync_ns > 0 && now > final_sent + resync_ns) {
-                super::warn_without_alloc(format_args!(
-                    "taiji-estimator: no stop {} ms after the final estimate; sending it again",
-                    resync_ns / 1_000_000
-                ));
-                out.send(f)?;
-                final_sent = now;
-            }
-            if let Some(e) = link.idle(super::IDLE) {
-                break e;
-            }
-            continue;
+        Ok(Turn::Idle(super::IDLE))
+    }
+
+    /// The campaign's last sample is in: the final estimate.
+    fn finish(&mut self, link: &mut Link, origin_ns: u64) -> Result<(), String> {
+        let mut f = self.est.stop().unwrap_or_default();
+        f.header.origin_ns = origin_ns;
+        f.header.publish_ns = monotonic_ns();
+        if self.drop_final > 0 {
+            self.drop_final -= 1;
+            super::warn_without_alloc(format_args!(
+                "taiji-estimator: fault injection: the final estimate is not sent"
+            ));
+        } else {
+            self.out.send(f)?;
+        }
+        self.final_msg = Some(f);
+        self.final_sent = monotonic_ns();
+        link.progress.state = STATE_DONE;
+        self.count_allocations(link);
+        link.beat()
+    }
+
+    fn count_allocations(&self, link: &mut Link) {
+        if let Some(a) = self.allocs_before {
+            link.progress.loop_allocations = alloc_count::thread_allocations().unwrap_or(a) - a;
+        }
+    }
+}
+
+impl Service for EstimatorService {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+        let Some(sample) = bus::receive(&self.input)? else {
+            return self.starved(link);
         };
         // Sent before the front-end noticed this instance (a restart): it resends
         // everything from our checkpoint, addressed to us.
         if sample.header.epoch != link.progress.incarnation {
-            continue;
+            return Ok(Turn::Busy);
         }
-        last_input = monotonic_ns();
-        if allocs_before.is_none() {
-            allocs_before = alloc_count::thread_allocations();
+        self.last_input = monotonic_ns();
+        if self.allocs_before.is_none() {
+            self.allocs_before = alloc_count::thread_allocations();
         }
         link.progress.state = STATE_RUNNING;
-        let received = monotonic_ns();
         link.hop
-            .record(received.saturating_sub(sample.header.publish_ns));
-        let mut e = est.step(&sample);
+            .record(monotonic_ns().saturating_sub(sample.header.publish_ns));
+        let mut e = self.est.process(sample.header.tick, &sample);
         e.header.origin_ns = sample.header.origin_ns;
         let now = monotonic_ns();
         e.header.publish_ns = now;
-        out.send(e)?;
+        self.out.send(e)?;
         link.e2e.record(now.saturating_sub(sample.header.origin_ns));
         // The tick's deadline: its estimate out within one period of the tick's due
         // time, whichever stage was late (a lost plant tick carries no due time).
         let due = sample.header.due_ns;
-        if period > 0 && due > 0 && now > due + period {
+        if self.period > 0 && due > 0 && now > due + self.period {
             link.progress.missed_deadlines += 1;
         }
         // Duplicates, late and garbage ticks are the estimator's to judge (and count).
-        let advanced = est.next_tick() > next;
-        next = est.next_tick();
-        link.progress.next_tick = next;
+        let advanced = self.est.next_tick() > self.next;
+        self.next = self.est.next_tick();
+        link.progress.next_tick = self.next;
         link.progress.samples_lost = e.rejected_by_cause[crate::msg::CAUSE_TICK_MISSING];
-        if advanced && next % CHECKPOINT_EVERY == 0 {
-            ckpt.save(&est, next)?;
+        if advanced && self.next % CHECKPOINT_EVERY == 0 {
+            self.ckpt.save(&self.est, self.next)?;
         }
-        if next == n && !done {
-            let mut f = est.finish();
-            f.header.origin_ns = sample.header.origin_ns;
-            f.header.publish_ns = monotonic_ns();
-            if drop_final > 0 {
-                drop_final -= 1;
-                super::warn_without_alloc(format_args!(
-                    "taiji-estimator: fault injection: the final estimate is not sent"
-                ));
-            } else {
-                out.send(f)?;
-            }
-            final_msg = Some(f);
-            final_sent = monotonic_ns();
-            done = true;
-            link.progress.state = STATE_DONE;
+        if self.next % driver::BEAT_TICKS == 0 {
+            self.count_allocations(link);
         }
-        if next % 32 == 0 || done {
-            if let Some(a) = allocs_before {
-                link.progress.loop_allocations = alloc_count::thread_allocations().unwrap_or(a) - a;
-            }
-            link.beat()?;
+        if self.next == self.n && self.final_msg.is_none() {
+            self.finish(link, sample.header.origin_ns)?;
         }
-    };
-    match allocs_before {
-        Some(a) => log::info!(
-            "taiji-estimator: heap allocations in the filter loop: {}",
-            alloc_count::thread_allocations().unwrap_or(a) - a
-        ),
-        None => log::info!("taiji-estimator: allocation counting not installed"),
+        Ok(Turn::Busy)
     }
-    out.finish()?;
-    link.beat()?;
-    Ok(exit)
+
+    fn resume_tick(&mut self) -> Option<u64> {
+        // The front-end keeps every sample from the newest checkpoint on disk.
+        self.ckpt.written()
+    }
+
+    fn stop(&mut self, link: &mut Link, _exit: Exit) -> Result<(), String> {
+        match self.allocs_before {
+            Some(a) => log::info!(
+                "taiji-estimator: heap allocations in the filter loop: {}",
+                alloc_count::thread_allocations().unwrap_or(a) - a
+            ),
+            None => log::info!("taiji-estimator: allocation counting not installed"),
+        }
+        self.out.finish()?;
+        link.beat()
+    }
 }

@@ -2,11 +2,13 @@
 //! star-tracker samples. Keeps every sample since the estimator's last checkpoint in a
 //! ring, so a restarted estimator catches up without a lost sample.
 
+use super::driver::{self, Service, Turn};
 use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::faults::Delivery;
 use crate::fee::FrontEnd;
 use crate::msg::{SensorSample, TruthState, STATE_DONE, STATE_RUNNING};
+use crate::stage::Stage;
 use crate::timing::monotonic_ns;
 
 /// Samples retained for a restarted estimator; must exceed the estimator's checkpoint
@@ -16,97 +18,138 @@ pub const RING: u64 = 8192;
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
-    let mut link = Link::new("taiji-fee", args)?;
-    let input = bus::subscriber::<TruthState>(&link.node, bus::SVC_TRUTH)?;
-    let out = bus::publisher::<SensorSample>(&link.node, bus::SVC_SENSOR)?;
-    let mut fee = FrontEnd::new(&s, seed, true);
-    // `[faults]`: sample faults go into the ring (a resend repeats them), bus faults
-    // are applied per tick as the ring is sent (a pure function of the tick).
-    let mut inj = crate::faults::Injector::new(&s, seed);
-    let mut ring = vec![SensorSample::default(); RING as usize];
-    link.beat()?;
-    let n = s.n_samples();
-    let (mut produced, mut sent) = (0u64, 0u64);
-    let mut estimator = 0u64;
-    loop {
-        if let Some(e) = link.poll()? {
-            return Ok(e);
+    let mut link = Link::new(<FrontEnd as Stage>::PROCESS, args)?;
+    let mut service = FeeService {
+        input: bus::subscriber::<TruthState>(&link.node, bus::SVC_TRUTH)?,
+        out: bus::publisher::<SensorSample>(&link.node, bus::SVC_SENSOR)?,
+        fee: FrontEnd::new(&s, seed, true),
+        // `[faults]`: sample faults go into the ring (a resend repeats them), bus faults
+        // are applied per tick as the ring is sent (a pure function of the tick).
+        inj: crate::faults::Injector::new(&s, seed),
+        ring: vec![SensorSample::default(); RING as usize],
+        n: s.n_samples(),
+        produced: 0,
+        sent: 0,
+        estimator: 0,
+        realtime: args.realtime,
+    };
+    driver::drive(&mut link, &mut service)
+}
+
+struct FeeService {
+    input: bus::Sub<TruthState>,
+    out: bus::Pub<SensorSample>,
+    fee: FrontEnd,
+    inj: crate::faults::Injector,
+    /// Every sample since the estimator's checkpoint, by tick modulo `RING`.
+    ring: Vec<SensorSample>,
+    n: u64,
+    /// Ticks produced into the ring, and sent from it.
+    produced: u64,
+    sent: u64,
+    /// The estimator instance being served (its incarnation; 0 before the first).
+    estimator: u64,
+    realtime: bool,
+}
+
+impl FeeService {
+    /// A new estimator instance (a restart): resend from its checkpoint.
+    fn follow(&mut self, est: &super::Downstream) -> Result<(), String> {
+        if !est.heard || est.incarnation == self.estimator {
+            return Ok(());
         }
-        let est = link.downstream;
-        if est.heard && est.incarnation != estimator {
-            if estimator != 0 {
-                log::warn!(
-                    "taiji-fee: estimator restarted; resending from tick {}",
-                    est.next_tick
-                );
-            }
-            if est.next_tick + RING < produced || est.next_tick > produced {
-                return Err(format!(
-                    "the estimator resumed at tick {} but the front-end holds ticks {}..{}",
-                    est.next_tick,
-                    produced.saturating_sub(RING),
-                    produced
-                ));
-            }
-            estimator = est.incarnation;
-            sent = est.next_tick;
+        if self.estimator != 0 {
+            log::warn!(
+                "taiji-fee: estimator restarted; resending from tick {}",
+                est.next_tick
+            );
         }
+        if est.next_tick + RING < self.produced || est.next_tick > self.produced {
+            return Err(format!(
+                "the estimator resumed at tick {} but the front-end holds ticks {}..{}",
+                est.next_tick,
+                self.produced.saturating_sub(RING),
+                self.produced
+            ));
+        }
+        self.estimator = est.incarnation;
+        self.sent = est.next_tick;
+        Ok(())
+    }
+
+    /// Send from the ring what the estimator's credit allows; true if anything went.
+    fn send(&mut self, link: &mut Link, est: &super::Downstream) -> Result<bool, String> {
         let mut busy = false;
-        while sent < produced && est.credit(sent) {
-            let this = ring[(sent % RING) as usize];
-            for d in inj.deliveries(sent) {
+        while self.sent < self.produced && est.credit(self.sent) {
+            let sent = self.sent;
+            let this = self.ring[(sent % RING) as usize];
+            for d in self.inj.deliveries(sent) {
                 let mut m = match d {
                     Delivery::This => this,
-                    Delivery::Previous => ring[(sent.wrapping_sub(1) % RING) as usize],
-                    Delivery::Garbage => inj.garbage(&this),
+                    Delivery::Previous => self.ring[(sent.wrapping_sub(1) % RING) as usize],
+                    Delivery::Garbage => self.inj.garbage(&this),
                 };
                 m.header.publish_ns = monotonic_ns();
                 // Addressed to this estimator instance: what it receives from before the
                 // front-end noticed a restart carries the old one's and is dropped.
                 m.header.epoch = est.incarnation;
-                bus::publish(&out, m)?;
+                bus::publish(&self.out, m)?;
             }
-            link.sent(args.realtime);
-            sent += 1;
+            link.sent(self.realtime);
+            self.sent += 1;
             busy = true;
         }
-        // Produce while the ring keeps everything since the estimator's checkpoint.
+        Ok(busy)
+    }
+
+    /// Turn one truth into a sample in the ring, while the ring keeps everything since
+    /// the estimator's checkpoint; true if a truth was taken.
+    fn produce(&mut self, link: &mut Link, est: &super::Downstream) -> Result<bool, String> {
         let keep_from = if est.heard { est.resume_tick } else { 0 };
-        if produced < n && produced < keep_from + RING && sent == produced {
-            if let Some(truth) = bus::receive(&input)? {
-                link.progress.state = STATE_RUNNING;
-                let now = monotonic_ns();
-                link.hop.record(now.saturating_sub(truth.header.publish_ns));
-                let tick = truth.header.tick;
-                if tick > produced {
-                    link.progress.samples_lost += tick - produced;
-                }
-                if tick >= produced {
-                    let mut m = fee.step(&truth);
-                    inj.corrupt(&mut m, &mut |_| {});
-                    m.header.origin_ns = truth.header.origin_ns;
-                    m.header.due_ns = truth.header.due_ns;
-                    ring[(tick % RING) as usize] = m;
-                    produced = tick + 1;
-                    link.progress.next_tick = produced;
-                    link.progress.resume_tick = produced;
-                    if produced % 32 == 0 {
-                        link.beat()?;
-                    }
-                }
-                busy = true;
-            }
+        let room = self.produced < self.n && self.produced < keep_from + RING;
+        if !(room && self.sent == self.produced) {
+            return Ok(false);
         }
+        let Some(truth) = bus::receive(&self.input)? else {
+            return Ok(false);
+        };
+        link.progress.state = STATE_RUNNING;
+        link.hop
+            .record(monotonic_ns().saturating_sub(truth.header.publish_ns));
+        let tick = truth.header.tick;
+        if tick > self.produced {
+            link.progress.samples_lost += tick - self.produced;
+        }
+        if tick >= self.produced {
+            let mut m = self.fee.process(tick, &truth);
+            self.inj.corrupt(&mut m, &mut |_| {});
+            m.header.origin_ns = truth.header.origin_ns;
+            m.header.due_ns = truth.header.due_ns;
+            self.ring[(tick % RING) as usize] = m;
+            self.produced = tick + 1;
+            link.progress.next_tick = self.produced;
+            link.progress.resume_tick = self.produced;
+        }
+        Ok(true)
+    }
+}
+
+impl Service for FeeService {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+        let est = link.downstream;
+        self.follow(&est)?;
+        let sent = self.send(link, &est)?;
+        let produced = self.produce(link, &est)?;
         // Done, but stay responsive until the supervisor's stop: an estimator that
         // restarts now still needs the samples since its checkpoint.
-        if produced == n && est.next_tick >= n && link.progress.state != STATE_DONE {
+        if self.produced == self.n && est.next_tick >= self.n && link.progress.state != STATE_DONE {
             link.progress.state = STATE_DONE;
             link.beat()?;
         }
-        if !busy {
-            if let Some(e) = link.idle(super::IDLE) {
-                return Ok(e);
-            }
-        }
+        Ok(if sent || produced {
+            Turn::Busy
+        } else {
+            Turn::Idle(super::IDLE)
+        })
     }
 }

@@ -7,6 +7,7 @@
 //! and a run is lock-step deterministic however the OS schedules the processes.
 
 pub mod commander;
+pub mod driver;
 pub mod estimator;
 pub mod fee;
 pub mod hosts;

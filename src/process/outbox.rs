@@ -117,7 +117,7 @@ impl Outbox {
     }
 
     /// Publishes what is queued and stops the thread.
-    pub fn finish(mut self) -> Result<(), String> {
+    pub fn finish(&mut self) -> Result<(), String> {
         self.quit.store(true, Ordering::Release);
         self.thread.unpark();
         match self.handle.take().map(|h| h.join()) {

@@ -1,65 +1,76 @@
 //! `taiji-plant`: steps the spacecraft and test masses one tick per torque command and
 //! publishes the truth (to the front-end electronics only).
 
+use super::driver::{self, Service, Turn};
 use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::model::plant::{Plant, PlantNoise};
-use crate::msg::{TorqueCommand, TruthState, STATE_DONE, STATE_RUNNING};
+use crate::msg::{TorqueCommand, TruthState, STATE_RUNNING};
+use crate::stage::Stage;
 use crate::timing::monotonic_ns;
 
 pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
-    let realtime = args.realtime;
-    let mut link = Link::new("taiji-plant", args)?;
-    let input = bus::subscriber::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?;
-    let out = bus::publisher::<TruthState>(&link.node, bus::SVC_TRUTH)?;
-    let mut plant = Plant::new(&s, seed, PlantNoise::ALL);
-    link.beat()?;
-    let n = s.n_samples();
-    let mut next = 0;
-    let mut held = [0.0; 3];
-    while next < n {
-        if let Some(e) = link.poll()? {
-            return Ok(e);
+    let mut link = Link::new(<Plant as Stage>::PROCESS, args)?;
+    let mut service = PlantService {
+        input: bus::subscriber::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?,
+        out: bus::publisher::<TruthState>(&link.node, bus::SVC_TRUTH)?,
+        plant: Plant::new(&s, seed, PlantNoise::ALL),
+        n: s.n_samples(),
+        next: 0,
+        held: TorqueCommand::default(),
+        realtime: args.realtime,
+    };
+    driver::drive(&mut link, &mut service)
+}
+
+struct PlantService {
+    input: bus::Sub<TorqueCommand>,
+    out: bus::Pub<TruthState>,
+    plant: Plant,
+    n: u64,
+    /// Next tick to step.
+    next: u64,
+    /// The command in force: a lost one is replaced by it (zero-order hold, as on board).
+    held: TorqueCommand,
+    realtime: bool,
+}
+
+impl Service for PlantService {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+        if self.next >= self.n {
+            return Ok(Turn::Done);
         }
         // Consume only what can be passed on: the credit propagates upstream.
-        if !link.downstream.credit(next) {
-            if let Some(e) = link.idle(super::IDLE) {
-                return Ok(e);
-            }
-            continue;
+        if !link.downstream.credit(self.next) {
+            return Ok(Turn::Idle(super::IDLE));
         }
-        let Some(cmd) = bus::receive(&input)? else {
-            if let Some(e) = link.idle(super::IDLE) {
-                return Ok(e);
-            }
-            continue;
+        let Some(cmd) = bus::receive(&self.input)? else {
+            return Ok(Turn::Idle(super::IDLE));
         };
         link.progress.state = STATE_RUNNING;
-        let now = monotonic_ns();
-        link.hop.record(now.saturating_sub(cmd.header.publish_ns));
+        link.hop
+            .record(monotonic_ns().saturating_sub(cmd.header.publish_ns));
         let tick = cmd.header.tick;
-        if tick < next {
-            continue;
+        if tick < self.next {
+            return Ok(Turn::Busy);
         }
-        // A lost command: the thrusters hold the last one (zero-order hold), as on board.
-        while next < tick && next < n {
+        while self.next < tick && self.next < self.n {
             link.progress.samples_lost += 1;
-            publish_truth(&out, plant.step(next, &held), 0)?;
-            next += 1;
+            let t = self.plant.process(self.next, &self.held);
+            publish_truth(&self.out, t, 0)?;
+            self.next += 1;
         }
-        held = cmd.torque_cmd_b;
-        publish_truth(&out, plant.step(tick, &held), cmd.header.due_ns)?;
-        link.sent(realtime);
-        next = tick + 1;
-        link.progress.next_tick = next;
-        link.progress.resume_tick = next;
-        if next % 32 == 0 {
-            link.beat()?;
-        }
+        self.held = cmd;
+        let t = self.plant.process(tick, &cmd);
+        publish_truth(&self.out, t, cmd.header.due_ns)?;
+        link.sent(self.realtime);
+        self.next = tick + 1;
+        link.progress.next_tick = self.next;
+        link.progress.resume_tick = self.next;
+        Ok(Turn::Busy)
     }
-    link.linger(STATE_DONE)
 }
 
 fn publish_truth(out: &bus::Pub<TruthState>, mut t: TruthState, due_ns: u64) -> Result<(), String> {

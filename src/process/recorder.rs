@@ -10,11 +10,13 @@
 //! duplicates, reorders, drops), and the fault log with each fault's before and after.
 //! It pairs each estimate message with the bus delivery behind it to score detection.
 
+use super::driver::{self, Service, Turn};
 use super::{Exit, Link, StageArgs};
 use crate::bus;
 use crate::faults::{FaultScore, Injector};
 use crate::fee::FrontEnd;
-use crate::msg::{EstimateMsg, TruthState, EST_FINAL, STATE_DONE, STATE_RUNNING};
+use crate::msg::{EstimateMsg, TruthState, EST_FINAL, STATE_RUNNING};
+use crate::stage::Stage;
 use crate::telemetry::{Meta, Writer, CHUNK_ROWS};
 use std::time::Duration;
 
@@ -50,114 +52,169 @@ pub fn run(args: &StageArgs) -> Result<Exit, String> {
     let path = args.run_dir.join(TELEMETRY_FILE);
     let mut link = Link::new("taiji-recorder", args)?;
     let q = bus::RECORDER_QUEUE;
-    let truth = bus::subscriber_with_queue::<TruthState>(&link.node, bus::SVC_TRUTH, q)?;
-    let estimate = bus::subscriber_with_queue::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE, q)?;
     let n = s.n_samples();
     let meta = Meta::of(&s, seed, method.name(), "multi-process");
-    let mut tel = Some(Writer::create(&path, &meta, n, CHUNK_ROWS)?);
-    let mut fee = FrontEnd::new(&s, seed, true);
-    let mut inj = Injector::new(&s, seed);
-    let mut score = FaultScore::new(&s);
-    let mut c_truth = Cursor::default();
-    // Estimate messages in the estimator's sequence (a restarted estimator repeats
-    // some), each paired with the bus delivery it answered.
-    let mut next_seq = 0u64;
-    let (mut turn, mut in_turn) = (0u64, 0usize);
-    let mut pending = std::collections::VecDeque::<EstimateMsg>::with_capacity(4096);
-    let mut final_seen = false;
-    link.beat()?;
-    loop {
-        if let Some(e) = link.poll()? {
-            if let Some(mut t) = tel.take() {
-                // Stopped early: the file keeps every sample received.
-                t.flush()?;
-                log::warn!(
-                    "taiji-recorder: stopped before {} was complete ({} samples)",
-                    path.display(),
-                    t.samples()
-                );
-            }
-            return Ok(e);
-        }
-        let mut got = 0u64;
-        if let Some(t) = tel.as_mut() {
-            while let Some(m) = bus::receive(&truth)? {
-                got += 1;
-                if c_truth.take(m.header.tick) {
-                    let mut smp = fee.step(&m);
-                    inj.corrupt(&mut smp, &mut |r| score.push(r));
-                    inj.bus_records(m.header.tick, &mut |r| score.push(r));
-                    t.record(&m, &smp)?;
-                }
-            }
-            while let Some(m) = bus::receive(&estimate)? {
-                got += 1;
-                pending.push_back(m);
-            }
-            // An estimate is scored once its tick's truth (hence its faults) is in.
-            while let Some(m) = pending.front().copied() {
-                if m.header.seq < next_seq {
-                    pending.pop_front();
-                    continue;
-                }
-                if m.flags & EST_FINAL != 0 {
-                    pending.pop_front();
-                    next_seq = m.header.seq + 1;
-                    if !final_seen {
-                        t.record_estimate(&m)?;
-                        final_seen = true;
-                    }
-                    continue;
-                }
-                // The delivery this message answered (turns whose bus sent nothing
-                // produced no message).
-                let mut plan = inj.annotated_deliveries(turn);
-                while in_turn >= plan.len() {
-                    turn += 1;
-                    in_turn = 0;
-                    plan = inj.annotated_deliveries(turn);
-                }
-                if turn >= c_truth.next {
-                    break;
-                }
-                pending.pop_front();
-                next_seq = m.header.seq + 1;
-                let (d, of, second) = plan[in_turn];
-                score.observe(of, d, second, m.tick_rejections);
-                in_turn += 1;
-                t.record_estimate(&m)?;
+    let mut service = RecorderService {
+        truth: bus::subscriber_with_queue::<TruthState>(&link.node, bus::SVC_TRUTH, q)?,
+        estimate: bus::subscriber_with_queue::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE, q)?,
+        tel: Some(Writer::create(&path, &meta, n, CHUNK_ROWS)?),
+        path,
+        n,
+        fee: FrontEnd::new(&s, seed, true),
+        inj: Injector::new(&s, seed),
+        score: FaultScore::new(&s),
+        c_truth: Cursor::default(),
+        next_seq: 0,
+        turn: 0,
+        in_turn: 0,
+        pending: std::collections::VecDeque::with_capacity(4096),
+        final_seen: false,
+    };
+    driver::drive(&mut link, &mut service)
+}
+
+struct RecorderService {
+    truth: bus::Sub<TruthState>,
+    estimate: bus::Sub<EstimateMsg>,
+    /// The file being written; `None` once complete.
+    tel: Option<Writer>,
+    path: std::path::PathBuf,
+    n: u64,
+    /// The front end and fault injector rebuilt from the truth (see the module doc).
+    fee: FrontEnd,
+    inj: Injector,
+    score: FaultScore,
+    c_truth: Cursor,
+    /// Estimate messages in the estimator's sequence (a restarted estimator repeats
+    /// some), each paired with the bus delivery it answered: the next expected seq,
+    /// and the delivery (`turn`, `in_turn`) the next one answers.
+    next_seq: u64,
+    turn: u64,
+    in_turn: usize,
+    pending: std::collections::VecDeque<EstimateMsg>,
+    final_seen: bool,
+}
+
+impl RecorderService {
+    /// Record every truth that has arrived, with its sample rebuilt; returns how many.
+    fn take_truths(&mut self) -> Result<u64, String> {
+        let Some(t) = self.tel.as_mut() else {
+            return Ok(0);
+        };
+        let mut got = 0;
+        while let Some(m) = bus::receive(&self.truth)? {
+            got += 1;
+            if self.c_truth.take(m.header.tick) {
+                let mut smp = self.fee.process(m.header.tick, &m);
+                let score = &mut self.score;
+                self.inj.corrupt(&mut smp, &mut |r| score.push(r));
+                self.inj.bus_records(m.header.tick, &mut |r| score.push(r));
+                t.record(&m, &smp)?;
             }
         }
+        Ok(got)
+    }
+
+    /// Record the estimates that have arrived, each scored once its tick's truth (hence
+    /// its faults) is in; returns how many arrived.
+    fn take_estimates(&mut self) -> Result<u64, String> {
+        let Some(t) = self.tel.as_mut() else {
+            return Ok(0);
+        };
+        let mut got = 0;
+        while let Some(m) = bus::receive(&self.estimate)? {
+            got += 1;
+            self.pending.push_back(m);
+        }
+        while let Some(m) = self.pending.front().copied() {
+            if m.header.seq < self.next_seq {
+                self.pending.pop_front();
+                continue;
+            }
+            if m.flags & EST_FINAL != 0 {
+                self.pending.pop_front();
+                self.next_seq = m.header.seq + 1;
+                if !self.final_seen {
+                    t.record_estimate(&m)?;
+                    self.final_seen = true;
+                }
+                continue;
+            }
+            // The delivery this message answered (turns whose bus sent nothing
+            // produced no message).
+            let mut plan = self.inj.annotated_deliveries(self.turn);
+            while self.in_turn >= plan.len() {
+                self.turn += 1;
+                self.in_turn = 0;
+                plan = self.inj.annotated_deliveries(self.turn);
+            }
+            if self.turn >= self.c_truth.next {
+                break;
+            }
+            self.pending.pop_front();
+            self.next_seq = m.header.seq + 1;
+            let (d, of, second) = plan[self.in_turn];
+            self.score.observe(of, d, second, m.tick_rejections);
+            self.in_turn += 1;
+            t.record_estimate(&m)?;
+        }
+        Ok(got)
+    }
+
+    /// Everything is in: close the file with the fault log and its scores.
+    fn complete(&mut self, mut t: Writer, lost: u64) -> Result<(), String> {
+        if lost > 0 {
+            t.flush()?;
+            return Err(format!(
+                "{lost} samples never reached the recorder; {} is incomplete",
+                self.path.display()
+            ));
+        }
+        let none: (&[_], &[_]) = (&[], &[]);
+        let (records, detected) = match self.inj.enabled() {
+            true => (&self.score.records[..], &self.score.detected[..]),
+            false => none,
+        };
+        t.finish(records, detected)?;
+        log::info!("taiji-recorder: wrote {}", self.path.display());
+        Ok(())
+    }
+}
+
+impl Service for RecorderService {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+        let got = self.take_truths()? + self.take_estimates()?;
         if got > 0 {
             link.progress.state = STATE_RUNNING;
-            link.progress.next_tick = c_truth.next.min(turn);
+            link.progress.next_tick = self.c_truth.next.min(self.turn);
             link.progress.resume_tick = link.progress.next_tick;
-            link.progress.samples_lost = c_truth.lost;
+            link.progress.samples_lost = self.c_truth.lost;
             link.beat()?;
         }
-        let complete = c_truth.next >= n && final_seen;
-        if let Some(mut t) = tel.take_if(|_| complete) {
-            if link.progress.samples_lost > 0 {
-                t.flush()?;
-                return Err(format!(
-                    "{} samples never reached the recorder; {} is incomplete",
-                    link.progress.samples_lost,
-                    path.display()
-                ));
-            }
-            let none: (&[_], &[_]) = (&[], &[]);
-            let (records, detected) = match inj.enabled() {
-                true => (&score.records[..], &score.detected[..]),
-                false => none,
-            };
-            t.finish(records, detected)?;
-            log::info!("taiji-recorder: wrote {}", path.display());
-            return link.linger(STATE_DONE);
+        let complete = self.c_truth.next >= self.n && self.final_seen;
+        if let Some(t) = self.tel.take_if(|_| complete) {
+            self.complete(t, link.progress.samples_lost)?;
+            return Ok(Turn::Done);
         }
-        if got == 0 {
-            if let Some(e) = link.idle(Duration::from_millis(1)) {
-                return Ok(e);
-            }
+        if self.tel.is_none() {
+            return Ok(Turn::Done);
         }
+        Ok(match got {
+            0 => Turn::Idle(Duration::from_millis(1)),
+            _ => Turn::Busy,
+        })
+    }
+
+    fn stop(&mut self, _link: &mut Link, _exit: Exit) -> Result<(), String> {
+        if let Some(mut t) = self.tel.take() {
+            // Stopped early: the file keeps every sample received.
+            t.flush()?;
+            log::warn!(
+                "taiji-recorder: stopped before {} was complete ({} samples)",
+                self.path.display(),
+                t.samples()
+            );
+        }
+        Ok(())
     }
 }
