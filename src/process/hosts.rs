@@ -472,7 +472,6 @@ pub(crate) fn agent_watch(
     me: &str,
     args: &SupervisorArgs,
 ) -> Result<Option<u64>, SupervisorError> {
-    use crate::launch::Restart;
     use crate::msg::{Control, PROC_ESTIMATOR};
     let set_err = SupervisorError::Set;
     let index = launch.host.iter().position(|h| h.name == me).unwrap_or(0) as u64;
@@ -487,8 +486,14 @@ pub(crate) fn agent_watch(
     let mut seq = 0u64;
     let mut next_beat = Instant::now();
     let mut boss_heard: Option<Instant> = None;
-    let mut silent_logged = false;
-    let t_start = Instant::now();
+    let mut boss_link = BossLink {
+        me,
+        boss: &boss,
+        link_timeout,
+        ready_timeout: Duration::from_secs_f64(launch.ready_timeout_s),
+        t_start: Instant::now(),
+        silent_logged: false,
+    };
     let tick_of_estimator = |set: &Set| {
         set.members
             .iter()
@@ -538,32 +543,7 @@ pub(crate) fn agent_watch(
             log::warn!("host {me}: {why}");
         }
         // The one in charge: silent for the link timeout ends this host's part.
-        let quiet = boss_heard.map_or(t_start.elapsed(), |t| t.elapsed());
-        let limit = if boss_heard.is_some() {
-            link_timeout
-        } else {
-            // Before its first heartbeat: it may still be starting.
-            link_timeout + Duration::from_secs_f64(launch.ready_timeout_s)
-        };
-        if quiet > limit {
-            return Err(set_err(format!(
-                "link {me} <-> {boss} lost: no heartbeat of the supervisor in charge crossed it for {:.0} s; stopping host {me}'s processes",
-                quiet.as_secs_f64()
-            )));
-        }
-        if boss_heard.is_some() && quiet > LINK_SUSPECT {
-            if !silent_logged {
-                silent_logged = true;
-                log::warn!(
-                    "link {me} <-> {boss}: no heartbeat crossed it for {:.1} s (tunnel or link down); waiting up to {:.0} s",
-                    quiet.as_secs_f64(),
-                    link_timeout.as_secs_f64()
-                );
-            }
-        } else if silent_logged {
-            silent_logged = false;
-            log::warn!("link {me} <-> {boss}: heartbeats back");
-        }
+        boss_link.check(boss_heard).map_err(set_err)?;
         // This host's processes: restart by policy, like the supervisor in charge.
         match set.reap(&format!("host {me}: ")).map_err(set_err)? {
             Reap::Running => {}
@@ -575,22 +555,73 @@ pub(crate) fn agent_watch(
             }
         }
         // A restartable process silent on its own host is hung: kill it (restarted above).
-        if let Some(m) = set.members.iter_mut().find(|m| {
-            m.last.is_some()
-                && m.last_seen.elapsed() > heartbeat
-                && m.spec.restart == Restart::OnFailure
-                && m.restarts < m.spec.max_restarts
-        }) {
-            log::warn!(
-                "host {me}: {} published no progress for {:.0} s (hung?); killing it to restart it",
-                m.spec.name,
-                heartbeat.as_secs_f64()
-            );
-            if let Some(c) = m.child.as_mut() {
-                let _ = c.kill();
-            }
-            m.last_seen = Instant::now();
+        kill_hung(set, heartbeat, me);
+    }
+}
+
+/// Kill a restartable process of this host that published no progress for
+/// `heartbeat` (hung); the exit handling restarts it.
+fn kill_hung(set: &mut Set, heartbeat: Duration, me: &str) {
+    use crate::launch::Restart;
+    if let Some(m) = set.members.iter_mut().find(|m| {
+        m.last.is_some()
+            && m.last_seen.elapsed() > heartbeat
+            && m.spec.restart == Restart::OnFailure
+            && m.restarts < m.spec.max_restarts
+    }) {
+        log::warn!(
+            "host {me}: {} published no progress for {:.0} s (hung?); killing it to restart it",
+            m.spec.name,
+            heartbeat.as_secs_f64()
+        );
+        if let Some(c) = m.child.as_mut() {
+            let _ = c.kill();
         }
+        m.last_seen = Instant::now();
+    }
+}
+
+/// An agent's view of its link to the supervisor in charge: how long it has been
+/// silent, warned about once when suspect, fatal after the link timeout.
+struct BossLink<'a> {
+    me: &'a str,
+    boss: &'a str,
+    link_timeout: Duration,
+    ready_timeout: Duration,
+    t_start: Instant,
+    silent_logged: bool,
+}
+
+impl BossLink<'_> {
+    /// `heard`: when the one in charge was last heard (None: not yet).
+    fn check(&mut self, heard: Option<Instant>) -> Result<(), String> {
+        let (me, boss) = (self.me, self.boss);
+        let quiet = heard.map_or(self.t_start.elapsed(), |t| t.elapsed());
+        let limit = match heard {
+            Some(_) => self.link_timeout,
+            // Before its first heartbeat: it may still be starting.
+            None => self.link_timeout + self.ready_timeout,
+        };
+        if quiet > limit {
+            return Err(format!(
+                "link {me} <-> {boss} lost: no heartbeat of the supervisor in charge crossed it for {:.0} s; stopping host {me}'s processes",
+                quiet.as_secs_f64()
+            ));
+        }
+        if heard.is_some() && quiet > LINK_SUSPECT {
+            if !self.silent_logged {
+                self.silent_logged = true;
+                log::warn!(
+                    "link {me} <-> {boss}: no heartbeat crossed it for {:.1} s (tunnel or link down); waiting up to {:.0} s",
+                    quiet.as_secs_f64(),
+                    self.link_timeout.as_secs_f64()
+                );
+            }
+        } else if self.silent_logged {
+            self.silent_logged = false;
+            log::warn!("link {me} <-> {boss}: heartbeats back");
+        }
+        Ok(())
     }
 }
 

@@ -309,51 +309,12 @@ fn supervise(
     launch: &LaunchDescription,
     me: Option<&str>,
 ) -> Result<Supervised, SupervisorError> {
-    let user = SupervisorError::User;
     let set_err = SupervisorError::Set;
     let t_start = Instant::now();
-    // An output folder that cannot be made (a path through a file) is the user's to fix,
-    // before the campaign runs.
-    std::fs::create_dir_all(&args.out).map_err(|e| {
-        user(format!(
-            "--out {}: cannot create this folder ({e})",
-            args.out.display()
-        ))
-    })?;
-    // A prefix iceoryx2 cannot use as a file name is the user's to fix.
-    bus::config(&args.bus_prefix).map_err(|e| user(format!("--bus-prefix: {e}")))?;
-    // One supervisor per prefix: the lock, not the live-node check below, decides.
-    let lock = match bus::claim_prefix(&args.bus_prefix).map_err(set_err)? {
-        bus::Claim::Won(lock) => lock,
-        bus::Claim::Held { pid } => {
-            let alive = bus::live_nodes(&args.bus_prefix);
-            return Err(user(another_run(&args.bus_prefix, pid, &alive)));
-        }
-    };
     // Declared before every port and node of the run, so dropped after them.
-    let _hold = PrefixHold {
-        prefix: args.bus_prefix.clone(),
-        _lock: lock,
-    };
-    let survey = bus::cleanup_stale(&args.bus_prefix).map_err(set_err)?;
-    if survey.removed_dead > 0 {
-        log::warn!(
-            "removed the stale shared memory of {} dead process(es) of an earlier run",
-            survey.removed_dead
-        );
-    }
-    // Live nodes without a supervisor: the set of a supervisor killed a moment ago.
-    if !survey.alive.is_empty() {
-        return Err(user(another_run(&args.bus_prefix, None, &survey.alive)));
-    }
+    let _hold = claim(args)?;
     let _janitor = Janitor::start(&args.bus_prefix).map_err(set_err)?;
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| user(format!("cannot create {}: {e}", args.out.display())))?;
-    let ckpt = args.out.join(CHECKPOINT_FILE);
-    if ckpt.exists() {
-        std::fs::remove_file(&ckpt)
-            .map_err(|e| user(format!("cannot remove old {}: {e}", ckpt.display())))?;
-    }
+    let ckpt = fresh_checkpoint(args)?;
     let node = bus::node("taiji-supervisor", &args.bus_prefix).map_err(set_err)?;
     let progress = bus::subscriber::<Progress>(&node, bus::SVC_PROGRESS).map_err(set_err)?;
     let estimates = bus::subscriber::<EstimateMsg>(&node, bus::SVC_ESTIMATE).map_err(set_err)?;
@@ -372,7 +333,160 @@ fn supervise(
             },
         )
     };
+    let mut set = new_set(args, s)?;
+    // Sets over hosts: this host's tunnel; the one in charge also watches the others.
+    let in_charge_host = launch.host.first().map(|h| h.name.as_str());
+    let agent = me.is_some() && me != in_charge_host;
+    let mut hosts = match me {
+        Some(_) if !agent => Some(
+            super::hosts::InCharge::start(args, launch, &node, &set.bin_dir)
+                .map_err(SupervisorError::User)?,
+        ),
+        _ => None,
+    };
+    spawn_members(&mut set, launch.processes(args.record), launch, me, agent)?;
+    let result = match me {
+        Some(m) if agent => super::hosts::agent_watch(&node, &progress, &mut set, launch, m, args)
+            .map(|stopped| {
+                stopped.map(|tick| EstimateMsg {
+                    header: Header {
+                        tick,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                })
+            }),
+        _ => {
+            let ports = Ports {
+                node: &node,
+                progress: &progress,
+                estimates: &estimates,
+                send: &send,
+            };
+            Watch::new(launch, s.n_samples()).run(&ports, &mut set, hosts.as_mut())
+        }
+    };
+    set.bar.finish();
+    // Whatever happened: stop everyone. What they left on the bus goes when `_hold` is
+    // dropped, after this supervisor's node.
+    match hosts.as_mut() {
+        // Over hosts: repeated until every other host acknowledged it.
+        Some(h) => h.stop_hosts(&node, &progress, &send),
+        None => {
+            let _ = send(CMD_STOP, 1);
+        }
+    }
+    set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
+    let wall = t_start.elapsed().as_secs_f64();
+    let result = settle_checkpoint(result, &ckpt);
+    let hosts_json = hosts.as_ref().map(|h| {
+        let placed: Vec<(String, String)> = set
+            .members
+            .iter()
+            .map(|m| (m.spec.name.clone(), m.host.clone()))
+            .chain([("taiji-supervisor".to_string(), h.me.clone())])
+            .collect();
+        h.report(&placed)
+    });
+    let members = set
+        .members
+        .into_iter()
+        .map(|m| MemberSummary {
+            spec: m.spec,
+            id: m.id,
+            restarts: m.restarts,
+            last: m.last,
+        })
+        .collect();
+    match result {
+        Ok(Some(est)) if agent => Ok(Supervised::HostStopped(format!(
+            "host {}: stopped by the supervisor in charge (last estimate tick {})",
+            me.unwrap_or_default(),
+            est.header.tick
+        ))),
+        Ok(Some(est)) => Ok(Supervised::Done(Box::new(est), members, wall, hosts_json)),
+        Ok(None) => Ok(Supervised::Interrupted),
+        Err(e) => Err(e),
+    }
+}
 
+/// Take the bus prefix for this run: the output folder made, the prefix usable and
+/// not another run's, the shared memory of dead processes of an earlier run removed.
+fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
+    let user = SupervisorError::User;
+    let set_err = SupervisorError::Set;
+    // An output folder that cannot be made (a path through a file) is the user's to fix,
+    // before the campaign runs.
+    std::fs::create_dir_all(&args.out).map_err(|e| {
+        user(format!(
+            "--out {}: cannot create this folder ({e})",
+            args.out.display()
+        ))
+    })?;
+    // A prefix iceoryx2 cannot use as a file name is the user's to fix.
+    bus::config(&args.bus_prefix).map_err(|e| user(format!("--bus-prefix: {e}")))?;
+    // One supervisor per prefix: the lock, not the live-node check below, decides.
+    let lock = match bus::claim_prefix(&args.bus_prefix).map_err(set_err)? {
+        bus::Claim::Won(lock) => lock,
+        bus::Claim::Held { pid } => {
+            let alive = bus::live_nodes(&args.bus_prefix);
+            return Err(user(another_run(&args.bus_prefix, pid, &alive)));
+        }
+    };
+    let hold = PrefixHold {
+        prefix: args.bus_prefix.clone(),
+        _lock: lock,
+    };
+    let survey = bus::cleanup_stale(&args.bus_prefix).map_err(set_err)?;
+    if survey.removed_dead > 0 {
+        log::warn!(
+            "removed the stale shared memory of {} dead process(es) of an earlier run",
+            survey.removed_dead
+        );
+    }
+    // Live nodes without a supervisor: the set of a supervisor killed a moment ago.
+    if !survey.alive.is_empty() {
+        return Err(user(another_run(&args.bus_prefix, None, &survey.alive)));
+    }
+    Ok(hold)
+}
+
+/// The estimator's checkpoint path in the run folder, with an earlier run's removed
+/// (a checkpoint only serves restarts within its own run).
+fn fresh_checkpoint(args: &SupervisorArgs) -> Result<PathBuf, SupervisorError> {
+    let user = SupervisorError::User;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| user(format!("cannot create {}: {e}", args.out.display())))?;
+    let ckpt = args.out.join(CHECKPOINT_FILE);
+    if ckpt.exists() {
+        std::fs::remove_file(&ckpt)
+            .map_err(|e| user(format!("cannot remove old {}: {e}", ckpt.display())))?;
+    }
+    Ok(ckpt)
+}
+
+/// A run that ended is cleared of its checkpoint; a failed set keeps it for diagnosis
+/// and says so.
+fn settle_checkpoint<T>(
+    result: Result<T, SupervisorError>,
+    ckpt: &std::path::Path,
+) -> Result<T, SupervisorError> {
+    match result {
+        Err(SupervisorError::Set(e)) if ckpt.exists() => Err(SupervisorError::Set(format!(
+            "{e} (the estimator's last crash-restart checkpoint is kept: {})",
+            ckpt.display()
+        ))),
+        r => {
+            remove_checkpoint(ckpt);
+            r
+        }
+    }
+}
+
+/// The set to start: its binaries, the arguments every member gets, and the files the
+/// members read from the run folder (the resolved scenario, the estimator's table).
+fn new_set(args: &SupervisorArgs, s: &Scenario) -> Result<Set, SupervisorError> {
+    let user = SupervisorError::User;
     let bin_dir = match &args.bin_dir {
         Some(d) => d.clone(),
         None => std::env::current_exe()
@@ -414,7 +528,7 @@ fn supervise(
             args.time_scale.to_string(),
         ]);
     }
-    let mut set = Set {
+    Ok(Set {
         members: Vec::new(),
         prefix: args.bus_prefix.clone(),
         common,
@@ -423,17 +537,19 @@ fn supervise(
         realtime: args.realtime,
         bin_dir,
         bar: crate::progress::Bar::new(s.n_samples(), "process set"),
-    };
-    // Sets over hosts: this host's tunnel; the one in charge also watches the others.
-    let in_charge_host = launch.host.first().map(|h| h.name.as_str());
-    let agent = me.is_some() && me != in_charge_host;
-    let mut hosts = match me {
-        Some(_) if !agent => {
-            Some(super::hosts::InCharge::start(args, launch, &node, &set.bin_dir).map_err(user)?)
-        }
-        _ => None,
-    };
-    for spec in launch.processes(args.record) {
+    })
+}
+
+/// Start this host's members of the set (all of them on one host). A host that is
+/// not in charge (`agent`) lists only its own.
+fn spawn_members<'a>(
+    set: &mut Set,
+    specs: impl IntoIterator<Item = &'a ProcessSpec>,
+    launch: &LaunchDescription,
+    me: Option<&str>,
+    agent: bool,
+) -> Result<(), SupervisorError> {
+    for spec in specs {
         let host = launch.host_of(spec).to_string();
         let local = me.map_or(true, |m| m == host);
         if agent && !local {
@@ -457,86 +573,11 @@ fn supervise(
             }),
             Err(e) => {
                 set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
-                return Err(user(e));
+                return Err(SupervisorError::User(e));
             }
         }
     }
-
-    let result = match me {
-        Some(m) if agent => super::hosts::agent_watch(&node, &progress, &mut set, launch, m, args)
-            .map(|stopped| {
-                stopped.map(|tick| EstimateMsg {
-                    header: Header {
-                        tick,
-                        ..Default::default()
-                    },
-                    ..Default::default()
-                })
-            }),
-        _ => watch(
-            &node,
-            &progress,
-            &estimates,
-            &send,
-            &mut set,
-            launch,
-            s,
-            hosts.as_mut(),
-        ),
-    };
-    set.bar.finish();
-    // Whatever happened: stop everyone. What they left on the bus goes when `_hold` is
-    // dropped, after this supervisor's node.
-    match hosts.as_mut() {
-        // Over hosts: repeated until every other host acknowledged it.
-        Some(h) => h.stop_hosts(&node, &progress, &send),
-        None => {
-            let _ = send(CMD_STOP, 1);
-        }
-    }
-    set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
-    let wall = t_start.elapsed().as_secs_f64();
-    // The checkpoint only serves restarts within this run (the next run starts afresh):
-    // a run that ended is cleared of it; a failed set keeps it for diagnosis and says so.
-    let result = match result {
-        Err(SupervisorError::Set(e)) if ckpt.exists() => Err(SupervisorError::Set(format!(
-            "{e} (the estimator's last crash-restart checkpoint is kept: {})",
-            ckpt.display()
-        ))),
-        r => {
-            remove_checkpoint(&ckpt);
-            r
-        }
-    };
-    let hosts_json = hosts.as_ref().map(|h| {
-        let placed: Vec<(String, String)> = set
-            .members
-            .iter()
-            .map(|m| (m.spec.name.clone(), m.host.clone()))
-            .chain([("taiji-supervisor".to_string(), h.me.clone())])
-            .collect();
-        h.report(&placed)
-    });
-    let members = set
-        .members
-        .into_iter()
-        .map(|m| MemberSummary {
-            spec: m.spec,
-            id: m.id,
-            restarts: m.restarts,
-            last: m.last,
-        })
-        .collect();
-    match result {
-        Ok(Some(est)) if agent => Ok(Supervised::HostStopped(format!(
-            "host {}: stopped by the supervisor in charge (last estimate tick {})",
-            me.unwrap_or_default(),
-            est.header.tick
-        ))),
-        Ok(Some(est)) => Ok(Supervised::Done(Box::new(est), members, wall, hosts_json)),
-        Ok(None) => Ok(Supervised::Interrupted),
-        Err(e) => Err(e),
-    }
+    Ok(())
 }
 
 /// Remove the estimator's checkpoint and the temporary file a killed writer may leave.
@@ -552,33 +593,89 @@ fn remove_checkpoint(ckpt: &std::path::Path) {
     }
 }
 
-/// Watch the set until the final estimate (Some), a termination request (None) or a failure.
-#[allow(clippy::too_many_arguments)]
-fn watch(
-    node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
-    progress: &bus::Sub<Progress>,
-    estimates: &bus::Sub<EstimateMsg>,
-    send: &dyn Fn(u32, u64) -> Result<(), String>,
-    set: &mut Set,
-    launch: &LaunchDescription,
-    s: &Scenario,
-    mut hosts: Option<&mut super::hosts::InCharge>,
-) -> Result<Option<EstimateMsg>, SupervisorError> {
-    let set_err = SupervisorError::Set;
-    let heartbeat = Duration::from_secs_f64(launch.heartbeat_timeout_s);
-    let ready_timeout = Duration::from_secs_f64(launch.ready_timeout_s);
-    let t_ready = Instant::now();
-    let mut started = false;
-    let mut final_est: Option<EstimateMsg> = None;
-    let n = s.n_samples();
-    // Stall watch: alive processes whose ticks do not advance are a failure too.
-    let mut ticks_seen = 0u64;
-    let mut last_advance = Instant::now();
-    loop {
-        if node.wait(Duration::from_millis(1)).is_err() {
-            return Ok(None);
+/// The supervisor's ports the watch reads and writes.
+struct Ports<'a> {
+    node: &'a iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+    progress: &'a bus::Sub<Progress>,
+    estimates: &'a bus::Sub<EstimateMsg>,
+    send: &'a dyn Fn(u32, u64) -> Result<(), String>,
+}
+
+/// What the supervisor in charge knows while it watches the set.
+struct Watch {
+    heartbeat: Duration,
+    heartbeat_s: f64,
+    ready_timeout: Duration,
+    ready_timeout_s: f64,
+    t_ready: Instant,
+    started: bool,
+    final_est: Option<EstimateMsg>,
+    n: u64,
+    /// Stall watch: alive processes whose ticks do not advance are a failure too.
+    ticks_seen: u64,
+    last_advance: Instant,
+}
+
+impl Watch {
+    fn new(launch: &LaunchDescription, n: u64) -> Self {
+        Watch {
+            heartbeat: Duration::from_secs_f64(launch.heartbeat_timeout_s),
+            heartbeat_s: launch.heartbeat_timeout_s,
+            ready_timeout: Duration::from_secs_f64(launch.ready_timeout_s),
+            ready_timeout_s: launch.ready_timeout_s,
+            t_ready: Instant::now(),
+            started: false,
+            final_est: None,
+            n,
+            ticks_seen: 0,
+            last_advance: Instant::now(),
         }
-        while let Some(p) = bus::receive(progress).map_err(set_err)? {
+    }
+
+    /// Watch the set until the final estimate (Some), a termination request (None) or
+    /// a failure.
+    fn run(
+        mut self,
+        ports: &Ports,
+        set: &mut Set,
+        mut hosts: Option<&mut super::hosts::InCharge>,
+    ) -> Result<Option<EstimateMsg>, SupervisorError> {
+        let set_err = SupervisorError::Set;
+        loop {
+            if ports.node.wait(Duration::from_millis(1)).is_err() {
+                return Ok(None);
+            }
+            let link_silent = self.hear(ports, set, hosts.as_deref_mut())?;
+            // Exits: restart what may be restarted, otherwise stop the set.
+            match set.reap("").map_err(set_err)? {
+                Reap::Running => {}
+                Reap::Interrupted => return Ok(None),
+                Reap::Stopped(why) => return Err(set_err(format!("{why}; stopping the set"))),
+            }
+            if !self.started {
+                self.start_when_ready(ports, set)?;
+                continue;
+            }
+            if self.watchdog(set, link_silent) {
+                continue;
+            }
+            self.check_liveness(set)?;
+            if let Some(e) = self.finished(set) {
+                return Ok(Some(e));
+            }
+        }
+    }
+
+    /// Take in every process's progress and the estimates. Returns whether a link
+    /// between hosts is silent (it holds the verdicts on the processes behind it).
+    fn hear(
+        &mut self,
+        ports: &Ports,
+        set: &mut Set,
+        mut hosts: Option<&mut super::hosts::InCharge>,
+    ) -> Result<bool, SupervisorError> {
+        let set_err = SupervisorError::Set;
+        while let Some(p) = bus::receive(ports.progress).map_err(set_err)? {
             if p.process == PROC_ESTIMATOR {
                 set.bar.set(p.next_tick);
             }
@@ -591,78 +688,86 @@ fn watch(
                 m.last_seen = Instant::now();
             }
         }
-        // A silent link holds the verdicts on the processes behind it (below).
-        let link_silent = match hosts.as_deref_mut() {
+        let link_silent = match hosts {
             Some(h) => h.poll().map_err(set_err)?,
             None => false,
         };
-        while let Some(e) = bus::receive(estimates).map_err(set_err)? {
+        while let Some(e) = bus::receive(ports.estimates).map_err(set_err)? {
             if e.flags & EST_FINAL != 0 {
-                final_est = Some(e);
+                self.final_est = Some(e);
             }
         }
-        // Exits: restart what may be restarted, otherwise stop the set.
-        match set.reap("").map_err(set_err)? {
-            Reap::Running => {}
-            Reap::Interrupted => return Ok(None),
-            Reap::Stopped(why) => return Err(set_err(format!("{why}; stopping the set"))),
+        Ok(link_silent)
+    }
+
+    /// Say start once every process has reported; fail after the ready timeout.
+    fn start_when_ready(&mut self, ports: &Ports, set: &Set) -> Result<(), SupervisorError> {
+        let set_err = SupervisorError::Set;
+        if set.members.iter().all(|m| m.last.is_some()) {
+            (ports.send)(CMD_START, 0).map_err(set_err)?;
+            self.started = true;
+            log::info!("all processes ready; campaign started");
+        } else if self.t_ready.elapsed() > self.ready_timeout {
+            let missing: Vec<&str> = set
+                .members
+                .iter()
+                .filter(|m| m.last.is_none())
+                .map(|m| m.spec.name.as_str())
+                .collect();
+            return Err(set_err(format!(
+                "not ready after {:.0} s: {}",
+                self.ready_timeout_s,
+                missing.join(", ")
+            )));
         }
-        if !started {
-            if set.members.iter().all(|m| m.last.is_some()) {
-                send(CMD_START, 0).map_err(set_err)?;
-                started = true;
-                log::info!("all processes ready; campaign started");
-            } else if t_ready.elapsed() > ready_timeout {
-                let missing: Vec<&str> = set
-                    .members
-                    .iter()
-                    .filter(|m| m.last.is_none())
-                    .map(|m| m.spec.name.as_str())
-                    .collect();
-                return Err(set_err(format!(
-                    "not ready after {:.0} s: {}",
-                    launch.ready_timeout_s,
-                    missing.join(", ")
-                )));
-            }
-            continue;
-        }
-        // Watchdog: a restartable process that publishes no progress (hung, stopped) is
-        // killed; the exit handling above restarts it on the next pass.
+        Ok(())
+    }
+
+    /// Watchdog: a restartable process that publishes no progress (hung, stopped) is
+    /// killed; the exit handling restarts it on the next pass. True if one was killed.
+    fn watchdog(&mut self, set: &mut Set, link_silent: bool) -> bool {
         if link_silent {
             let now = Instant::now();
-            last_advance = now;
+            self.last_advance = now;
             for m in set.members.iter_mut().filter(|m| m.child.is_none()) {
                 m.last_seen = now;
             }
         }
-        if let Some(m) = set.members.iter_mut().find(|m| {
+        let heartbeat = self.heartbeat;
+        let Some(m) = set.members.iter_mut().find(|m| {
             m.last_seen.elapsed() > heartbeat
                 && m.child.is_some()
                 && m.spec.restart == Restart::OnFailure
                 && m.restarts < m.spec.max_restarts
-        }) {
-            log::warn!(
-                "{} published no progress for {:.0} s (hung?); killing it to restart it",
-                m.spec.name,
-                launch.heartbeat_timeout_s
-            );
-            if let Some(c) = m.child.as_mut() {
-                let _ = c.kill();
-            }
-            m.last_seen = Instant::now();
-            last_advance = Instant::now();
-            continue;
+        }) else {
+            return false;
+        };
+        log::warn!(
+            "{} published no progress for {:.0} s (hung?); killing it to restart it",
+            m.spec.name,
+            self.heartbeat_s
+        );
+        if let Some(c) = m.child.as_mut() {
+            let _ = c.kill();
         }
+        m.last_seen = Instant::now();
+        self.last_advance = Instant::now();
+        true
+    }
+
+    /// Fail on a stalled set (no tick advanced for the heartbeat timeout) or a process
+    /// that stopped reporting and cannot be restarted.
+    fn check_liveness(&mut self, set: &Set) -> Result<(), SupervisorError> {
+        let set_err = SupervisorError::Set;
         let ticks: u64 = set
             .members
             .iter()
             .filter_map(|m| m.last.map(|p| p.next_tick))
             .sum();
-        if ticks != ticks_seen {
-            ticks_seen = ticks;
-            last_advance = Instant::now();
-        } else if final_est.is_none() && last_advance.elapsed() > heartbeat {
+        if ticks != self.ticks_seen {
+            self.ticks_seen = ticks;
+            self.last_advance = Instant::now();
+        } else if self.final_est.is_none() && self.last_advance.elapsed() > self.heartbeat {
             let at: Vec<String> = set
                 .members
                 .iter()
@@ -673,36 +778,37 @@ fn watch(
                 .collect();
             return Err(set_err(format!(
                 "the set stalled: no tick advanced for {:.0} s ({}); stopping the set",
-                launch.heartbeat_timeout_s,
+                self.heartbeat_s,
                 at.join(", ")
             )));
         }
         if let Some(m) = set
             .members
             .iter()
-            .find(|m| m.last_seen.elapsed() > heartbeat)
+            .find(|m| m.last_seen.elapsed() > self.heartbeat)
         {
             return Err(set_err(format!(
                 "{} published no progress for {:.0} s (hung?); stopping the set",
-                m.spec.name, launch.heartbeat_timeout_s
+                m.spec.name, self.heartbeat_s
             )));
         }
+        Ok(())
+    }
+
+    /// The final estimate, once the estimator is done (and, when recording,
+    /// telemetry.h5 is written too).
+    fn finished(&self, set: &Set) -> Option<EstimateMsg> {
         let est_done = set
             .members
             .iter()
             .find(|m| m.id == PROC_ESTIMATOR)
             .and_then(|m| m.last)
-            .is_some_and(|p| p.state == STATE_DONE && p.next_tick >= n);
-        // When recording, the run ends once telemetry.h5 is written too.
+            .is_some_and(|p| p.state == STATE_DONE && p.next_tick >= self.n);
         let recorded = set
             .members
             .iter()
             .filter(|m| m.id == PROC_RECORDER)
             .all(|m| m.last.is_some_and(|p| p.state == STATE_DONE));
-        if est_done && recorded {
-            if let Some(e) = final_est {
-                return Ok(Some(e));
-            }
-        }
+        self.final_est.filter(|_| est_done && recorded)
     }
 }
