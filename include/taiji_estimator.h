@@ -118,7 +118,7 @@
 // (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
 // value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
 // another with `TAIJI_ERR_VERSION`.
-#define TAIJI_ABI_VERSION 3
+#define TAIJI_ABI_VERSION 4
 
 // `update` flag: a solve is due (the host may run it now or in its slower rate group).
 #define TAIJI_SOLVE_DUE 1
@@ -256,7 +256,32 @@ struct TaijiEstimatorConfig {
   // Longest run of missing ticks bridged as a dropout (bounds the work of one call);
   // a longer jump of the tick is rejected as implausible.
   uint64_t max_gap_ticks;
+  // Integrity tuning; the defaults (`EstimatorConfig::GATE_SIGMA` …) are the
+  // measured values, with their derivations there. Gate of the sample tests (IS
+  // residual tracks, the cross-IS angular test) [σ].
+  double gate_sigma;
+  // Gate of the star-tracker test [σ].
+  double star_gate_sigma;
+  // A group's χ² per degree of freedom is inconsistent above
+  // 1 + max(this, 10 √(2/dof)) [-].
+  double chi2_tolerance;
+  // The status says degraded when more than one input in this many was rejected.
+  uint64_t degraded_one_in;
 };
+// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data
+// lose about one sample per campaign, while an upset moving a voltage by a few
+// noise σ already fails the cross-IS test (whose noise is far below a voltage's own).
+#define TaijiEstimatorConfig_GATE_SIGMA 5.5
+// Star-tracker gate in σ, tighter than the IS's: a lost star-tracker sample costs
+// little, and an upset of a quaternion component by 5 noise σ turns the attitude
+// by 5σ.
+#define TaijiEstimatorConfig_STAR_GATE_SIGMA 5.0
+// χ² tolerance: model approximations stay well below it on clean data; an
+// unmodelled effect or a wrong noise level does not.
+#define TaijiEstimatorConfig_CHI2_TOLERANCE 0.25
+// Degraded above 2 % rejected: the estimate then rests on visibly less data than
+// planned, and the bound with it.
+#define TaijiEstimatorConfig_DEGRADED_ONE_IN 50
 
 // Common header of every message.
 struct TaijiHeader {

@@ -446,6 +446,10 @@ impl Scenario {
             full_scale_linear: fe.full_scale_m_s2,
             full_scale_angular: fe.full_scale_rad_s2,
             max_gap_ticks: (600.0 * fs).round().max(1.0) as u64,
+            gate_sigma: EstimatorConfig::GATE_SIGMA,
+            star_gate_sigma: EstimatorConfig::STAR_GATE_SIGMA,
+            chi2_tolerance: EstimatorConfig::CHI2_TOLERANCE,
+            degraded_one_in: EstimatorConfig::DEGRADED_ONE_IN,
         };
         for (i, (is, p)) in s.inertial_sensor.iter().zip(priors).enumerate() {
             c.geometry_m[i] = is.geometry_m;

@@ -49,7 +49,7 @@ pub const TAIJI_ERR_UPSET: i32 = 10;
 /// (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
 /// value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
 /// another with `TAIJI_ERR_VERSION`.
-pub const TAIJI_ABI_VERSION: u32 = 3;
+pub const TAIJI_ABI_VERSION: u32 = 4;
 
 /// `update` flag: a solve is due (the host may run it now or in its slower rate group).
 pub const TAIJI_SOLVE_DUE: u32 = 1;

@@ -44,6 +44,34 @@ pub struct EstimatorConfig {
     /// Longest run of missing ticks bridged as a dropout (bounds the work of one call);
     /// a longer jump of the tick is rejected as implausible.
     pub max_gap_ticks: u64,
+    /// Integrity tuning; the defaults (`EstimatorConfig::GATE_SIGMA` …) are the
+    /// measured values, with their derivations there. Gate of the sample tests (IS
+    /// residual tracks, the cross-IS angular test) [σ].
+    #[serde(default = "default_gate_sigma")]
+    pub gate_sigma: f64,
+    /// Gate of the star-tracker test [σ].
+    #[serde(default = "default_star_gate_sigma")]
+    pub star_gate_sigma: f64,
+    /// A group's χ² per degree of freedom is inconsistent above
+    /// 1 + max(this, 10 √(2/dof)) [-].
+    #[serde(default = "default_chi2_tolerance")]
+    pub chi2_tolerance: f64,
+    /// The status says degraded when more than one input in this many was rejected.
+    #[serde(default = "default_degraded_one_in")]
+    pub degraded_one_in: u64,
+}
+
+fn default_gate_sigma() -> f64 {
+    EstimatorConfig::GATE_SIGMA
+}
+fn default_star_gate_sigma() -> f64 {
+    EstimatorConfig::STAR_GATE_SIGMA
+}
+fn default_chi2_tolerance() -> f64 {
+    EstimatorConfig::CHI2_TOLERANCE
+}
+fn default_degraded_one_in() -> u64 {
+    EstimatorConfig::DEGRADED_ONE_IN
 }
 
 /// Why a table is refused (`EstimatorConfig::check`).
@@ -54,6 +82,21 @@ pub enum ConfigError {
 }
 
 impl EstimatorConfig {
+    /// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data
+    /// lose about one sample per campaign, while an upset moving a voltage by a few
+    /// noise σ already fails the cross-IS test (whose noise is far below a voltage's own).
+    pub const GATE_SIGMA: f64 = 5.5;
+    /// Star-tracker gate in σ, tighter than the IS's: a lost star-tracker sample costs
+    /// little, and an upset of a quaternion component by 5 noise σ turns the attitude
+    /// by 5σ.
+    pub const STAR_GATE_SIGMA: f64 = 5.0;
+    /// χ² tolerance: model approximations stay well below it on clean data; an
+    /// unmodelled effect or a wrong noise level does not.
+    pub const CHI2_TOLERANCE: f64 = 0.25;
+    /// Degraded above 2 % rejected: the estimate then rests on visibly less data than
+    /// planned, and the bound with it.
+    pub const DEGRADED_ONE_IN: u64 = 50;
+
     /// Validates the table before an estimator is built on it: every count in range,
     /// every rate, noise level and range finite and positive, priors finite and the
     /// scale-factor priors nonzero. An estimator never runs on a table that fails.
@@ -97,6 +140,20 @@ impl EstimatorConfig {
         // It bounds the work of one update (each missing tick is bridged).
         if self.max_gap_ticks == 0 || self.max_gap_ticks > 10_000_000 {
             return bad("max_gap_ticks");
+        }
+        // Below 3σ a clean campaign loses a visible share of its samples; above 20σ
+        // the gates pass upsets the size of the signal.
+        if !(self.gate_sigma.is_finite() && (3.0..=20.0).contains(&self.gate_sigma)) {
+            return bad("gate_sigma");
+        }
+        if !(self.star_gate_sigma.is_finite() && (3.0..=20.0).contains(&self.star_gate_sigma)) {
+            return bad("star_gate_sigma");
+        }
+        if !(self.chi2_tolerance.is_finite() && (0.01..=10.0).contains(&self.chi2_tolerance)) {
+            return bad("chi2_tolerance");
+        }
+        if !(2..=1_000_000).contains(&self.degraded_one_in) {
+            return bad("degraded_one_in");
         }
         for i in 0..2 {
             for a in 0..3 {

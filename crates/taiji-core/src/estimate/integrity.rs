@@ -6,17 +6,12 @@
 //! statistics would carry it for ever. Every test here compares a sample with what is
 //! already known — a prediction, never a later sample — so gating costs no latency:
 //! * [`Track`]: level and spread of a residual that should be white around a slowly
-//!   moving mean; a sample further than `GATE` σ from the level is rejected (the
+//!   moving mean; a sample further than the table's `gate_sigma` from the level is rejected (the
 //!   innovation test of PX4's EKF2, with a test ratio above 1 rejecting);
 //! * [`Stuck`]: a voltage channel that repeats its previous value bit for bit (readout
 //!   noise makes that impossible for a live channel);
 //! * [`RatioFit`]: the per-axis ratio of the two IS's angular voltages (β2/β1, the
 //!   same rotation seen twice), fitted from accepted samples only.
-
-/// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data lose
-/// about one sample per campaign, while an upset moving a voltage by a few noise σ
-/// already fails the cross-IS test (whose noise is far below a voltage's own).
-pub const GATE: f64 = 5.5;
 
 /// Samples a track takes to learn its spread before it gates (it still rejects gross
 /// outliers from the 8th on).
@@ -51,7 +46,7 @@ impl Track {
     /// Does `x` pass, within `gate` σ? σ² is the learned spread, at least `floor`
     /// (the known white noise). While the track is still learning it rejects only
     /// gross outliers.
-    pub fn check_within(&self, x: f64, floor: f64, gate: f64) -> bool {
+    pub fn check(&self, x: f64, floor: f64, gate: f64) -> bool {
         if !x.is_finite() {
             return false;
         }
@@ -62,11 +57,6 @@ impl Track {
             n if n < WARM => d * d <= 1e4 * gate * gate * var,
             _ => d * d <= gate * gate * var,
         }
-    }
-
-    /// `check_within` at the standard `GATE`.
-    pub fn check(&self, x: f64, floor: f64) -> bool {
-        self.check_within(x, floor, GATE)
     }
 
     /// Learn from an accepted `x` (`alpha`: forgetting rate once warm).
@@ -94,8 +84,8 @@ impl Track {
     }
 
     /// Check and, if accepted, learn; returns whether `x` was accepted.
-    pub fn admit(&mut self, x: f64, floor: f64, alpha: f64) -> bool {
-        if self.check(x, floor) {
+    pub fn admit(&mut self, x: f64, floor: f64, gate: f64, alpha: f64) -> bool {
+        if self.check(x, floor, gate) {
             self.learn(x, alpha);
             true
         } else {
@@ -192,6 +182,7 @@ impl RatioFit {
 #[cfg(test)]
 mod tests {
     use super::*;
+    const GATE: f64 = crate::estimate::EstimatorConfig::GATE_SIGMA;
     use rand::SeedableRng;
 
     fn gauss(r: &mut rand_chacha::ChaCha8Rng) -> f64 {
@@ -205,15 +196,15 @@ mod tests {
         let mut t = Track::default();
         let mut rejected = 0;
         for _ in 0..100_000 {
-            if !t.admit(3.0 + 2.0 * gauss(&mut r), 1e-6, 1.0 / 64.0) {
+            if !t.admit(3.0 + 2.0 * gauss(&mut r), 1e-6, GATE, 1.0 / 64.0) {
                 rejected += 1;
             }
         }
         // 5.5σ two-sided is 4e-8 per draw; the estimated spread wobbles a little.
         assert!(rejected <= 3, "{rejected} clean samples rejected");
         assert!((t.var().sqrt() - 2.0).abs() < 0.4);
-        assert!(!t.admit(3.0 + 2.0 * 7.0, 1e-6, 1.0 / 64.0));
-        assert!(t.admit(3.0, 1e-6, 1.0 / 64.0));
+        assert!(!t.admit(3.0 + 2.0 * 7.0, 1e-6, GATE, 1.0 / 64.0));
+        assert!(t.admit(3.0, 1e-6, GATE, 1.0 / 64.0));
     }
 
     #[test]
@@ -221,11 +212,11 @@ mod tests {
         let mut t = Track::default();
         let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(2);
         for k in 0..10_000 {
-            assert!(t.admit(1e-3 * k as f64 + gauss(&mut r), 1e-6, 1.0 / 16.0));
+            assert!(t.admit(1e-3 * k as f64 + gauss(&mut r), 1e-6, GATE, 1.0 / 16.0));
         }
         let mut accepted_after = None;
         for k in 0..1000 {
-            if t.admit(1000.0 + gauss(&mut r), 1e-6, 1.0 / 16.0) {
+            if t.admit(1000.0 + gauss(&mut r), 1e-6, GATE, 1.0 / 16.0) {
                 accepted_after = Some(k);
                 break;
             }

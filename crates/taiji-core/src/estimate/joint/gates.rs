@@ -111,7 +111,7 @@ impl JointEstimator {
             };
             let d = v1 - rho * v2;
             let var = var1 + rho * rho * var2 + var_rho * v2 * v2;
-            pass[a] = d.is_finite() && d.abs() <= tol + GATE * var.sqrt();
+            pass[a] = d.is_finite() && d.abs() <= tol + c.gate_sigma * var.sqrt();
         }
         pass
     }
@@ -199,7 +199,7 @@ impl JointEstimator {
             let Some(i) = *l else { continue };
             let k = 3 * i + PAIR_OF_ANGULAR[a];
             let x = (self.gate_c.row(k) * sig)[0];
-            if !self.lone_track[k].check(x, 0.0) {
+            if !self.lone_track[k].check(x, 0.0, self.cfg.gate_sigma) {
                 self.lone_track[k].miss();
                 axis_ok[i][a] = false;
                 any = true;
@@ -216,7 +216,7 @@ impl JointEstimator {
         #[allow(clippy::op_ref)]
         let raw = &self.gate_c * sig;
         let z = self.gate_w * raw;
-        let ok = (0..6).all(|k| self.lin_track[k].check(z[k], 1.0));
+        let ok = (0..6).all(|k| self.lin_track[k].check(z[k], 1.0, self.cfg.gate_sigma));
         for k in 0..6 {
             if ok {
                 self.lin_track[k].learn(z[k], ALPHA_LIN);

@@ -29,7 +29,7 @@
 //! group's χ²/dof and sets the status word.
 
 use super::config::EstimatorConfig;
-use super::integrity::{RatioFit, Stuck, Track, GATE};
+use super::integrity::{RatioFit, Stuck, Track};
 // Unused where std is linked anywhere in the build (the std binaries, unit tests):
 // std's inherent f64 methods then win for these exact operations, with the same bits.
 #[allow(unused_imports)]
@@ -200,10 +200,6 @@ const ALPHA_JERK: f64 = 1.0 / 256.0;
 const RANGE_MARGIN: f64 = 1.25;
 /// Degrees of freedom a group needs before its χ² is judged.
 const CHI2_MIN_DOF: f64 = 2000.0;
-/// A group is inconsistent above 1 + max(this, 10 √(2/dof)) (model approximations
-/// stay well below it on clean data; an unmodelled effect or a wrong noise level
-/// does not).
-const CHI2_TOL: f64 = 0.25;
 impl JointEstimator {
     pub fn new(cfg: EstimatorConfig) -> Self {
         let bank = PowerLawBank::new(cfg.srp_asd_at_3mhz, 3e-3, 2.0 / 3.0, cfg.fs);
@@ -504,6 +500,10 @@ pub(super) fn test_config() -> EstimatorConfig {
         full_scale_linear: 1e-8,
         full_scale_angular: 1e-7,
         max_gap_ticks: 6000,
+        gate_sigma: EstimatorConfig::GATE_SIGMA,
+        star_gate_sigma: EstimatorConfig::STAR_GATE_SIGMA,
+        chi2_tolerance: EstimatorConfig::CHI2_TOLERANCE,
+        degraded_one_in: EstimatorConfig::DEGRADED_ONE_IN,
     }
 }
 

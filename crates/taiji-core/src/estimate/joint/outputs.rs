@@ -7,10 +7,6 @@ use super::*;
 /// but for the SRP's turn, so 2 suffice; 6 leave no doubt.
 const NUISANCE_ITERATIONS: usize = 6;
 
-/// The status says degraded when more than one input in this many was rejected (2 %):
-/// the estimate then rests on visibly less data than planned, and the bound with it.
-const DEGRADED_ONE_IN: u64 = 50;
-
 impl JointEstimator {
     /// 1σ at `p` without priors, as the solve reports it (the sandwich of
     /// `sandwich_var`: the Fisher information of the linear, star-tracker and angular
@@ -68,9 +64,9 @@ impl JointEstimator {
         m.n_used = self.n_used;
         m.n_rejected = self.n_rejected;
         let ticks = self.n_used + self.n_rejected;
-        let degraded = self.n_rejected * DEGRADED_ONE_IN > ticks
+        let degraded = self.n_rejected * self.cfg.degraded_one_in > ticks
             || self.causes[CAUSE_TICK_JUMP] > 0
-            || self.causes[CAUSE_STAR_OUTLIER] * DEGRADED_ONE_IN > self.n_star.max(1);
+            || self.causes[CAUSE_STAR_OUTLIER] * self.cfg.degraded_one_in > self.n_star.max(1);
         m.status = self.status | if degraded { ST_DEGRADED } else { 0 };
         m.rejected_by_cause = self.causes;
         m.tick_rejections = self.tick_mask;

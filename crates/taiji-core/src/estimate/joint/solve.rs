@@ -234,7 +234,11 @@ impl JointEstimator {
         let mut inflation: f64 = 1.0;
         for k in 0..N_GROUPS {
             self.chi2[k] = if dof[k] > 0.0 { cost[k] / dof[k] } else { 0.0 };
-            let limit = 1.0 + CHI2_TOL.max(10.0 * (2.0 / dof[k].max(1.0)).sqrt());
+            let limit = 1.0
+                + self
+                    .cfg
+                    .chi2_tolerance
+                    .max(10.0 * (2.0 / dof[k].max(1.0)).sqrt());
             if dof[k] >= CHI2_MIN_DOF && nan_or_above(self.chi2[k], limit) {
                 inconsistent = true;
                 let x = if self.chi2[k].is_finite() {

@@ -3,11 +3,6 @@
 
 use super::*;
 
-/// The star-tracker test's gate [σ], tighter than the other tests' `GATE` (5.5): a lost
-/// star-tracker sample costs little, and an upset of a quaternion component by 5 noise
-/// σ turns the attitude by 5σ.
-const STAR_GATE: f64 = 5.0;
-
 impl JointEstimator {
     /// Advance the star-tracker whitening filter by one sample: the angle error of the
     /// IS-propagated attitude ½(β1 Φ1 + β2 Φ2) grows as the double integral of the IS
@@ -82,7 +77,7 @@ impl JointEstimator {
             }
             *ea = theta[a] - pred;
         }
-        let ok = (0..3).all(|a| self.star_track[a].check_within(e[a], var_star, STAR_GATE));
+        let ok = (0..3).all(|a| self.star_track[a].check(e[a], var_star, self.cfg.star_gate_sigma));
         for a in 0..3 {
             if ok {
                 self.star_track[a].learn(e[a], ALPHA_STAR);
