@@ -280,6 +280,7 @@ impl Memory {
 }
 
 /// What the replay measured, in timer ticks and bytes.
+#[derive(Default)]
 struct Figures {
     n: u64,
     n_solves: u64,
@@ -512,15 +513,8 @@ pub unsafe fn run<B: Board>(board: &mut B) -> ! {
     let (cfg, mut samples, n) = init(board, &mut m);
     let mut fig = Figures {
         n,
-        n_solves: 0,
-        solves_failed: 0,
-        solve_max: 0,
-        finish: 0,
         ticks_per_instr,
-        checkpoint_bytes: 0,
-        stack_update: 0,
-        stack_solve: 0,
-        stack_finish: 0,
+        ..Figures::default()
     };
     replay(board, &mut m, &mut samples, &mut fig);
     drop(samples);
