@@ -1,46 +1,54 @@
-//! The estimator on an emulated flight CPU (`tools/flight-qemu`: the no_std core as a
-//! bare-metal Cortex-M7 program under QEMU's mps2-an500) replays a recording of a
-//! scenario other than the defaults, with faults, bit-identical to `taiji-calib
-//! replay` of the same file, and reports its instructions and stack per call.
-//! Needs qemu-system-arm (tools/test installs it).
+//! The estimator on emulated flight CPUs (`tools/flight-qemu`: the no_std core as a
+//! bare-metal program under QEMU) replays recordings of scenarios other than the
+//! defaults, with faults, bit-identical to `taiji-calib replay` of the same file, and
+//! reports its instructions and stack per call: an ARM Cortex-M7 (mps2-an500) and a
+//! SPARC V8 LEON3 (leon3_generic, the BM3803's class). Needs qemu-system-arm,
+//! qemu-system-sparc, gcc-sparc64-linux-gnu and nightly Rust with rust-src
+//! (tools/test installs them).
 
 mod hosts;
 
 use hosts::{assert_same_bits, json, record_and_replay, root, tmp, BIN};
+use std::path::Path;
 use std::process::Command;
 
-#[test]
-fn the_emulated_cortex_m7_reproduces_replay_bit_for_bit() {
-    let dir = tmp("flight-m7");
-    let (tel, r) = record_and_replay(
-        &dir,
-        "name = \"flight-m7\"\nseed = 5151\nduration_s = 3000.0\n\
+/// A scenario with other truths than the defaults, seed `seed`, `duration_s` long, with
+/// upsets, IS and star-tracker dropouts.
+fn scenario(name: &str, seed: u64, duration_s: f64) -> String {
+    format!(
+        "name = \"{name}\"\nseed = {seed}\nduration_s = {duration_s:.1}\n\
          [maneuver]\nfrequency_hz = 0.003\ntorque_amplitude_nm = [2.0e-6, 3.0e-6, 2.5e-6]\n\
          [[inertial_sensor]]\nbeta = [5.6e-8, 5.45e-8, 7.3e-8]\ncom_offset_m = [0.2130, -0.1240, 0.0011]\n\
          [[inertial_sensor]]\nbeta = [5.5e-8, 5.58e-8, 7.4e-8]\ncom_offset_m = [0.2170, 0.1262, -0.0006]\n\
-         [faults]\nupset_rate = 1e-4\nis_dropout_rate = 0.01\nstar_dropout_rate = 0.02\n",
-    );
-    let m7 = Command::new(root().join("tools/flight-qemu"))
+         [faults]\nupset_rate = 1e-4\nis_dropout_rate = 0.01\nstar_dropout_rate = 0.02\n"
+    )
+}
+
+/// Records `toml`, replays it, runs `tools/flight-qemu --cpu cpu` on the recording and
+/// holds the result against the replay: the same bits, the same status, and figures
+/// measured on the target that are there and plausible.
+fn replays_bit_for_bit(dir: &Path, toml: &str, cpu: &str, cpu_name: &str, updates: u64) {
+    let (tel, r) = record_and_replay(dir, toml);
+    let run = Command::new(root().join("tools/flight-qemu"))
         .env("TAIJI_CALIB_BIN", BIN)
-        .args(["--cpu", "m7", "--telemetry"])
+        .args(["--cpu", cpu, "--telemetry"])
         .arg(&tel)
         .arg("--out")
-        .arg(dir.join("m7"))
+        .arg(dir.join(cpu))
         .output()
         .unwrap();
     assert!(
-        m7.status.success(),
-        "tools/flight-qemu failed (qemu-system-arm is installed by tools/test):\n{}\n{}",
-        String::from_utf8_lossy(&m7.stdout),
-        String::from_utf8_lossy(&m7.stderr)
+        run.status.success(),
+        "tools/flight-qemu --cpu {cpu} failed (tools/test installs what it needs):\n{}\n{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
     );
-    let f = json(&m7.stdout);
-    assert_same_bits(&f, &r, "the Cortex-M7");
+    let f = json(&run.stdout);
+    assert_same_bits(&f, &r, cpu_name);
     assert_eq!(f["estimator_status"], r["estimator_status"]["bits"]);
-    // The figures measured on the target are there and plausible.
     let fl = &f["flight"];
-    assert_eq!(fl["cpu"], "cortex-m7");
-    assert_eq!(fl["updates"], 30000);
+    assert_eq!(fl["cpu"], cpu_name);
+    assert_eq!(fl["updates"], updates);
     for key in ["p50", "p99", "max"] {
         assert!(
             fl["update_instructions"][key].as_u64().unwrap() > 1000,
@@ -54,18 +62,43 @@ fn the_emulated_cortex_m7_reproduces_replay_bit_for_bit() {
     for call in ["update", "solve", "finish"] {
         assert!(fl["stack_bytes"][call].as_u64().unwrap() > 256, "{fl}");
     }
+}
+
+#[test]
+fn the_emulated_cortex_m7_reproduces_replay_bit_for_bit() {
+    let dir = tmp("flight-m7");
+    replays_bit_for_bit(
+        &dir,
+        &scenario("flight-m7", 5151, 3000.0),
+        "m7",
+        "cortex-m7",
+        30000,
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Big-endian, 32-bit, register windows, its own FPU: the same bits. A shorter
+/// recording than the Cortex-M7's (the image's build takes most of the time).
+#[test]
+fn the_emulated_leon3_reproduces_replay_bit_for_bit() {
+    let dir = tmp("flight-leon3");
+    replays_bit_for_bit(
+        &dir,
+        &scenario("flight-leon3", 3803, 1000.0),
+        "leon3",
+        "leon3",
+        10000,
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
-fn leon3_says_it_is_not_built_and_a_wrong_cpu_is_refused() {
-    for (cpu, says) in [("leon3", "not built yet"), ("z80", "must be m7 or leon3")] {
-        let out = Command::new(root().join("tools/flight-qemu"))
-            .args(["--cpu", cpu])
-            .output()
-            .unwrap();
-        assert_eq!(out.status.code(), Some(2), "{cpu}");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.contains(says), "{cpu}: {err}");
-    }
+fn a_wrong_cpu_is_refused() {
+    let out = Command::new(root().join("tools/flight-qemu"))
+        .args(["--cpu", "z80"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("must be m7 or leon3"), "{err}");
 }
