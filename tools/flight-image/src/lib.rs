@@ -139,6 +139,10 @@ fn decode_config(bytes: &[u8]) -> EstimatorConfig {
         full_scale_linear: r.f64(),
         full_scale_angular: r.f64(),
         max_gap_ticks: r.u64(),
+        gate_sigma: r.f64(),
+        star_gate_sigma: r.f64(),
+        chi2_tolerance: r.f64(),
+        degraded_one_in: r.u64(),
     }
 }
 
