@@ -83,9 +83,100 @@ pub fn atan2(y: f64, x: f64) -> f64 {
     libm::atan2(y, x)
 }
 
+/// Inverse of a small square matrix by LU with partial pivoting; `None` when a pivot
+/// is zero. The same operations in the same order as nalgebra's `try_inverse` for
+/// sizes above 4 (so the same bits), without its shape assertions and index checks:
+/// every index here is a loop bound the compiler sees, so no panic path is linked.
+pub fn lu_inverse<const N: usize>(
+    m: &nalgebra::SMatrix<f64, N, N>,
+) -> Option<nalgebra::SMatrix<f64, N, N>> {
+    let mut a = [[0.0f64; N]; N];
+    let mut out = [[0.0f64; N]; N];
+    for r in 0..N {
+        for c in 0..N {
+            a[r][c] = m[(r, c)];
+        }
+        out[r][r] = 1.0;
+    }
+    for i in 0..N {
+        // The first of the largest |a[r][i]|, r ≥ i (a NaN is never the largest).
+        let mut piv = i;
+        let mut max = a[i][i].abs();
+        for (r, row) in a.iter().enumerate().skip(i + 1) {
+            if row[i].abs() > max {
+                max = row[i].abs();
+                piv = r;
+            }
+        }
+        let piv = piv.min(N - 1);
+        let diag = a[piv][i];
+        if diag == 0.0 {
+            return None;
+        }
+        if piv != i {
+            out.swap(i, piv);
+            // The row swap of L's columns, the pivot column and the rest alike.
+            a.swap(i, piv);
+        }
+        let inv_diag = 1.0 / diag;
+        for r in i + 1..N {
+            a[r][i] *= inv_diag;
+        }
+        for c in i + 1..N {
+            let p = a[i][c];
+            for r in i + 1..N {
+                a[r][c] += -p * a[r][i];
+            }
+        }
+    }
+    // L (unit diagonal) then U, column by column of the identity.
+    for c in 0..N {
+        for i in 0..N {
+            let coeff = out[i][c];
+            for r in i + 1..N {
+                out[r][c] += -coeff * a[r][i];
+            }
+        }
+        for i in (0..N).rev() {
+            let coeff = out[i][c] / a[i][i];
+            out[i][c] = coeff;
+            for r in 0..i {
+                out[r][c] += -coeff * a[r][i];
+            }
+        }
+    }
+    Some(nalgebra::SMatrix::<f64, N, N>::from_fn(|r, c| out[r][c]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The same bits as nalgebra's `try_inverse` (LU for sizes above 4), pivoting
+    /// included, on random, badly scaled, triangular and singular matrices.
+    #[test]
+    fn lu_inverse_is_nalgebras_bit_for_bit() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
+        for case in 0..2000 {
+            let m = nalgebra::SMatrix::<f64, 6, 6>::from_fn(|r, c| {
+                let x: f64 = rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-8..8));
+                match case % 4 {
+                    1 if r < c => 0.0,
+                    2 if r == 3 => 0.0,
+                    _ => x,
+                }
+            });
+            let ours = lu_inverse(&m);
+            let theirs = m.try_inverse();
+            assert_eq!(ours.is_some(), theirs.is_some(), "case {case}");
+            if let (Some(a), Some(b)) = (ours, theirs) {
+                for (x, y) in a.iter().zip(b.iter()) {
+                    assert_eq!(x.to_bits(), y.to_bits(), "case {case}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn powi_is_repeated_multiplication() {

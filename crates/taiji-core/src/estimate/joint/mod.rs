@@ -325,7 +325,9 @@ impl JointEstimator {
     }
 
     fn k_of(&self, p: &Par, i: usize, j: usize) -> f64 {
-        self.cfg.geometry_m[i][PERM[j]] * p[P_BETA + 3 * i + PERM[j]]
+        // Clamped indices (i < 2, j < 3 at every call): no index check is linked.
+        let (i, a) = (i.min(1), PERM[j.min(2)].min(2));
+        self.cfg.geometry_m[i][a] * p[P_BETA + 3 * i + a]
     }
 
     /// Process one sensor sample and, when one is due, solve; returns the estimate

@@ -56,20 +56,24 @@ impl JointEstimator {
         let bc = self.srp_dc(p);
         let beta1 = |a: usize| p[P_BETA + a];
         for i in 0..n {
+            let i = i.min(1); // i < n ≤ 2, lost by the optimiser
             for j in 0..3 {
                 let row = 3 * i + j;
                 let inv_k = 1.0 / self.k_of(p, i, j);
-                let r = |a: usize| p[P_R + 3 * i + a];
+                // Every `(3 x + a).min(5)` below is 3 x + a (x < 2, a < 3): the clamp keeps
+                // an index check the optimiser cannot drop out of the library.
+                let r = |a: usize| p[P_R + (3 * i + a).min(5)];
                 let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
                 lin[(row, S_SUM + row)] = 1.0;
                 // ω̇ × r with ω̇ the IS average.
                 for l in 0..n {
-                    let bl = |a: usize| p[P_BETA + 3 * l + a];
-                    lin[(row, S_DV + 3 * l + j1)] -= inv_k * self.w(l) * bl(j1) * r(j2);
-                    lin[(row, S_DV + 3 * l + j2)] += inv_k * self.w(l) * bl(j2) * r(j1);
+                    let bl = |a: usize| p[P_BETA + (3 * l + a).min(5)];
+                    lin[(row, S_DV + (3 * l + j1).min(5))] -= inv_k * self.w(l) * bl(j1) * r(j2);
+                    lin[(row, S_DV + (3 * l + j2).min(5))] += inv_k * self.w(l) * bl(j2) * r(j1);
                 }
                 // ω × (ω × r) = Σ_{a≠j} (ω_j ω_a r_a − r_j ω_a²), ω = β1 Ψ1.
                 for a in [j1, j2] {
+                    let a = a.min(2); // lost through the array's iterator: no check linked
                     lin[(row, S_PP + prod(j, a))] -= inv_k * beta1(j) * beta1(a) * r(a);
                     lin[(row, S_PP + prod(a, a))] += inv_k * r(j) * beta1(a) * beta1(a);
                 }

@@ -36,7 +36,8 @@ impl JointEstimator {
     /// A tick processed or bridged: solve on schedule.
     pub(super) fn tick_done(&mut self, tick: u64) {
         self.n_ticks += 1;
-        if self.n_ticks % self.cfg.solve_every == 0 {
+        // `max(1)`: the table is checked (≥ 1); no division by zero is linked either.
+        if self.n_ticks % self.cfg.solve_every.max(1) == 0 {
             self.solve_due = [1, tick];
         }
     }
@@ -59,7 +60,11 @@ impl JointEstimator {
                 self.reject(CAUSE_ANGULAR_MISMATCH);
                 ok = [false; 2];
                 let sums = [s.is[0].linear_volts(), s.is[1].linear_volts()];
-                for a in (0..3).filter(|&a| tested[a] && !pair[a]) {
+                // A plain range (not `filter`): the index bound stays visible, no check is linked.
+                for a in 0..3 {
+                    if !tested[a] || pair[a] {
+                        continue;
+                    }
                     let t = self.trusted_is(a, [&d0, &d1], [&sums[0], &sums[1]]);
                     axis_ok[0][a] = t[0];
                     axis_ok[1][a] = t[1];
@@ -73,7 +78,11 @@ impl JointEstimator {
                     }
                 }
             }
-            for a in (0..3).filter(|&a| pair[a]) {
+            // A plain range (not `filter`): the index bound stays visible, no check is linked.
+            for a in 0..3 {
+                if !(pair[a]) {
+                    continue;
+                }
                 self.ratio[a].add(d0[a], d1[a]);
             }
         }
@@ -142,7 +151,11 @@ impl JointEstimator {
             self.n_rejected += 1;
             self.whitening_time_update();
         }
-        for a in (0..3).filter(|&a| pair[a]) {
+        // A plain range (not `filter`): the index bound stays visible, no check is linked.
+        for a in 0..3 {
+            if !(pair[a]) {
+                continue;
+            }
             // Residual ΔV1 − (β2/β1) ΔV2 [V], weighted with its noise at the priors
             // (readout and drive ripple), so the group constrains the ratio only and
             // cannot pull the common scale.

@@ -81,7 +81,7 @@ impl JointEstimator {
                 let dd: f64 = (0..6).map(|r| row[r] * lin.turn[b][(r, col)]).sum();
                 if dd != 0.0 {
                     for i in 0..NP {
-                        out.cross[(i, b)] += md[(sc, i)] * dd * weight;
+                        out.cross[(i, b)] += md[(sc.min(NS - 1), i)] * dd * weight;
                     }
                 }
             }
@@ -305,7 +305,7 @@ impl JointEstimator {
     pub(super) fn sandwich_var(n: &Normal, hinv: &SMatrix<f64, NP, NP>) -> Option<Par> {
         let u: SMatrix<f64, NP, 6> = hinv * n.cross;
         let vu = SMatrix::<f64, 6, 6>::from_fn(|b, c| u[(P_BETA + b, c)]);
-        let m = (SMatrix::<f64, 6, 6>::identity() + vu).try_inverse()?;
+        let m = crate::math::lu_inverse(&(SMatrix::<f64, 6, 6>::identity() + vu))?;
         let w = u * m;
         let var = Par::from_fn(|k, _| {
             let mut v = hinv[(k, k)];

@@ -99,7 +99,7 @@ impl JointEstimator {
         h: &SVector<f64, 6>,
     ) -> Option<(SMatrix<f64, 6, 6>, SVector<f64, 6>, f64)> {
         let l = r.cholesky()?.l();
-        let linv = l.try_inverse()?;
+        let linv = crate::math::lu_inverse(&l)?;
         let hp = linv * h;
         let hn = hp.norm();
         Some((linv, hp / hn, hn))
