@@ -400,12 +400,41 @@ pub fn fault_line(f: &serde_json::Value) -> String {
     list.join(", ")
 }
 
+/// A report that could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("cannot create {}: {source}", path.display())]
+    Create {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+}
+
+/// Bridge for callers still on `Result<_, String>` (the process layer).
+impl From<ReportError> for String {
+    fn from(e: ReportError) -> Self {
+        e.to_string()
+    }
+}
+
 /// Write `DIR/report.json` (creating DIR).
-pub fn write(out: &std::path::Path, report: &Report) -> Result<(), String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+pub fn write(out: &std::path::Path, report: &Report) -> Result<(), ReportError> {
+    std::fs::create_dir_all(out).map_err(|source| ReportError::Create {
+        path: out.to_path_buf(),
+        source,
+    })?;
     let path = out.join("report.json");
-    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
+    let text = serde_json::to_string_pretty(report)?;
+    std::fs::write(&path, text + "\n").map_err(|source| ReportError::Write { path, source })
 }
 
 /// How each real-time stage was scheduled, from a report's `timing`, on one line

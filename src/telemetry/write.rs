@@ -11,7 +11,7 @@
 
 use super::h5::{self, Kind, Msg, Value};
 use super::layout as l;
-use super::{Meta, RowGate, Telemetry};
+use super::{Meta, RowGate, Telemetry, TelemetryError};
 use crate::faults::FaultRecord;
 use crate::msg::{EstimateMsg, Header, IsSample, SensorSample, StarSample, TruthState};
 use std::os::unix::fs::FileExt;
@@ -305,8 +305,16 @@ pub struct Writer {
 impl Writer {
     /// Create `path` for `n` samples of the run `meta` describes, written `chunk_rows`
     /// rows at a time ([`CHUNK_ROWS`] outside tests).
-    pub fn create(path: &Path, meta: &Meta, n: u64, chunk_rows: usize) -> Result<Self, String> {
-        let err = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+    pub fn create(
+        path: &Path,
+        meta: &Meta,
+        n: u64,
+        chunk_rows: usize,
+    ) -> Result<Self, TelemetryError> {
+        let err = |source| TelemetryError::Write {
+            path: path.to_path_buf(),
+            source,
+        };
         let ni = meta.n_is;
         let fs = meta.sample_rate_hz;
         let mut samples = sample_columns(ni);
@@ -436,8 +444,19 @@ impl Writer {
         })
     }
 
-    fn err(&self, e: impl std::fmt::Display) -> String {
-        format!("cannot write {}: {e}", self.path.display())
+    /// The rows handed over do not make the recording: `what`.
+    fn rows_err(&self, what: String) -> TelemetryError {
+        TelemetryError::Rows {
+            path: self.path.clone(),
+            what,
+        }
+    }
+
+    fn io_err(&self, source: std::io::Error) -> TelemetryError {
+        TelemetryError::Write {
+            path: self.path.clone(),
+            source,
+        }
     }
 
     /// Samples recorded so far (written or buffered).
@@ -446,15 +465,15 @@ impl Writer {
     }
 
     /// Record one tick: the plant's truth and the front-end's sample of it.
-    pub fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+    pub fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), TelemetryError> {
         if t.header.tick != s.header.tick {
-            return Err(self.err(format!(
+            return Err(self.rows_err(format!(
                 "truth of tick {} recorded with the sample of tick {}",
                 t.header.tick, s.header.tick
             )));
         }
         if self.samples() >= self.n {
-            return Err(self.err(format!(
+            return Err(self.rows_err(format!(
                 "more than the scenario's {} samples recorded",
                 self.n
             )));
@@ -470,7 +489,7 @@ impl Writer {
     }
 
     /// Record `e` if a row is due (see [`RowGate`]).
-    pub fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+    pub fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError> {
         if self.gate.due(e, self.fs) {
             self.push_estimate(e)?;
         }
@@ -478,7 +497,7 @@ impl Writer {
     }
 
     /// Append an estimate row.
-    fn push_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+    fn push_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError> {
         let (fs, ni) = (self.fs, self.n_is);
         for c in &mut self.estimates {
             c.put_estimate(e, fs, ni);
@@ -490,14 +509,17 @@ impl Writer {
     }
 
     /// Write the buffered rows, then publish them in the datasets' headers.
-    pub fn flush(&mut self) -> Result<(), String> {
+    pub fn flush(&mut self) -> Result<(), TelemetryError> {
         let need = self.estimates[0].rows + self.estimates[0].pending();
         if need > self.estimates[0].capacity {
             self.grow_estimates(need)?;
         }
         let file = &self.file;
         let path = &self.path;
-        let err = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+        let err = |source| TelemetryError::Write {
+            path: path.clone(),
+            source,
+        };
         let cols = || self.samples.iter().chain(self.estimates.iter());
         for c in cols().filter(|c| !c.buf.is_empty()) {
             file.write_all_at(&c.buf, c.data_at + c.rows * c.row_bytes)
@@ -515,7 +537,7 @@ impl Writer {
 
     /// Move the estimate columns' storage to the end of the file, with room for
     /// `rows` rows at least.
-    fn grow_estimates(&mut self, rows: u64) -> Result<(), String> {
+    fn grow_estimates(&mut self, rows: u64) -> Result<(), TelemetryError> {
         let cap = rows.max(2 * self.estimates[0].capacity);
         let mut chunk = vec![0u8; 1 << 20];
         for k in 0..self.estimates.len() {
@@ -527,10 +549,10 @@ impl Writer {
                 let n = (used - done).min(chunk.len() as u64) as usize;
                 self.file
                     .read_exact_at(&mut chunk[..n], c.data_at + done)
-                    .map_err(|e| self.err(e))?;
+                    .map_err(|e| self.io_err(e))?;
                 self.file
                     .write_all_at(&chunk[..n], at + done)
-                    .map_err(|e| self.err(e))?;
+                    .map_err(|e| self.io_err(e))?;
                 done += n as u64;
             }
             self.eof = align8(at + cap * c.row_bytes);
@@ -538,30 +560,34 @@ impl Writer {
             c.data_at = at;
             c.capacity = cap;
         }
-        self.file.set_len(self.eof).map_err(|e| self.err(e))?;
+        self.file.set_len(self.eof).map_err(|e| self.io_err(e))?;
         // The headers point to the new storage once the pending rows are published;
         // until then they still name the old one, intact.
         self.file
             .write_all_at(&h5::superblock(self.eof, self.root_at), 0)
-            .map_err(|e| self.err(e))
+            .map_err(|e| self.io_err(e))
     }
 
     /// Write what is buffered and the fault log (`[faults]` runs), and close the file.
     /// Fewer samples than the scenario's is an error, after they are written.
-    pub fn finish(mut self, faults: &[FaultRecord], detected: &[u64]) -> Result<(), String> {
+    pub fn finish(
+        mut self,
+        faults: &[FaultRecord],
+        detected: &[u64],
+    ) -> Result<(), TelemetryError> {
         self.flush()?;
         if !faults.is_empty() {
             self.write_faults(faults, detected)?;
         }
         let got = self.samples[0].rows;
         if got != self.n {
-            return Err(self.err(format!("incomplete recording: {got} of {} samples", self.n)));
+            return Err(self.rows_err(format!("incomplete recording: {got} of {} samples", self.n)));
         }
         Ok(())
     }
 
     /// The `/faults` group, at the end of the file, then linked from the root.
-    fn write_faults(&mut self, f: &[FaultRecord], detected: &[u64]) -> Result<(), String> {
+    fn write_faults(&mut self, f: &[FaultRecord], detected: &[u64]) -> Result<(), TelemetryError> {
         let nf = f.len();
         let u = |g: &dyn Fn(&FaultRecord) -> u64| -> Vec<u8> {
             f.iter().flat_map(|r| g(r).to_le_bytes()).collect()
@@ -626,7 +652,11 @@ impl Writer {
             put(data_at[k], &c.2);
         }
         put(heap_at, &heap);
-        let err = |e: std::io::Error| format!("cannot write {}: {e}", self.path.display());
+        let path = self.path.clone();
+        let err = |source| TelemetryError::Write {
+            path: path.clone(),
+            source,
+        };
         self.file.write_all_at(&image, base).map_err(err)?;
         self.eof = eof;
         self.file.set_len(eof).map_err(err)?;
@@ -683,14 +713,13 @@ fn root_attributes(meta: &Meta, strings: &mut Strings) -> Vec<(&'static str, Val
 }
 
 /// Write a recording held in memory. Every truth and sensor row must be present.
-pub(super) fn write(t: &Telemetry, path: &Path, meta: &Meta) -> Result<(), String> {
+pub(super) fn write(t: &Telemetry, path: &Path, meta: &Meta) -> Result<(), TelemetryError> {
     let n = t.truth_tick.len();
     if t.sensor_tick.len() != n || t.truth_tick != t.sensor_tick {
-        return Err(format!(
-            "telemetry incomplete: {} truth rows and {} sensor rows of different ticks",
-            n,
-            t.sensor_tick.len()
-        ));
+        return Err(TelemetryError::Incomplete {
+            truth_rows: n,
+            sensor_rows: t.sensor_tick.len(),
+        });
     }
     let mut w = Writer::create(path, meta, n as u64, CHUNK_ROWS)?;
     let ni = t.n_is;
