@@ -501,32 +501,7 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
     base.plan_pending = false;
     base.faults = Default::default();
     let d = base.duration_s;
-    let hold = base.spacecraft.attitude_hold_hz;
-    let both = [Schedule::Sequential, Schedule::Simultaneous];
-    let coarse = shapes(&base, &PERIODS, &both, &[0]);
-    if coarse.is_empty() {
-        let f_lo = (3.0 / d).max(10.0 * hold);
-        let why = if 10.0 * hold > 3.0 / d {
-            format!(
-                "the slowest frequency spacecraft.attitude_hold_hz = {hold} Hz allows is {} Hz, and three whole periods (one per axis) of it need {:.0} s",
-                10.0 * hold,
-                3.0 / f_lo
-            )
-        } else {
-            format!(
-                "three whole periods (one per axis) need at least {:.0} s at the fastest frequency searched ({MAX_FREQUENCY_HZ} Hz, or sample_rate_hz / 8)",
-                3.0 / MAX_FREQUENCY_HZ.min(base.sample_rate_hz / 8.0)
-            )
-        };
-        return Err(PlanError::WindowTooShort { duration_s: d, why });
-    }
-    let mut cands: Vec<Candidate> = coarse.into_iter().filter_map(|m| size(&base, m)).collect();
-    if cands.is_empty() {
-        return Err(PlanError::NoTorque {
-            max_torque_nm: base.thruster.max_torque_nm,
-            maneuver_limit_m_s2: base.front_end.maneuver_limit_m_s2,
-        });
-    }
+    let mut cands = coarse_candidates(&base)?;
     // One search rate for every candidate (the bound's coarseness then ranks fairly),
     // fine enough for the fastest wave of the grid.
     let f_fast = cands
@@ -538,35 +513,7 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
         .min((SEARCH_SAMPLES / d).max(SEARCH_SAMPLES_PER_PERIOD * f_fast));
     evaluate(&base, &mut cands, rate);
     best_first(&mut cands);
-    // Refine each schedule's best count with the counts between its neighbours, and
-    // the simultaneous schedule's slow axis.
-    let mut finer = Vec::new();
-    for sch in both {
-        let Some(best) = cands.iter().find(|c| c.maneuver.schedule == sch) else {
-            continue;
-        };
-        let n = match sch {
-            Schedule::Sequential => best.periods[0],
-            Schedule::Simultaneous => *best.periods.iter().min().unwrap_or(&1),
-        };
-        let between: Vec<u64> = ((n / 2 + 1)..(2 * n))
-            .filter(|k| !PERIODS.contains(k))
-            .collect();
-        let between: Vec<u64> = if between.len() > 4 {
-            // At most four counts, spread geometrically.
-            (1..=4)
-                .map(|i| ((n as f64) * 2f64.powf(i as f64 / 5.0 * 2.0 - 1.0)).round() as u64)
-                .filter(|k| !PERIODS.contains(k))
-                .collect()
-        } else {
-            between
-        };
-        finer.extend(shapes(&base, &between, &[sch], &[0]));
-        if sch == Schedule::Simultaneous {
-            finer.extend(shapes(&base, &[n], &[sch], &[1, 2]));
-        }
-    }
-    let mut finer: Vec<Candidate> = finer.into_iter().filter_map(|m| size(&base, m)).collect();
+    let mut finer = finer_counts(&base, &cands);
     evaluate(&base, &mut finer, rate);
     cands.extend(finer);
     best_first(&mut cands);
@@ -576,40 +523,12 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
             best_by_schedule.push((sch, c.worst_ratio));
         }
     }
-    // Refine the best: the other start phase, axis orders, pausing in outages.
-    let top = cands[0].clone();
-    let mut variants = Vec::new();
-    let mut m = top.maneuver.clone();
-    m.start_phase = 0.25;
-    variants.push(m);
-    if top.maneuver.schedule == Schedule::Sequential {
-        for order in ["xzy", "yxz", "yzx", "zxy", "zyx"] {
-            let mut m = top.maneuver.clone();
-            m.axis_order = order.into();
-            variants.push(m);
-        }
-    }
-    let mut refined: Vec<Candidate> = variants
-        .into_iter()
-        .filter_map(|m| size(&base, m))
-        .collect();
+    let mut refined = variants_of(&base, &cands[0]);
     evaluate(&base, &mut refined, rate);
     cands.extend(refined);
     best_first(&mut cands);
     if opts.amplitude_sweep {
-        let mut sweep = Vec::new();
-        for c in cands.iter().filter(|c| {
-            c.maneuver.start_phase == 0.0
-                && (c.maneuver.schedule == Schedule::Sequential && c.maneuver.axis_order == "xyz"
-                    || c.maneuver.schedule == Schedule::Simultaneous)
-        }) {
-            for frac in [0.5, 0.25] {
-                let mut x = c.clone();
-                x.maneuver.torque_amplitude_nm = x.maneuver.torque_amplitude_nm.map(|v| v * frac);
-                x.amplitude_fraction = frac;
-                sweep.push(x);
-            }
-        }
+        let mut sweep = amplitude_sweep(&cands);
         evaluate(&base, &mut sweep, rate);
         cands.extend(sweep);
     }
@@ -644,6 +563,106 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
         elapsed_s: t0.elapsed().as_secs_f64(),
         best_by_schedule,
     })
+}
+
+/// The coarse grid's candidates, sized (not yet bounded); the error when the window
+/// holds no maneuver or no torque fits.
+fn coarse_candidates(base: &Scenario) -> Result<Vec<Candidate>, PlanError> {
+    let d = base.duration_s;
+    let hold = base.spacecraft.attitude_hold_hz;
+    let both = [Schedule::Sequential, Schedule::Simultaneous];
+    let coarse = shapes(base, &PERIODS, &both, &[0]);
+    if coarse.is_empty() {
+        let f_lo = (3.0 / d).max(10.0 * hold);
+        let why = if 10.0 * hold > 3.0 / d {
+            format!(
+                "the slowest frequency spacecraft.attitude_hold_hz = {hold} Hz allows is {} Hz, and three whole periods (one per axis) of it need {:.0} s",
+                10.0 * hold,
+                3.0 / f_lo
+            )
+        } else {
+            format!(
+                "three whole periods (one per axis) need at least {:.0} s at the fastest frequency searched ({MAX_FREQUENCY_HZ} Hz, or sample_rate_hz / 8)",
+                3.0 / MAX_FREQUENCY_HZ.min(base.sample_rate_hz / 8.0)
+            )
+        };
+        return Err(PlanError::WindowTooShort { duration_s: d, why });
+    }
+    let cands: Vec<Candidate> = coarse.into_iter().filter_map(|m| size(base, m)).collect();
+    if cands.is_empty() {
+        return Err(PlanError::NoTorque {
+            max_torque_nm: base.thruster.max_torque_nm,
+            maneuver_limit_m_s2: base.front_end.maneuver_limit_m_s2,
+        });
+    }
+    Ok(cands)
+}
+
+/// Each schedule's best count of periods refined with the counts between its
+/// neighbours, and the simultaneous schedule's slow axis (sized, not yet bounded).
+fn finer_counts(base: &Scenario, ranked: &[Candidate]) -> Vec<Candidate> {
+    let mut finer = Vec::new();
+    for sch in [Schedule::Sequential, Schedule::Simultaneous] {
+        let Some(best) = ranked.iter().find(|c| c.maneuver.schedule == sch) else {
+            continue;
+        };
+        let n = match sch {
+            Schedule::Sequential => best.periods[0],
+            Schedule::Simultaneous => *best.periods.iter().min().unwrap_or(&1),
+        };
+        let between: Vec<u64> = ((n / 2 + 1)..(2 * n))
+            .filter(|k| !PERIODS.contains(k))
+            .collect();
+        let between: Vec<u64> = if between.len() > 4 {
+            // At most four counts, spread geometrically.
+            (1..=4)
+                .map(|i| ((n as f64) * 2f64.powf(i as f64 / 5.0 * 2.0 - 1.0)).round() as u64)
+                .filter(|k| !PERIODS.contains(k))
+                .collect()
+        } else {
+            between
+        };
+        finer.extend(shapes(base, &between, &[sch], &[0]));
+        if sch == Schedule::Simultaneous {
+            finer.extend(shapes(base, &[n], &[sch], &[1, 2]));
+        }
+    }
+    finer.into_iter().filter_map(|m| size(base, m)).collect()
+}
+
+/// Variants of the best candidate: the other start phase, the other axis orders
+/// (sized, not yet bounded).
+fn variants_of(base: &Scenario, top: &Candidate) -> Vec<Candidate> {
+    let mut variants = Vec::new();
+    let mut m = top.maneuver.clone();
+    m.start_phase = 0.25;
+    variants.push(m);
+    if top.maneuver.schedule == Schedule::Sequential {
+        for order in ["xzy", "yxz", "yzx", "zxy", "zyx"] {
+            let mut m = top.maneuver.clone();
+            m.axis_order = order.into();
+            variants.push(m);
+        }
+    }
+    variants.into_iter().filter_map(|m| size(base, m)).collect()
+}
+
+/// The plain candidates at half and a quarter of their torque (to be bounded).
+fn amplitude_sweep(cands: &[Candidate]) -> Vec<Candidate> {
+    let mut sweep = Vec::new();
+    for c in cands.iter().filter(|c| {
+        c.maneuver.start_phase == 0.0
+            && (c.maneuver.schedule == Schedule::Sequential && c.maneuver.axis_order == "xyz"
+                || c.maneuver.schedule == Schedule::Simultaneous)
+    }) {
+        for frac in [0.5, 0.25] {
+            let mut x = c.clone();
+            x.maneuver.torque_amplitude_nm = x.maneuver.torque_amplitude_nm.map(|v| v * frac);
+            x.amplitude_fraction = frac;
+            sweep.push(x);
+        }
+    }
+    sweep
 }
 
 /// Why the best maneuver still misses a requirement, naming what binds it.

@@ -466,10 +466,11 @@ fn legend_sample<DB: DrawingBackend>(
     Ok(())
 }
 
-fn draw_panel<DB: DrawingBackend>(
+/// The panel's title and legend, above the plot; returns the area left for the plot.
+fn draw_title_and_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     p: &Panel,
-) -> Result<(), PlotError> {
+) -> Result<DrawingArea<DB, Shift>, PlotError> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::draw(format!("{:?}", p.title), e);
     let (w, _) = area.dim_in_pixel();
     let (title, rest) = area.split_vertically(PANEL_TITLE_HEIGHT);
@@ -499,7 +500,15 @@ fn draw_panel<DB: DrawingBackend>(
                 .map_err(e)?;
         }
     }
+    Ok(plot)
+}
 
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Panel,
+) -> Result<(), PlotError> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::draw(format!("{:?}", p.title), e);
+    let plot = draw_title_and_legend(area, p)?;
     let ((x0, x1), (y0, y1)) = panel_ranges(p);
     let mut builder = ChartBuilder::on(&plot);
     builder
