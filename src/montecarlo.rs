@@ -96,13 +96,6 @@ pub enum MonteCarloError {
     SensorCount { path: PathBuf },
 }
 
-/// Bridge for callers still on `Result<_, MonteCarloError>`.
-impl From<MonteCarloError> for String {
-    fn from(e: MonteCarloError) -> Self {
-        e.to_string()
-    }
-}
-
 /// Statistics of one parameter over the runs.
 #[derive(Debug, Clone, Serialize)]
 pub struct ParamStats {

@@ -15,13 +15,6 @@ pub enum TimingError {
     NoSuchCpu { cpu: usize, last: usize },
 }
 
-/// Bridge for callers still on `Result<_, TimingError>` (the process layer).
-impl From<TimingError> for String {
-    fn from(e: TimingError) -> Self {
-        e.to_string()
-    }
-}
-
 /// CLOCK_MONOTONIC in ns. The same clock in every process on the host, so a publish
 /// timestamp written by one process can be subtracted from a receive time in another.
 /// Switch the calling thread (and the threads it starts afterwards) to `SCHED_FIFO` at

@@ -59,13 +59,6 @@ impl ScenarioError {
     }
 }
 
-/// Bridge for callers still on `Result<_, String>` (the process layer).
-impl From<ScenarioError> for String {
-    fn from(e: ScenarioError) -> Self {
-        e.to_string()
-    }
-}
-
 fn default_name() -> String {
     "paper".into()
 }
