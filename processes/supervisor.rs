@@ -44,5 +44,5 @@ fn write_reports(args: &SupervisorArgs, report: &taiji::report::Report) -> Resul
         let (tel, s) = taiji::telemetry::read::full(&path)?;
         taiji::plots::write_all(&tel, &s, &args.out)?;
     }
-    taiji::report_doc::write(report, &args.out, args.plots)
+    taiji::report_doc::write(report, &args.out, args.plots).map_err(String::from)
 }

@@ -10,7 +10,7 @@ use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::{EstimateMsg, SensorSample, TruthState};
 use crate::scenario::Scenario;
 use crate::stage::Stage;
-use crate::telemetry::{Sink, Telemetry};
+use crate::telemetry::{Sink, Telemetry, TelemetryError};
 use std::sync::mpsc;
 
 /// The stages of one campaign, built from a scenario and seed.
@@ -118,7 +118,7 @@ pub fn run_into(
     method: Method,
     progress: impl FnMut(f64),
     sink: &mut dyn Sink,
-) -> Result<CampaignResult, String> {
+) -> Result<CampaignResult, TelemetryError> {
     run_with(s, seed, method, Threads::available(), progress, Some(sink))
 }
 
@@ -236,7 +236,7 @@ struct Est<'a, P> {
 
 impl<P: FnMut(f64)> Est<'_, P> {
     /// Take a batch's ticks in order; a recording error stops the campaign.
-    fn take(&mut self, b: &Batch) -> Result<(), String> {
+    fn take(&mut self, b: &Batch) -> Result<(), TelemetryError> {
         let (mut di, mut ri) = (0, 0);
         for (i, &(nd, nr)) in b.counts.iter().enumerate() {
             let tick = b.first + i as u64;
@@ -278,7 +278,7 @@ pub fn samples(
     mut take: impl FnMut(&SensorSample),
 ) {
     let sim = Sim::clean(commander, plant, fee, s.n_samples());
-    let all: Result<(), String> = drive(threads, sim, |b| {
+    let all: Result<(), TelemetryError> = drive(threads, sim, |b| {
         b.delivered.iter().for_each(|(m, ..)| take(m));
         Ok(())
     });
@@ -290,8 +290,8 @@ pub fn samples(
 fn drive(
     threads: Threads,
     mut sim: Sim,
-    mut take: impl FnMut(&Batch) -> Result<(), String>,
-) -> Result<(), String> {
+    mut take: impl FnMut(&Batch) -> Result<(), TelemetryError>,
+) -> Result<(), TelemetryError> {
     match threads {
         Threads::One => {
             let mut b = Batch::with_capacity();
@@ -337,7 +337,7 @@ fn run_with(
     threads: Threads,
     progress: impl FnMut(f64),
     rec: Option<&mut dyn Sink>,
-) -> Result<CampaignResult, String> {
+) -> Result<CampaignResult, TelemetryError> {
     let st = Stages::new(s, seed, method);
     let inj = Injector::new(s, seed);
     let n = s.n_samples();
@@ -494,11 +494,17 @@ mod tests {
     }
 
     impl Sink for Failing {
-        fn record(&mut self, _: &TruthState, _: &SensorSample) -> Result<(), String> {
-            self.left = self.left.checked_sub(1).ok_or("disk full")?;
+        fn record(&mut self, _: &TruthState, _: &SensorSample) -> Result<(), TelemetryError> {
+            self.left = self
+                .left
+                .checked_sub(1)
+                .ok_or_else(|| TelemetryError::Write {
+                    path: "telemetry.h5".into(),
+                    source: std::io::Error::other("disk full"),
+                })?;
             Ok(())
         }
-        fn record_estimate(&mut self, _: &EstimateMsg) -> Result<(), String> {
+        fn record_estimate(&mut self, _: &EstimateMsg) -> Result<(), TelemetryError> {
             Ok(())
         }
     }
@@ -510,7 +516,12 @@ mod tests {
             let mut sink = Failing { left: 3000 };
             let mut last = 0.0;
             let r = run_with(&s, 1, Method::Joint, threads, |f| last = f, Some(&mut sink));
-            assert_eq!(r.err().as_deref(), Some("disk full"), "{threads:?}");
+            let e = r.err().map(|e| e.to_string());
+            assert_eq!(
+                e.as_deref(),
+                Some("cannot write telemetry.h5: disk full"),
+                "{threads:?}"
+            );
             assert!(last < 0.1, "{threads:?}: ran on to {last}");
         }
     }

@@ -14,6 +14,49 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 const MAGIC: [u8; 8] = *b"TJCKPT01";
+
+/// A checkpoint that could not be written or read; the message names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    #[error("cannot serialise the estimator: {0}")]
+    Serialise(#[source] postcard::Error),
+    #[error("cannot start the checkpoint writer: {0}")]
+    Spawn(#[source] std::io::Error),
+    /// The estimator's state outgrew the buffer sized at start-up.
+    #[error("checkpoint buffer too small")]
+    BufferTooSmall,
+    #[error("cannot write checkpoint {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot read checkpoint {}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("checkpoint {} is not a checkpoint of this software (bad magic)", path.display())]
+    BadMagic { path: PathBuf },
+    #[error("checkpoint {} is truncated", path.display())]
+    Truncated { path: PathBuf },
+    #[error("checkpoint {} is corrupt (checksum mismatch)", path.display())]
+    Checksum { path: PathBuf },
+    #[error("checkpoint {} is unreadable ({source})", path.display())]
+    Unreadable {
+        path: PathBuf,
+        #[source]
+        source: postcard::Error,
+    },
+}
+
+/// Bridge for callers still on `Result<_, CheckpointError>` (the process layer).
+impl From<CheckpointError> for String {
+    fn from(e: CheckpointError) -> Self {
+        e.to_string()
+    }
+}
 const HEADER: usize = 32;
 
 /// Hand-off between the filter loop and the writer thread: one slot, newest wins.
@@ -24,7 +67,7 @@ struct Slot {
     pending: bool,
     quit: bool,
     /// First write failure, reported to the loop on its next `save`.
-    error: Option<String>,
+    error: Option<CheckpointError>,
 }
 
 struct Shared {
@@ -48,16 +91,20 @@ pub struct Checkpointer {
 
 impl Checkpointer {
     /// Size the buffers from the estimator's serialised size (fixed for a given method).
-    pub fn new(path: &Path, est: &Estimator) -> Result<Self, String> {
+    pub fn new(path: &Path, est: &Estimator) -> Result<Self, CheckpointError> {
         Self::with_write_delay(path, est, Duration::ZERO)
     }
 
     /// As `new`, with every write held back by `delay`: fault injection for a slow or
     /// contended disk (the filter loop must neither wait for the writer nor miss the
     /// moment it finishes).
-    pub fn with_write_delay(path: &Path, est: &Estimator, delay: Duration) -> Result<Self, String> {
+    pub fn with_write_delay(
+        path: &Path,
+        est: &Estimator,
+        delay: Duration,
+    ) -> Result<Self, CheckpointError> {
         let size = postcard::to_allocvec(est)
-            .map_err(|e| format!("cannot serialise the estimator: {e}"))?
+            .map_err(CheckpointError::Serialise)?
             .len();
         let cap = HEADER + 2 * size + 64;
         let shared = Arc::new(Shared {
@@ -80,7 +127,7 @@ impl Checkpointer {
         let writer = std::thread::Builder::new()
             .name("checkpoint".into())
             .spawn(move || write_loop(&sh, &path, &tmp, vec![0; cap], delay))
-            .map_err(|e| format!("cannot start the checkpoint writer: {e}"))?;
+            .map_err(CheckpointError::Spawn)?;
         Ok(Checkpointer {
             buf: vec![0; cap],
             shared,
@@ -90,10 +137,10 @@ impl Checkpointer {
 
     /// Queue the state after every tick below `next_tick` has been consumed. Returns
     /// the error of an earlier write that failed.
-    pub fn save(&mut self, est: &Estimator, next_tick: u64) -> Result<(), String> {
+    pub fn save(&mut self, est: &Estimator, next_tick: u64) -> Result<(), CheckpointError> {
         let (head, body) = self.buf.split_at_mut(HEADER);
         let n = postcard::to_slice(est, body)
-            .map_err(|_| "checkpoint buffer too small")?
+            .map_err(|_| CheckpointError::BufferTooSmall)?
             .len();
         head[..8].copy_from_slice(&MAGIC);
         head[8..16].copy_from_slice(&next_tick.to_le_bytes());
@@ -123,7 +170,7 @@ impl Checkpointer {
     }
 
     /// Wait until every queued checkpoint is on disk; returns a write error if any.
-    pub fn flush(&mut self) -> Result<(), String> {
+    pub fn flush(&mut self) -> Result<(), CheckpointError> {
         while self.shared.busy.load(Ordering::Acquire) {
             std::thread::sleep(Duration::from_micros(200));
         }
@@ -176,8 +223,9 @@ fn write_loop(sh: &Shared, path: &Path, tmp: &Path, mut buf: Vec<u8>, delay: Dur
         match res {
             Ok(()) => sh.written.store(next_tick, Ordering::Release),
             Err(e) => {
-                slot.error.get_or_insert_with(|| {
-                    format!("cannot write checkpoint {}: {e}", path.display())
+                slot.error.get_or_insert_with(|| CheckpointError::Write {
+                    path: path.to_path_buf(),
+                    source: e,
                 });
             }
         }
@@ -189,26 +237,31 @@ fn write_loop(sh: &Shared, path: &Path, tmp: &Path, mut buf: Vec<u8>, delay: Dur
 
 /// Read a checkpoint: `Ok(None)` when there is none, an error naming the problem when
 /// it is truncated or corrupt.
-pub fn load(path: &Path) -> Result<Option<(Estimator, u64)>, String> {
+pub fn load(path: &Path) -> Result<Option<(Estimator, u64)>, CheckpointError> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(format!("cannot read checkpoint {}: {e}", path.display())),
+        Err(source) => {
+            return Err(CheckpointError::Read {
+                path: path.to_path_buf(),
+                source,
+            })
+        }
     };
-    let bad = |what: &str| format!("checkpoint {} is {what}", path.display());
+    let path = path.to_path_buf();
     if bytes.len() < HEADER || bytes[..8] != MAGIC {
-        return Err(bad("not a checkpoint of this software (bad magic)"));
+        return Err(CheckpointError::BadMagic { path });
     }
     let word = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap());
     let (next, n, sum) = (word(8), word(16) as usize, word(24));
     if bytes.len() != HEADER + n {
-        return Err(bad("truncated"));
+        return Err(CheckpointError::Truncated { path });
     }
     if fnv1a(&bytes[HEADER..]) != sum {
-        return Err(bad("corrupt (checksum mismatch)"));
+        return Err(CheckpointError::Checksum { path });
     }
-    let est: Estimator =
-        postcard::from_bytes(&bytes[HEADER..]).map_err(|e| bad(&format!("unreadable ({e})")))?;
+    let est: Estimator = postcard::from_bytes(&bytes[HEADER..])
+        .map_err(|source| CheckpointError::Unreadable { path, source })?;
     Ok(Some((est, next)))
 }
 
@@ -276,13 +329,13 @@ mod tests {
         ck.flush().unwrap();
         let good = std::fs::read(&path).unwrap();
         std::fs::write(&path, &good[..good.len() / 2]).unwrap();
-        assert!(load(&path).err().unwrap().contains("truncated"));
+        assert!(load(&path).err().unwrap().to_string().contains("truncated"));
         let mut flipped = good.clone();
         let last = flipped.len() - 1;
         flipped[last] ^= 0x55;
         std::fs::write(&path, &flipped).unwrap();
-        assert!(load(&path).err().unwrap().contains("checksum"));
+        assert!(load(&path).err().unwrap().to_string().contains("checksum"));
         std::fs::write(&path, b"hello").unwrap();
-        assert!(load(&path).err().unwrap().contains("magic"));
+        assert!(load(&path).err().unwrap().to_string().contains("magic"));
     }
 }

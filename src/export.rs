@@ -10,7 +10,7 @@
 use crate::msg::{SensorSample, LAYOUT_VERSION};
 use crate::telemetry::read::Recording;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// File names in the export folder.
 pub const CONFIG_FILE: &str = "estimator_config.bin";
@@ -26,20 +26,45 @@ fn header<T>(count: u64) -> [u8; 24] {
     h
 }
 
-fn create(dir: &Path, name: &str) -> Result<std::io::BufWriter<std::fs::File>, String> {
+/// The export could not be written (or its recording read).
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("cannot create {}: {source}", path.display())]
+    Create {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Telemetry(#[from] crate::telemetry::TelemetryError),
+}
+
+fn create(dir: &Path, name: &str) -> Result<std::io::BufWriter<std::fs::File>, ExportError> {
     let path = dir.join(name);
     std::fs::File::create(&path)
         .map(std::io::BufWriter::new)
-        .map_err(|e| format!("cannot create {}: {e}", path.display()))
+        .map_err(|source| ExportError::Create { path, source })
 }
 
 /// Writes the export of `rec` into `dir`; returns the number of samples.
-pub fn write(rec: &Recording, dir: &Path) -> Result<u64, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+pub fn write(rec: &Recording, dir: &Path) -> Result<u64, ExportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ExportError::Create {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let s = &rec.scenario;
     let cfg = s.estimator_config(&s.priors());
     let mut f = create(dir, CONFIG_FILE)?;
-    let err = |e: std::io::Error| format!("cannot write {}: {e}", dir.display());
+    let err = |source| ExportError::Write {
+        path: dir.to_path_buf(),
+        source,
+    };
     f.write_all(&header::<crate::estimate::EstimatorConfig>(1))
         .map_err(err)?;
     f.write_all(bytemuck::bytes_of(&cfg)).map_err(err)?;

@@ -102,10 +102,74 @@ pub fn required() -> impl Iterator<Item = &'static str> {
         .map(|s| s.process)
 }
 
+/// A launch description that could not be read or is not a valid process set.
+#[derive(Debug, thiserror::Error)]
+pub enum LaunchError {
+    #[error("cannot read launch description {}: {source}", path.display())]
+    Read {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("launch description {origin}: {source}")]
+    Parse {
+        origin: String,
+        #[source]
+        source: toml::de::Error,
+    },
+    /// Valid TOML, but not a process set this software can run.
+    #[error("launch description {origin}: {problem}")]
+    Invalid {
+        origin: String,
+        #[source]
+        problem: LaunchProblem,
+    },
+}
+
+/// What is wrong with a launch description's contents.
+#[derive(Debug, thiserror::Error)]
+pub enum LaunchProblem {
+    #[error("{key} must be a positive number of seconds, not {value}")]
+    Timeout { key: &'static str, value: f64 },
+    #[error("process {name} must be listed exactly once (found {count})")]
+    RequiredCount { name: &'static str, count: usize },
+    #[error("unknown process {name:?} (known: {known})")]
+    UnknownProcess { name: String, known: String },
+    #[error("process {name}: rt_priority must be 0–99, not {priority}")]
+    RtPriority { name: String, priority: u8 },
+    #[error("host name {name:?} must be letters, digits or '-'")]
+    HostName { name: String },
+    #[error("host {name:?} is listed twice")]
+    HostTwice { name: String },
+    #[error("process {process} runs on host {host:?}, which no [[host]] names")]
+    NoSuchHost { process: String, host: String },
+    #[error("process {RECORDER} is listed more than once")]
+    RecorderTwice,
+}
+
+/// Bridge for callers still on `Result<_, String>` (the process layer).
+impl From<LaunchError> for String {
+    fn from(e: LaunchError) -> Self {
+        e.to_string()
+    }
+}
+
 impl LaunchDescription {
-    pub fn parse(text: &str, origin: &str) -> Result<Self, String> {
-        let d: LaunchDescription =
-            toml::from_str(text).map_err(|e| format!("launch description {origin}: {e}"))?;
+    pub fn parse(text: &str, origin: &str) -> Result<Self, LaunchError> {
+        let d: LaunchDescription = toml::from_str(text).map_err(|source| LaunchError::Parse {
+            origin: origin.into(),
+            source,
+        })?;
+        d.check().map_err(|problem| LaunchError::Invalid {
+            origin: origin.into(),
+            problem,
+        })?;
+        Ok(d)
+    }
+
+    /// The checks TOML cannot express; the first problem found.
+    fn check(&self) -> Result<(), LaunchProblem> {
+        let d = self;
         for (key, v) in [
             ("heartbeat_timeout_s", d.heartbeat_timeout_s),
             ("ready_timeout_s", d.ready_timeout_s),
@@ -113,17 +177,13 @@ impl LaunchDescription {
             ("link_timeout_s", d.link_timeout_s),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!(
-                    "launch description {origin}: {key} must be a positive number of seconds, not {v}"
-                ));
+                return Err(LaunchProblem::Timeout { key, value: v });
             }
         }
         for name in required() {
             let count = d.process.iter().filter(|p| p.name == name).count();
             if count != 1 {
-                return Err(format!(
-                    "launch description {origin}: process {name} must be listed exactly once (found {count})"
-                ));
+                return Err(LaunchProblem::RequiredCount { name, count });
             }
         }
         if let Some(p) = d
@@ -131,17 +191,16 @@ impl LaunchDescription {
             .iter()
             .find(|p| crate::topology::stage(&p.name).is_none())
         {
-            return Err(format!(
-                "launch description {origin}: unknown process {:?} (known: {})",
-                p.name,
-                crate::topology::processes().collect::<Vec<_>>().join(", ")
-            ));
+            return Err(LaunchProblem::UnknownProcess {
+                name: p.name.clone(),
+                known: crate::topology::processes().collect::<Vec<_>>().join(", "),
+            });
         }
         if let Some(p) = d.process.iter().find(|p| p.rt_priority > 99) {
-            return Err(format!(
-                "launch description {origin}: process {}: rt_priority must be 0–99, not {}",
-                p.name, p.rt_priority
-            ));
+            return Err(LaunchProblem::RtPriority {
+                name: p.name.clone(),
+                priority: p.rt_priority,
+            });
         }
         for (i, h) in d.host.iter().enumerate() {
             if h.name.is_empty()
@@ -150,16 +209,14 @@ impl LaunchDescription {
                     .chars()
                     .all(|c| c.is_ascii_alphanumeric() || c == '-')
             {
-                return Err(format!(
-                    "launch description {origin}: host name {:?} must be letters, digits or '-'",
-                    h.name
-                ));
+                return Err(LaunchProblem::HostName {
+                    name: h.name.clone(),
+                });
             }
             if d.host[..i].iter().any(|o| o.name == h.name) {
-                return Err(format!(
-                    "launch description {origin}: host {:?} is listed twice",
-                    h.name
-                ));
+                return Err(LaunchProblem::HostTwice {
+                    name: h.name.clone(),
+                });
             }
         }
         if let Some(p) = d.process.iter().find(|p| {
@@ -167,18 +224,15 @@ impl LaunchDescription {
                 .as_ref()
                 .is_some_and(|h| !d.host.iter().any(|x| &x.name == h))
         }) {
-            return Err(format!(
-                "launch description {origin}: process {} runs on host {:?}, which no [[host]] names",
-                p.name,
-                p.host.as_deref().unwrap_or_default()
-            ));
+            return Err(LaunchProblem::NoSuchHost {
+                process: p.name.clone(),
+                host: p.host.clone().unwrap_or_default(),
+            });
         }
         if d.process.iter().filter(|p| p.name == RECORDER).count() > 1 {
-            return Err(format!(
-                "launch description {origin}: process {RECORDER} is listed more than once"
-            ));
+            return Err(LaunchProblem::RecorderTwice);
         }
-        Ok(d)
+        Ok(())
     }
 
     /// The processes of a run, recording or not, in start order.
@@ -202,12 +256,14 @@ impl LaunchDescription {
         (self.host.len() > 1).then(|| &self.host[0])
     }
 
-    pub fn load_or_default(path: Option<&Path>) -> Result<Self, String> {
+    pub fn load_or_default(path: Option<&Path>) -> Result<Self, LaunchError> {
         match path {
             None => Self::parse(DEFAULT, "(built-in)"),
             Some(p) => {
-                let text = std::fs::read_to_string(p)
-                    .map_err(|e| format!("cannot read launch description {}: {e}", p.display()))?;
+                let text = std::fs::read_to_string(p).map_err(|source| LaunchError::Read {
+                    path: p.to_path_buf(),
+                    source,
+                })?;
                 Self::parse(&text, &p.display().to_string())
             }
         }
@@ -237,19 +293,22 @@ mod tests {
             "heartbeat_timeout_s = 1.0\nready_timeout_s = 1.0\nstop_timeout_s = 1.0\nprocess = []",
             "x",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("taiji-commander must be listed"), "{e}");
         let e = LaunchDescription::parse(
             &DEFAULT.replace("restart = \"on-failure\"", "restart = \"sometimes\""),
             "x",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("restart"), "{e}");
         let e = LaunchDescription::parse(
             &DEFAULT.replace("heartbeat_timeout_s = ", "heartbeat_timeout_s = -"),
             "x",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("heartbeat_timeout_s"), "{e}");
     }
 }

@@ -7,8 +7,94 @@ use crate::report::Report;
 use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::Scenario;
 use serde::Serialize;
+use std::path::PathBuf;
 
 pub mod shard;
+
+/// A Monte Carlo that could not run, or shards' results that do not make one
+/// campaign; the message names the option or the file.
+#[derive(Debug, thiserror::Error)]
+pub enum MonteCarloError {
+    #[error("the Fisher information of this scenario is singular")]
+    Singular,
+    #[error("--runs must be at least 1")]
+    NoRuns,
+    #[error(
+        "--seed {first_seed} with --runs {runs}: the seeds would run past {}",
+        u64::MAX
+    )]
+    SeedOverflow { first_seed: u64, runs: u64 },
+    #[error("--shard {shard} with --runs {runs}: more shards than runs; use at most {runs}")]
+    MoreShardsThanRuns { shard: shard::Shard, runs: u64 },
+    #[error("cannot read this program's executable to identify the build ({0})")]
+    BuildId(#[source] std::io::Error),
+    #[error("cannot write the scenario as TOML: {0}")]
+    ScenarioToml(#[source] toml::ser::Error),
+    /// A result file in the shard's folder belongs to another campaign.
+    #[error("{}: the result of another campaign (it differs in {}); give each campaign its own --out folder", path.display(), differences.join(", "))]
+    OtherCampaign {
+        path: PathBuf,
+        differences: Vec<&'static str>,
+    },
+    /// A report that JSON cannot give back bit for bit.
+    #[error("seed {seed}: its report does not read back exactly from JSON (a number that is not finite?), so it could not be merged exactly; run this campaign without --shard")]
+    NotExact { seed: u64 },
+    #[error("{0}")]
+    Json(#[source] serde_json::Error),
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: cannot read ({source})", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// `found`: the file's `format`, as JSON writes it.
+    #[error("{}: a result file of format {found}, not {:?}: made by another version", path.display(), shard::FORMAT)]
+    OtherFormat { path: PathBuf, found: String },
+    #[error("{}: not a Monte Carlo result file ({source})", path.display())]
+    NotResultFile {
+        path: PathBuf,
+        #[source]
+        source: shard::RunFileError,
+    },
+    #[error("{}: holds seed {seed} (its report: seed {report_seed}); a result file is named run-<seed>.json after its seed", path.display())]
+    SeedMismatch {
+        path: PathBuf,
+        seed: u64,
+        report_seed: u64,
+    },
+    #[error("{}: its scenario does not match its scenario_hash: the file was edited", path.display())]
+    Edited { path: PathBuf },
+    #[error("{}: seed {seed} is not one of shard {shard}'s of {runs} runs from seed {first_seed}", path.display())]
+    NotShardSeed {
+        path: PathBuf,
+        seed: u64,
+        shard: shard::Shard,
+        runs: u64,
+        first_seed: u64,
+    },
+    #[error("{}: cannot read this folder ({source})", path.display())]
+    ReadDir {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: no result files (run-<seed>.json) in this folder", path.display())]
+    NoResults { path: PathBuf },
+    /// The files are of `campaigns` campaigns; `msg` lists them.
+    #[error("{msg}")]
+    MixedCampaigns { campaigns: usize, msg: String },
+    /// Seeds with no result or with several, one problem per entry.
+    #[error("{}", problems.join("\n"))]
+    Incomplete { problems: Vec<String> },
+    #[error("{}: its report has another number of inertial sensors than the campaign's other results", path.display())]
+    SensorCount { path: PathBuf },
+}
 
 /// Statistics of one parameter over the runs.
 #[derive(Debug, Clone, Serialize)]
@@ -46,8 +132,13 @@ pub struct MonteCarlo {
 }
 
 /// Run seeds `first_seed` … `first_seed + runs − 1` on every core and summarise them.
-pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<MonteCarlo, String> {
-    let bound = crlb(s).ok_or("the Fisher information of this scenario is singular")?;
+pub fn run(
+    s: &Scenario,
+    first_seed: u64,
+    runs: u64,
+    method: Method,
+) -> Result<MonteCarlo, MonteCarloError> {
+    let bound = crlb(s).ok_or(MonteCarloError::Singular)?;
     check_seeds(first_seed, runs)?;
     let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
     let reports = run_seeds(s, &seeds, method, &bound, |_| Ok(()))?;
@@ -61,15 +152,12 @@ pub fn run(s: &Scenario, first_seed: u64, runs: u64, method: Method) -> Result<M
     ))
 }
 
-fn check_seeds(first_seed: u64, runs: u64) -> Result<(), String> {
+fn check_seeds(first_seed: u64, runs: u64) -> Result<(), MonteCarloError> {
     if runs == 0 {
-        return Err("--runs must be at least 1".into());
+        return Err(MonteCarloError::NoRuns);
     }
     if first_seed.checked_add(runs - 1).is_none() {
-        return Err(format!(
-            "--seed {first_seed} with --runs {runs}: the seeds would run past {}",
-            u64::MAX
-        ));
+        return Err(MonteCarloError::SeedOverflow { first_seed, runs });
     }
     Ok(())
 }
@@ -82,15 +170,15 @@ pub fn run_seeds(
     seeds: &[u64],
     method: Method,
     bound: &crate::crlb::Crlb,
-    done: impl Fn(&Report) -> Result<(), String> + Sync,
-) -> Result<Vec<Report>, String> {
+    done: impl Fn(&Report) -> Result<(), MonteCarloError> + Sync,
+) -> Result<Vec<Report>, MonteCarloError> {
     let workers = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
         .min(seeds.len().max(1));
     let mut reports: Vec<Option<Report>> = vec![None; seeds.len()];
     let bar = crate::progress::Bar::new(seeds.len() as u64, "montecarlo");
-    let failed = std::sync::Mutex::new(None::<String>);
+    let failed = std::sync::Mutex::new(None::<MonteCarloError>);
     // One campaign per core at a time, each on one thread; a worker takes the next seed
     // when it is done, so a slow core or a busy machine does not leave the other idle.
     let next = std::sync::atomic::AtomicUsize::new(0);

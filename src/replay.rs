@@ -6,7 +6,7 @@
 use crate::estimate::{Estimator, Method};
 use crate::msg::EstimateMsg;
 use crate::telemetry::read::Recording;
-use crate::telemetry::RowGate;
+use crate::telemetry::{RowGate, TelemetryError};
 
 /// The final estimate of a replay.
 pub struct Replayed {
@@ -16,7 +16,11 @@ pub struct Replayed {
     pub faults: Option<crate::faults::FaultScore>,
 }
 
-pub fn run(rec: &Recording, method: Method, progress: impl FnMut(f64)) -> Result<Replayed, String> {
+pub fn run(
+    rec: &Recording,
+    method: Method,
+    progress: impl FnMut(f64),
+) -> Result<Replayed, TelemetryError> {
     run_with_rows(rec, method, progress, |_| {})
 }
 
@@ -26,7 +30,7 @@ pub fn run_with_rows(
     method: Method,
     mut progress: impl FnMut(f64),
     mut row: impl FnMut(&EstimateMsg),
-) -> Result<Replayed, String> {
+) -> Result<Replayed, TelemetryError> {
     let s = &rec.scenario;
     let mut est = Estimator::new(method, s.estimator_config(&s.priors()));
     let mut gate = RowGate::default();

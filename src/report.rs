@@ -6,6 +6,7 @@ use crate::msg::EstimateMsg;
 pub use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::Scenario;
 use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Quantity {
@@ -222,8 +223,26 @@ impl Report {
 
     /// The result table: truth, estimate ± 1σ, error, requirement, pass/fail, CRLB.
     pub fn table(&self) -> String {
-        use std::fmt::Write;
         let mut o = String::new();
+        self.write_parameters(&mut o);
+        self.write_estimator_lines(&mut o);
+        if let Some(t) = &self.timing {
+            write_timing(&mut o, t);
+        }
+        if let Some(r) = &self.restarts {
+            let _ = writeln!(o, "Restarts: {}", r);
+        }
+        if let Some(a) = self.estimator_loop_allocations {
+            let _ = writeln!(o, "Heap allocations in the estimator's filter loop: {a}");
+        }
+        if let Some(w) = self.wall_time_s {
+            let _ = writeln!(o, "Wall time: {w:.2} s");
+        }
+        o
+    }
+
+    /// The run's line and the table of parameters, then the maneuver's line.
+    fn write_parameters(&self, o: &mut String) {
         let _ = writeln!(
             o,
             "Scenario {:?}, seed {}, {} s, {} ({} estimator)",
@@ -253,6 +272,11 @@ impl Report {
         if let Some(m) = &self.maneuver {
             let _ = writeln!(o, "{}", m.line());
         }
+    }
+
+    /// The difference of two sensors' offsets, the estimator's status, the samples it
+    /// used, the faults and whether the requirements are met.
+    fn write_estimator_lines(&self, o: &mut String) {
         if let [a, b] = &self.inertial_sensors[..] {
             // Common-mode errors (e.g. thruster force noise) cancel in the difference.
             let d: Vec<String> = (0..3)
@@ -312,51 +336,44 @@ impl Report {
                 " — but the estimator marks the result UNVERIFIED (see its status)"
             }
         );
-        if let Some(t) = &self.timing {
-            let lat = |v: &serde_json::Value| {
-                format!(
-                    "p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
-                    v["p50"].as_f64().unwrap_or(f64::NAN),
-                    v["p99"].as_f64().unwrap_or(f64::NAN),
-                    v["max"].as_f64().unwrap_or(f64::NAN)
-                )
-            };
-            if t["pacing"] == "realtime" {
-                let _ = writeln!(
-                    o,
-                    "Real-time ×{} (tick period {:.0} µs): End-to-end latency {}; missed deadlines {}; samples lost {}",
-                    t["time_scale"],
-                    t["period_us"].as_f64().unwrap_or(f64::NAN),
-                    lat(&t["end_to_end_latency_us"]),
-                    t["missed_deadlines"],
-                    t["samples_lost"]
-                );
-                if let Some(line) = scheduling_line(t) {
-                    let _ = writeln!(o, "  scheduling: {line}");
-                }
-                if let Some(hops) = t["hop_latency_us"].as_object() {
-                    for (hop, v) in hops {
-                        let _ = writeln!(o, "  hop {hop:<17} {}", lat(v));
-                    }
-                }
-            } else {
-                let _ = writeln!(
-                    o,
-                    "Accelerated lock-step: samples lost {}",
-                    t["samples_lost"]
-                );
+    }
+}
+
+/// The timing of a multi-process run: real-time latencies and deadlines, or the
+/// accelerated lock-step's losses.
+fn write_timing(o: &mut String, t: &serde_json::Value) {
+    let lat = |v: &serde_json::Value| {
+        format!(
+            "p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+            v["p50"].as_f64().unwrap_or(f64::NAN),
+            v["p99"].as_f64().unwrap_or(f64::NAN),
+            v["max"].as_f64().unwrap_or(f64::NAN)
+        )
+    };
+    if t["pacing"] == "realtime" {
+        let _ = writeln!(
+            o,
+            "Real-time ×{} (tick period {:.0} µs): End-to-end latency {}; missed deadlines {}; samples lost {}",
+            t["time_scale"],
+            t["period_us"].as_f64().unwrap_or(f64::NAN),
+            lat(&t["end_to_end_latency_us"]),
+            t["missed_deadlines"],
+            t["samples_lost"]
+        );
+        if let Some(line) = scheduling_line(t) {
+            let _ = writeln!(o, "  scheduling: {line}");
+        }
+        if let Some(hops) = t["hop_latency_us"].as_object() {
+            for (hop, v) in hops {
+                let _ = writeln!(o, "  hop {hop:<17} {}", lat(v));
             }
         }
-        if let Some(r) = &self.restarts {
-            let _ = writeln!(o, "Restarts: {}", r);
-        }
-        if let Some(a) = self.estimator_loop_allocations {
-            let _ = writeln!(o, "Heap allocations in the estimator's filter loop: {a}");
-        }
-        if let Some(w) = self.wall_time_s {
-            let _ = writeln!(o, "Wall time: {w:.2} s");
-        }
-        o
+    } else {
+        let _ = writeln!(
+            o,
+            "Accelerated lock-step: samples lost {}",
+            t["samples_lost"]
+        );
     }
 }
 
@@ -400,12 +417,41 @@ pub fn fault_line(f: &serde_json::Value) -> String {
     list.join(", ")
 }
 
+/// A report that could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("cannot create {}: {source}", path.display())]
+    Create {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+}
+
+/// Bridge for callers still on `Result<_, String>` (the process layer).
+impl From<ReportError> for String {
+    fn from(e: ReportError) -> Self {
+        e.to_string()
+    }
+}
+
 /// Write `DIR/report.json` (creating DIR).
-pub fn write(out: &std::path::Path, report: &Report) -> Result<(), String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+pub fn write(out: &std::path::Path, report: &Report) -> Result<(), ReportError> {
+    std::fs::create_dir_all(out).map_err(|source| ReportError::Create {
+        path: out.to_path_buf(),
+        source,
+    })?;
     let path = out.join("report.json");
-    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
+    let text = serde_json::to_string_pretty(report)?;
+    std::fs::write(&path, text + "\n").map_err(|source| ReportError::Write { path, source })
 }
 
 /// How each real-time stage was scheduled, from a report's `timing`, on one line

@@ -1,7 +1,7 @@
 //! `report.md` and a standalone `report.html`: the result table, requirements, CRLB,
 //! timing and the figures (the HTML inlines the SVGs, so it is one self-contained file).
 
-use crate::report::Report;
+use crate::report::{Report, ReportError};
 use std::fmt::Write;
 use std::path::Path;
 
@@ -343,13 +343,13 @@ pub fn html(r: &Report, dir: &Path, with_figures: bool) -> String {
 }
 
 /// Write `dir/report.md` and `dir/report.html`.
-pub fn write(r: &Report, dir: &Path, with_figures: bool) -> Result<(), String> {
+pub fn write(r: &Report, dir: &Path, with_figures: bool) -> Result<(), ReportError> {
     for (name, text) in [
         ("report.md", markdown(r, with_figures)),
         ("report.html", html(r, dir, with_figures)),
     ] {
         let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        std::fs::write(&p, text).map_err(|source| ReportError::Write { path: p, source })?;
     }
     Ok(())
 }

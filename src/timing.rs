@@ -4,13 +4,24 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The real-time scheduling the calling thread asked for was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum TimingError {
+    /// The system call failed (permissions, limits).
+    #[error("{0}")]
+    Os(#[source] std::io::Error),
+    /// No such CPU: this machine has CPUs 0 to `last`.
+    #[error("this machine has CPUs 0–{last}")]
+    NoSuchCpu { cpu: usize, last: usize },
+}
+
 /// CLOCK_MONOTONIC in ns. The same clock in every process on the host, so a publish
 /// timestamp written by one process can be subtracted from a receive time in another.
 /// Switch the calling thread (and the threads it starts afterwards) to `SCHED_FIFO` at
 /// `priority` (1–99), as flight software runs its real-time tasks. Needs CAP_SYS_NICE
 /// or an RLIMIT_RTPRIO allowance; the error says why it was refused. (Locking memory
 /// with mlockall made no measurable difference here, so it is not done.)
-pub fn enter_fifo(priority: u8) -> Result<(), String> {
+pub fn enter_fifo(priority: u8) -> Result<(), TimingError> {
     let p = libc::sched_param {
         sched_priority: priority as libc::c_int,
     };
@@ -18,17 +29,17 @@ pub fn enter_fifo(priority: u8) -> Result<(), String> {
     if unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &p) } == 0 {
         Ok(())
     } else {
-        Err(std::io::Error::last_os_error().to_string())
+        Err(TimingError::Os(std::io::Error::last_os_error()))
     }
 }
 
 /// Pin the calling thread (and the threads it starts afterwards) to one CPU: the
 /// real-time chain shares a core, so each stage's wake-up of the next (higher-priority)
 /// one is a same-core preemption instead of a cross-core interrupt.
-pub fn pin_to_cpu(cpu: usize) -> Result<(), String> {
+pub fn pin_to_cpu(cpu: usize) -> Result<(), TimingError> {
     let n = std::thread::available_parallelism().map_or(1, |n| n.get());
     if cpu >= n || cpu >= libc::CPU_SETSIZE as usize {
-        return Err(format!("this machine has CPUs 0–{}", n - 1));
+        return Err(TimingError::NoSuchCpu { cpu, last: n - 1 });
     }
     // SAFETY: a zeroed cpu_set_t is a valid empty set; CPU_SET stays within it.
     let r = unsafe {
@@ -39,7 +50,7 @@ pub fn pin_to_cpu(cpu: usize) -> Result<(), String> {
     if r == 0 {
         Ok(())
     } else {
-        Err(std::io::Error::last_os_error().to_string())
+        Err(TimingError::Os(std::io::Error::last_os_error()))
     }
 }
 

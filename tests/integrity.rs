@@ -163,7 +163,9 @@ fn arbitrary_samples_and_tick_orders_never_panic_nor_give_non_finite_estimates()
 
 #[test]
 fn a_campaign_longer_than_the_verified_limit_is_refused_naming_duration_s() {
-    let e = Scenario::from_toml_str("duration_s = 2e6").unwrap_err().0;
+    let e = Scenario::from_toml_str("duration_s = 2e6")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("duration_s") && e.contains("1000000"), "{e}");
 }
 

@@ -374,7 +374,9 @@ fn a_report_with_nan_and_infinities_reads_back_bit_for_bit() {
         "/inertial_sensors/1/k/sigma/1",
     );
     std::fs::write(d.join("run-1.json"), bad).unwrap();
-    let err = read_run_file(&d.join("run-1.json")).unwrap_err();
+    let err = read_run_file(&d.join("run-1.json"))
+        .unwrap_err()
+        .to_string();
     assert!(
         err.contains("run-1.json") && err.contains("nonfinite"),
         "{err}"

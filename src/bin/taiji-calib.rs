@@ -158,15 +158,84 @@ enum MonteCarloCmd {
     },
 }
 
+/// Every error of the CLI: one line naming the option, key or file, printed as
+/// `error: …` with exit code 2.
+#[derive(Debug, thiserror::Error)]
+enum CliError {
+    /// `--out`: the folder cannot be made.
+    #[error("--out {}: cannot create this folder ({source})", path.display())]
+    OutDir {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot create {}: {source}", path.display())]
+    Create {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+    /// `--duration` is not a window in seconds.
+    #[error(
+        "--duration: must be a window in seconds, up to {} s, got {duration}",
+        taiji::scenario::MAX_DURATION_S
+    )]
+    Duration { duration: f64 },
+    /// The recording's `method` attribute names no estimator.
+    #[error("{}: attribute `method`: {msg}", path.display())]
+    MethodAttribute { path: PathBuf, msg: String },
+    /// The bound of the scenario does not exist (`crlb`).
+    #[error("the Fisher information of this scenario is singular")]
+    Singular,
+    /// The bound does not exist because the maneuver misses a parameter.
+    #[error("the Fisher information of this scenario is singular: the maneuver does not excite every parameter")]
+    Unexcited,
+    /// `plan`: the best maneuver misses a requirement; `why` names what binds it.
+    #[error("{why}")]
+    Shortfall { why: String },
+    #[error(transparent)]
+    Scenario(#[from] taiji::scenario::ScenarioError),
+    #[error(transparent)]
+    Plan(#[from] taiji::plan::PlanError),
+    #[error(transparent)]
+    Telemetry(#[from] taiji::telemetry::TelemetryError),
+    #[error(transparent)]
+    Export(#[from] taiji::export::ExportError),
+    #[error(transparent)]
+    MonteCarlo(#[from] montecarlo::MonteCarloError),
+    #[error(transparent)]
+    Report(#[from] taiji::report::ReportError),
+    #[error(transparent)]
+    Plot(#[from] taiji::plots::PlotError),
+}
+
+impl CliError {
+    /// The process's exit code: 2 for every error (1 is a run whose requirements are
+    /// not met, 0 success).
+    fn exit_code(&self) -> u8 {
+        2
+    }
+}
+
 /// Print the table; with `out`, write DIR/montecarlo.json.
-fn montecarlo_out(mc: &montecarlo::MonteCarlo, out: Option<PathBuf>) -> Result<ExitCode, String> {
+fn montecarlo_out(mc: &montecarlo::MonteCarlo, out: Option<PathBuf>) -> Result<ExitCode, CliError> {
     print!("{}", mc.table());
     if let Some(out) = out {
-        std::fs::create_dir_all(&out)
-            .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+        std::fs::create_dir_all(&out).map_err(|source| CliError::Create {
+            path: out.clone(),
+            source,
+        })?;
         let path = out.join("montecarlo.json");
-        let text = serde_json::to_string_pretty(mc).map_err(|e| e.to_string())?;
-        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        let text = serde_json::to_string_pretty(mc)?;
+        std::fs::write(&path, text).map_err(|source| CliError::Write { path, source })?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -177,23 +246,25 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(2)
+            ExitCode::from(e.exit_code())
         }
     }
 }
 
 /// Create the output folder now, so that a path through an existing file is refused
 /// before the campaign runs rather than after.
-fn out_dir(out: &std::path::Path) -> Result<(), String> {
-    std::fs::create_dir_all(out)
-        .map_err(|e| format!("--out {}: cannot create this folder ({e})", out.display()))
+fn out_dir(out: &std::path::Path) -> Result<(), CliError> {
+    std::fs::create_dir_all(out).map_err(|source| CliError::OutDir {
+        path: out.to_path_buf(),
+        source,
+    })
 }
 
 /// Load the scenario and plan its maneuver when it has none (printing the choice).
 fn load_planned(
     path: Option<&std::path::Path>,
-) -> Result<(Scenario, Option<taiji::plan::PlanInfo>), String> {
-    let s = Scenario::load_or_default(path).map_err(|e| e.to_string())?;
+) -> Result<(Scenario, Option<taiji::plan::PlanInfo>), CliError> {
+    let s = Scenario::load_or_default(path)?;
     let (s, plan) = taiji::plan::resolve(s)?;
     if let Some(p) = &plan {
         let how = if p.cached {
@@ -209,15 +280,13 @@ fn load_planned(
     Ok((s, plan))
 }
 
-fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, String> {
-    taiji::crlb::crlb(s).ok_or_else(|| {
-        "the Fisher information of this scenario is singular: the maneuver does not excite every parameter".into()
-    })
+fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, CliError> {
+    taiji::crlb::crlb(s).ok_or(CliError::Unexcited)
 }
 
 /// Write report.json, .md and .html, print the table; exit 0 when the requirements
 /// are met and the estimator verified its result, else 1.
-fn finish(out: &std::path::Path, report: &Report, figures: bool) -> Result<ExitCode, String> {
+fn finish(out: &std::path::Path, report: &Report, figures: bool) -> Result<ExitCode, CliError> {
     taiji::report::write(out, report)?;
     taiji::report_doc::write(report, out, figures)?;
     print!("{}", report.table());
@@ -229,7 +298,7 @@ fn finish(out: &std::path::Path, report: &Report, figures: bool) -> Result<ExitC
     })
 }
 
-fn run(cli: Cli) -> Result<ExitCode, String> {
+fn run(cli: Cli) -> Result<ExitCode, CliError> {
     match cli.cmd {
         Cmd::Run {
             scenario,
@@ -238,111 +307,20 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             method,
             record,
             plots,
-        } => {
-            out_dir(&out)?;
-            let (s, plan) = load_planned(scenario.as_deref())?;
-            let seed = seed.unwrap_or(s.seed);
-            let method: Method = method.into();
-            let t0 = std::time::Instant::now();
-            // The bound's noise-free campaign runs beside the campaign itself.
-            let crlb = {
-                let s = s.clone();
-                std::thread::spawn(move || crlb_of(&s))
-            };
-            let bar = Bar::new(1000, "campaign");
-            let tick = |f: f64| bar.set((f * 1000.0) as u64);
-            let (estimate, tel, faults) = if record || plots {
-                // The recording streams to disk as the campaign runs; figures need
-                // the streams in memory.
-                let mut file = match record {
-                    true => Some(taiji::telemetry::Writer::create(
-                        &out.join("telemetry.h5"),
-                        &Meta::of(&s, seed, method.name(), "in-process"),
-                        s.n_samples(),
-                        taiji::telemetry::CHUNK_ROWS,
-                    )?),
-                    false => None,
-                };
-                let mut tel = plots.then(|| {
-                    let n = s.n_samples();
-                    taiji::telemetry::Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n)
-                });
-                let mut sink = taiji::telemetry::Tee {
-                    memory: tel.as_mut(),
-                    file: file.as_mut(),
-                };
-                let res = taiji::campaign::run_into(&s, seed, method, tick, &mut sink)?;
-                if let Some(f) = file {
-                    let (r, d) = res
-                        .faults
-                        .as_ref()
-                        .map_or((&[][..], &[][..]), |f| (&f.records[..], &f.detected[..]));
-                    f.finish(r, d)?;
-                }
-                if let (Some(t), Some(f)) = (tel.as_mut(), &res.faults) {
-                    t.faults = f.records.clone();
-                    t.faults_detected = f.detected.clone();
-                }
-                (res.estimate, tel, res.faults)
-            } else {
-                let res = taiji::campaign::run(&s, seed, method, tick);
-                (res.estimate, None, res.faults)
-            };
-            bar.finish();
-            let crlb = crlb
-                .join()
-                .unwrap_or_else(|e| std::panic::resume_unwind(e))?;
-            let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
-            if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
-                m.search = Some(p.search_json());
-            }
-            report.faults = faults.map(|f| f.summary());
-            report.wall_time_s = Some(t0.elapsed().as_secs_f64());
-            if let (true, Some(tel)) = (plots, &tel) {
-                taiji::plots::write_all(tel, &s, &out)?;
-            }
-            finish(&out, &report, plots)
-        }
+        } => run_campaign(
+            scenario.as_deref(),
+            seed,
+            &out,
+            method.into(),
+            record,
+            plots,
+        ),
         Cmd::Replay {
             telemetry,
             out,
             method,
-        } => {
-            let t0 = std::time::Instant::now();
-            out_dir(&out)?;
-            let rec = taiji::telemetry::read::open(&telemetry)?;
-            let method: Method = match (method, rec.method.as_deref()) {
-                (Some(m), _) => m.into(),
-                (None, Some(name)) => taiji::process::parse_method(name)
-                    .map_err(|e| format!("{}: attribute `method`: {e}", telemetry.display()))?,
-                (None, None) => Method::Joint,
-            };
-            let crlb = crlb_of(&rec.scenario)?;
-            let bar = Bar::new(1000, "replay");
-            let res = taiji::replay::run(&rec, method, |f| bar.set((f * 1000.0) as u64))?;
-            bar.finish();
-            let mut report = Report::new(
-                &rec.scenario,
-                rec.seed,
-                "replay",
-                method.name(),
-                &res.estimate,
-                &crlb,
-            );
-            report.faults = res.faults.map(|f| f.summary());
-            report.wall_time_s = Some(t0.elapsed().as_secs_f64());
-            finish(&out, &report, false)
-        }
-        Cmd::Export { telemetry, out } => {
-            out_dir(&out)?;
-            let rec = taiji::telemetry::read::open(&telemetry)?;
-            let n = taiji::export::write(&rec, &out)?;
-            println!(
-                "exported {n} samples and the estimator table to {}",
-                out.display()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
+        } => replay(&telemetry, &out, method),
+        Cmd::Export { telemetry, out } => export(&telemetry, &out),
         Cmd::Montecarlo {
             merge: Some(MonteCarloCmd::Merge { dirs, out }),
             ..
@@ -352,61 +330,8 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             }
             montecarlo_out(&montecarlo::shard::merge(&dirs)?, out)
         }
-        Cmd::Montecarlo {
-            merge: None,
-            args:
-                MonteCarloArgs {
-                    runs,
-                    scenario,
-                    method,
-                    seed,
-                    out,
-                    shard,
-                },
-        } => {
-            if let Some(out) = &out {
-                out_dir(out)?;
-            }
-            let (s, _) = load_planned(scenario.as_deref())?;
-            let first = seed.unwrap_or(s.seed);
-            if let (Some(shard), Some(dir)) = (shard, &out) {
-                let build = montecarlo::shard::build_id()?;
-                let m = method.into();
-                let done = montecarlo::shard::run_shard(&s, first, runs, m, shard, &build, dir)?;
-                println!(
-                    "shard {shard}: ran {} seed(s), kept {} already in {}; then: taiji-calib montecarlo merge DIR...",
-                    done.ran.len(),
-                    done.kept.len(),
-                    dir.display()
-                );
-                return Ok(ExitCode::SUCCESS);
-            }
-            montecarlo_out(&montecarlo::run(&s, first, runs, method.into())?, out)
-        }
-        Cmd::Crlb { scenario } => {
-            let (s, _) = load_planned(scenario.as_deref())?;
-            let c = taiji::crlb::crlb(&s)
-                .ok_or("the Fisher information of this scenario is singular")?;
-            println!(
-                "Cramér–Rao bound (1σ) for scenario {:?}: {} s, maneuver {} Hz, torque {:?} N m",
-                s.name, s.duration_s, s.maneuver.frequency_hz, s.maneuver.torque_amplitude_nm
-            );
-            for (i, is) in s.inertial_sensor.iter().enumerate() {
-                let rel: Vec<String> = (0..3)
-                    .map(|a| format!("{:.2e}", c.beta[i][a] / is.beta[a]))
-                    .collect();
-                let r: Vec<String> = (0..3)
-                    .map(|a| format!("{:.3} µm", c.com_offset_m[i][a] * 1e6))
-                    .collect();
-                println!(
-                    "IS{}  β (relative, = k relative): [{}]   r: [{}]",
-                    i + 1,
-                    rel.join(", "),
-                    r.join(", ")
-                );
-            }
-            Ok(ExitCode::SUCCESS)
-        }
+        Cmd::Montecarlo { merge: None, args } => monte_carlo(args),
+        Cmd::Crlb { scenario } => print_crlb(scenario.as_deref()),
         Cmd::Plan {
             scenario,
             duration,
@@ -414,35 +339,242 @@ fn run(cli: Cli) -> Result<ExitCode, String> {
             margin,
             top,
             out,
-        } => {
-            if let Some(d) = duration {
-                if !(d.is_finite() && d > 0.0 && d <= taiji::scenario::MAX_DURATION_S) {
-                    return Err(format!(
-                        "--duration: must be a window in seconds, up to {} s, got {d}",
-                        taiji::scenario::MAX_DURATION_S
-                    ));
-                }
-            }
-            out_dir(&out)?;
-            let s = Scenario::load_or_default(scenario.as_deref()).map_err(|e| e.to_string())?;
-            let plan = if min_duration {
-                taiji::plan::min_duration(&s, margin)
-            } else {
-                taiji::plan::plan(
-                    &s,
-                    &taiji::plan::PlanOptions {
-                        duration_s: duration,
-                        amplitude_sweep: true,
-                        exact: true,
-                    },
-                )
-            }
-            .map_err(|e| e.to_string())?;
-            if let Some(why) = &plan.shortfall {
-                return Err(why.clone());
-            }
-            taiji::plan::write(&s, &plan, &out, top, min_duration.then_some(margin))?;
-            Ok(ExitCode::SUCCESS)
+        } => plan(
+            scenario.as_deref(),
+            duration,
+            min_duration.then_some(margin),
+            top,
+            &out,
+        ),
+    }
+}
+
+/// `run`: the campaign in this process, recorded and drawn on request.
+fn run_campaign(
+    scenario: Option<&std::path::Path>,
+    seed: Option<u64>,
+    out: &std::path::Path,
+    method: Method,
+    record: bool,
+    plots: bool,
+) -> Result<ExitCode, CliError> {
+    out_dir(out)?;
+    let (s, plan) = load_planned(scenario)?;
+    let seed = seed.unwrap_or(s.seed);
+    let t0 = std::time::Instant::now();
+    // The bound's noise-free campaign runs beside the campaign itself.
+    let crlb = {
+        let s = s.clone();
+        std::thread::spawn(move || crlb_of(&s))
+    };
+    let bar = Bar::new(1000, "campaign");
+    let tick = |f: f64| bar.set((f * 1000.0) as u64);
+    let (estimate, tel, faults) = if record || plots {
+        recorded_campaign(&s, seed, method, out, record, plots, tick)?
+    } else {
+        let res = taiji::campaign::run(&s, seed, method, tick);
+        (res.estimate, None, res.faults)
+    };
+    bar.finish();
+    let crlb = crlb
+        .join()
+        .unwrap_or_else(|e| std::panic::resume_unwind(e))?;
+    let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
+    if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
+        m.search = Some(p.search_json());
+    }
+    report.faults = faults.map(|f| f.summary());
+    report.wall_time_s = Some(t0.elapsed().as_secs_f64());
+    if let (true, Some(tel)) = (plots, &tel) {
+        taiji::plots::write_all(tel, &s, out)?;
+    }
+    finish(out, &report, plots)
+}
+
+/// The final estimate, the streams in memory (with `plots`) and the fault score of a
+/// campaign recorded as it runs: to DIR/telemetry.h5 with `record`.
+fn recorded_campaign(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    out: &std::path::Path,
+    record: bool,
+    plots: bool,
+    tick: impl FnMut(f64),
+) -> Result<
+    (
+        taiji::msg::EstimateMsg,
+        Option<taiji::telemetry::Telemetry>,
+        Option<taiji::faults::FaultScore>,
+    ),
+    CliError,
+> {
+    // The recording streams to disk as the campaign runs; figures need the streams in
+    // memory.
+    let mut file = match record {
+        true => Some(taiji::telemetry::Writer::create(
+            &out.join("telemetry.h5"),
+            &Meta::of(s, seed, method.name(), "in-process"),
+            s.n_samples(),
+            taiji::telemetry::CHUNK_ROWS,
+        )?),
+        false => None,
+    };
+    let mut tel = plots.then(|| {
+        let n = s.n_samples();
+        taiji::telemetry::Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n)
+    });
+    let mut sink = taiji::telemetry::Tee {
+        memory: tel.as_mut(),
+        file: file.as_mut(),
+    };
+    let res = taiji::campaign::run_into(s, seed, method, tick, &mut sink)?;
+    if let Some(f) = file {
+        let (r, d) = res
+            .faults
+            .as_ref()
+            .map_or((&[][..], &[][..]), |f| (&f.records[..], &f.detected[..]));
+        f.finish(r, d)?;
+    }
+    if let (Some(t), Some(f)) = (tel.as_mut(), &res.faults) {
+        t.faults = f.records.clone();
+        t.faults_detected = f.detected.clone();
+    }
+    Ok((res.estimate, tel, res.faults))
+}
+
+/// `replay`: the estimator on a recording's sensor channels.
+fn replay(
+    telemetry: &std::path::Path,
+    out: &std::path::Path,
+    method: Option<MethodArg>,
+) -> Result<ExitCode, CliError> {
+    let t0 = std::time::Instant::now();
+    out_dir(out)?;
+    let rec = taiji::telemetry::read::open(telemetry)?;
+    let method: Method = match (method, rec.method.as_deref()) {
+        (Some(m), _) => m.into(),
+        (None, Some(name)) => {
+            taiji::process::parse_method(name).map_err(|msg| CliError::MethodAttribute {
+                path: telemetry.to_path_buf(),
+                msg,
+            })?
+        }
+        (None, None) => Method::Joint,
+    };
+    let crlb = crlb_of(&rec.scenario)?;
+    let bar = Bar::new(1000, "replay");
+    let res = taiji::replay::run(&rec, method, |f| bar.set((f * 1000.0) as u64))?;
+    bar.finish();
+    let mut report = Report::new(
+        &rec.scenario,
+        rec.seed,
+        "replay",
+        method.name(),
+        &res.estimate,
+        &crlb,
+    );
+    report.faults = res.faults.map(|f| f.summary());
+    report.wall_time_s = Some(t0.elapsed().as_secs_f64());
+    finish(out, &report, false)
+}
+
+/// `export`: a recording as the C library's inputs.
+fn export(telemetry: &std::path::Path, out: &std::path::Path) -> Result<ExitCode, CliError> {
+    out_dir(out)?;
+    let rec = taiji::telemetry::read::open(telemetry)?;
+    let n = taiji::export::write(&rec, out)?;
+    println!(
+        "exported {n} samples and the estimator table to {}",
+        out.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `montecarlo`: every seed here, or one shard's seeds to result files.
+fn monte_carlo(args: MonteCarloArgs) -> Result<ExitCode, CliError> {
+    let MonteCarloArgs {
+        runs,
+        scenario,
+        method,
+        seed,
+        out,
+        shard,
+    } = args;
+    if let Some(out) = &out {
+        out_dir(out)?;
+    }
+    let (s, _) = load_planned(scenario.as_deref())?;
+    let first = seed.unwrap_or(s.seed);
+    if let (Some(shard), Some(dir)) = (shard, &out) {
+        let build = montecarlo::shard::build_id()?;
+        let m = method.into();
+        let done = montecarlo::shard::run_shard(&s, first, runs, m, shard, &build, dir)?;
+        println!(
+            "shard {shard}: ran {} seed(s), kept {} already in {}; then: taiji-calib montecarlo merge DIR...",
+            done.ran.len(),
+            done.kept.len(),
+            dir.display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    montecarlo_out(&montecarlo::run(&s, first, runs, method.into())?, out)
+}
+
+/// `crlb`: print the bound of β, k, r.
+fn print_crlb(scenario: Option<&std::path::Path>) -> Result<ExitCode, CliError> {
+    let (s, _) = load_planned(scenario)?;
+    let c = taiji::crlb::crlb(&s).ok_or(CliError::Singular)?;
+    println!(
+        "Cramér–Rao bound (1σ) for scenario {:?}: {} s, maneuver {} Hz, torque {:?} N m",
+        s.name, s.duration_s, s.maneuver.frequency_hz, s.maneuver.torque_amplitude_nm
+    );
+    for (i, is) in s.inertial_sensor.iter().enumerate() {
+        let rel: Vec<String> = (0..3)
+            .map(|a| format!("{:.2e}", c.beta[i][a] / is.beta[a]))
+            .collect();
+        let r: Vec<String> = (0..3)
+            .map(|a| format!("{:.3} µm", c.com_offset_m[i][a] * 1e6))
+            .collect();
+        println!(
+            "IS{}  β (relative, = k relative): [{}]   r: [{}]",
+            i + 1,
+            rel.join(", "),
+            r.join(", ")
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `plan`: the maneuver for a window, or (`min_duration_margin`) the shortest window.
+fn plan(
+    scenario: Option<&std::path::Path>,
+    duration: Option<f64>,
+    min_duration_margin: Option<f64>,
+    top: usize,
+    out: &std::path::Path,
+) -> Result<ExitCode, CliError> {
+    if let Some(d) = duration {
+        if !(d.is_finite() && d > 0.0 && d <= taiji::scenario::MAX_DURATION_S) {
+            return Err(CliError::Duration { duration: d });
         }
     }
+    out_dir(out)?;
+    let s = Scenario::load_or_default(scenario)?;
+    let plan = match min_duration_margin {
+        Some(margin) => taiji::plan::min_duration(&s, margin),
+        None => taiji::plan::plan(
+            &s,
+            &taiji::plan::PlanOptions {
+                duration_s: duration,
+                amplitude_sweep: true,
+                exact: true,
+            },
+        ),
+    }?;
+    if let Some(why) = &plan.shortfall {
+        return Err(CliError::Shortfall { why: why.clone() });
+    }
+    taiji::plan::write(&s, &plan, out, top, min_duration_margin)?;
+    Ok(ExitCode::SUCCESS)
 }

@@ -3,7 +3,7 @@
 //! by one build on one resolved scenario, and summarises them with the single-machine
 //! code (`summarise`), so the statistics agree to the bit. File format: docs/report.md.
 
-use super::{check_seeds, run_seeds, summarise, MonteCarlo};
+use super::{check_seeds, run_seeds, summarise, MonteCarlo, MonteCarloError};
 use crate::crlb::crlb;
 use crate::estimate::snapshot::fnv1a;
 use crate::estimate::Method;
@@ -24,29 +24,58 @@ pub struct Shard {
     pub count: u64,
 }
 
+/// How `--shard I/N` is written.
+const FORM: &str = "I/N: shard I of N, I from 0 to N-1";
+
+/// A `--shard` argument that is not `I/N` with `I < N`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ShardParseError {
+    #[error("expected {FORM}, got {0:?}")]
+    Form(String),
+    /// `what` ("the shard index" or "the shard count") is not a whole number.
+    #[error("{what} {value:?} is not a whole number ({FORM})")]
+    NotANumber { what: &'static str, value: String },
+    #[error("the shard count must be at least 1 ({FORM})")]
+    NoShards,
+    #[error("shard index {index} is not below the shard count {count} (I is 0-based: 0 to {})", count - 1)]
+    IndexTooLarge { index: u64, count: u64 },
+}
+
 impl std::str::FromStr for Shard {
-    type Err = String;
-    fn from_str(t: &str) -> Result<Self, String> {
-        const FORM: &str = "I/N: shard I of N, I from 0 to N-1";
+    type Err = ShardParseError;
+    fn from_str(t: &str) -> Result<Self, ShardParseError> {
         let (i, n) = t
             .split_once('/')
-            .ok_or_else(|| format!("expected {FORM}, got {t:?}"))?;
-        let num = |v: &str, what: &str| {
-            v.parse::<u64>()
-                .map_err(|_| format!("{what} {v:?} is not a whole number ({FORM})"))
+            .ok_or_else(|| ShardParseError::Form(t.into()))?;
+        let num = |v: &str, what: &'static str| {
+            v.parse::<u64>().map_err(|_| ShardParseError::NotANumber {
+                what,
+                value: v.into(),
+            })
         };
         let (index, count) = (num(i, "the shard index")?, num(n, "the shard count")?);
         if count == 0 {
-            return Err(format!("the shard count must be at least 1 ({FORM})"));
+            return Err(ShardParseError::NoShards);
         }
         if index >= count {
-            return Err(format!(
-                "shard index {index} is not below the shard count {count} (I is 0-based: 0 to {})",
-                count - 1
-            ));
+            return Err(ShardParseError::IndexTooLarge { index, count });
         }
         Ok(Shard { index, count })
     }
+}
+
+/// A result file's text that does not parse back into a [`RunFile`].
+#[derive(Debug, thiserror::Error)]
+pub enum RunFileError {
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+    /// The `nonfinite` table is not a map of pointers to names.
+    #[error("nonfinite: {0}")]
+    Nonfinite(#[source] serde_json::Error),
+    #[error("nonfinite: the report has no null at {pointer}")]
+    NoNull { pointer: String },
+    #[error("nonfinite: a value other than \"NaN\", \"-NaN\", \"inf\", \"-inf\", or a number the report does not have")]
+    BadValue,
 }
 
 impl std::fmt::Display for Shard {
@@ -117,12 +146,10 @@ pub struct ShardDone {
 
 /// This program: its version and the FNV-1a of its executable (~0.1 s to read), so
 /// the results of two builds, which may differ in the last bit, are never merged.
-pub fn build_id() -> Result<String, String> {
+pub fn build_id() -> Result<String, MonteCarloError> {
     let exe = std::env::current_exe()
         .and_then(std::fs::read)
-        .map_err(|e| {
-            format!("cannot read this program's executable to identify the build ({e})")
-        })?;
+        .map_err(MonteCarloError::BuildId)?;
     Ok(format!(
         "{} exe {:016x}",
         env!("CARGO_PKG_VERSION"),
@@ -150,16 +177,13 @@ pub fn run_shard(
     shard: Shard,
     build: &str,
     dir: &Path,
-) -> Result<ShardDone, String> {
+) -> Result<ShardDone, MonteCarloError> {
     check_seeds(first_seed, runs)?;
     if shard.count > runs {
-        return Err(format!(
-            "--shard {shard} with --runs {runs}: more shards than runs; use at most {runs}"
-        ));
+        return Err(MonteCarloError::MoreShardsThanRuns { shard, runs });
     }
-    let bound = crlb(s).ok_or("the Fisher information of this scenario is singular")?;
-    let scenario_toml =
-        toml::to_string(s).map_err(|e| format!("cannot write the scenario as TOML: {e}"))?;
+    let bound = crlb(s).ok_or(MonteCarloError::Singular)?;
+    let scenario_toml = toml::to_string(s).map_err(MonteCarloError::ScenarioToml)?;
     let campaign = Campaign {
         scenario: s.name.clone(),
         scenario_hash: hash(&scenario_toml),
@@ -177,11 +201,10 @@ pub fn run_shard(
             let f = read_run_file(&path)?;
             let diff = f.campaign.differences(&campaign);
             if !diff.is_empty() {
-                return Err(format!(
-                    "{}: the result of another campaign (it differs in {}); give each campaign its own --out folder",
-                    path.display(),
-                    diff.join(", ")
-                ));
+                return Err(MonteCarloError::OtherCampaign {
+                    path,
+                    differences: diff,
+                });
             }
             kept.push(seed);
         } else {
@@ -210,17 +233,14 @@ pub fn run_shard(
 
 /// Write `f` as `dir/run-<seed>.json`, whole or not at all: to a hidden temporary
 /// name, synced, then renamed, so a job killed mid-write leaves no result behind.
-pub fn write_run_file(dir: &Path, f: &RunFile) -> Result<(), String> {
+pub fn write_run_file(dir: &Path, f: &RunFile) -> Result<(), MonteCarloError> {
     use std::io::Write;
-    let text = to_text(f)?;
+    let text = to_text(f).map_err(MonteCarloError::Json)?;
     // The file must give back exactly this report, every bit of every float; a float
     // field `floats` does not know holding NaN would not (JSON writes it as null).
-    let back = parse(&text).and_then(|b| to_text(&b)).ok();
+    let back = parse(&text).ok().and_then(|b| to_text(&b).ok());
     if back.as_deref() != Some(text.as_str()) {
-        return Err(format!(
-            "seed {}: its report does not read back exactly from JSON (a number that is not finite?), so it could not be merged exactly; run this campaign without --shard",
-            f.seed
-        ));
+        return Err(MonteCarloError::NotExact { seed: f.seed });
     }
     let path = dir.join(file_name(f.seed));
     let tmp = dir.join(format!(".run-{}.json.{}.tmp", f.seed, std::process::id()));
@@ -230,9 +250,9 @@ pub fn write_run_file(dir: &Path, f: &RunFile) -> Result<(), String> {
     });
     written
         .and_then(|()| std::fs::rename(&tmp, &path))
-        .map_err(|e| {
+        .map_err(|source| {
             let _ = std::fs::remove_file(&tmp);
-            format!("cannot write {}: {e}", path.display())
+            MonteCarloError::Write { path, source }
         })
 }
 
@@ -300,7 +320,7 @@ fn floats(r: &mut Report, f: &mut dyn FnMut(String, &mut f64)) {
 
 /// `f` as the file's text: the report's NaN and infinities, which JSON writes as null,
 /// are named in `nonfinite` (pointer → `"NaN"`, `"-NaN"`, `"inf"`, `"-inf"`).
-fn to_text(f: &RunFile) -> Result<String, String> {
+fn to_text(f: &RunFile) -> Result<String, serde_json::Error> {
     #[derive(Serialize)]
     struct Text<'a> {
         #[serde(flatten)]
@@ -320,24 +340,24 @@ fn to_text(f: &RunFile) -> Result<String, String> {
             nonfinite.insert(p, v);
         }
     });
-    serde_json::to_string_pretty(&Text { f, nonfinite }).map_err(|e| e.to_string())
+    serde_json::to_string_pretty(&Text { f, nonfinite })
 }
 
 /// The inverse of `to_text`.
-fn parse(text: &str) -> Result<RunFile, String> {
-    let mut v: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
+fn parse(text: &str) -> Result<RunFile, RunFileError> {
+    let mut v: serde_json::Value = serde_json::from_str(text)?;
     let nonfinite: BTreeMap<String, String> =
         match v.as_object_mut().and_then(|o| o.remove("nonfinite")) {
-            Some(n) => serde_json::from_value(n).map_err(|e| format!("nonfinite: {e}"))?,
+            Some(n) => serde_json::from_value(n).map_err(RunFileError::Nonfinite)?,
             None => BTreeMap::new(),
         };
     for p in nonfinite.keys() {
         match v.get_mut("report").and_then(|r| r.pointer_mut(p)) {
             Some(x) if x.is_null() => *x = 0.0.into(),
-            _ => return Err(format!("nonfinite: the report has no null at {p}")),
+            _ => return Err(RunFileError::NoNull { pointer: p.clone() }),
         }
     }
-    let mut f: RunFile = serde_json::from_value(v).map_err(|e| e.to_string())?;
+    let mut f: RunFile = serde_json::from_value(v)?;
     let mut restored = 0;
     floats(&mut f.report, &mut |p, x| {
         if let Some(s) = nonfinite.get(&p) {
@@ -352,32 +372,39 @@ fn parse(text: &str) -> Result<RunFile, String> {
         }
     });
     if restored != nonfinite.len() {
-        return Err("nonfinite: a value other than \"NaN\", \"-NaN\", \"inf\", \"-inf\", or a number the report does not have".into());
+        return Err(RunFileError::BadValue);
     }
     Ok(f)
 }
 
 /// Read and check one result file (its format, and that its name, seed and scenario
 /// hash agree).
-pub fn read_run_file(path: &Path) -> Result<RunFile, String> {
-    let p = path.display();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{p}: cannot read ({e})"))?;
-    let f: RunFile = parse(&text).map_err(|e| {
+pub fn read_run_file(path: &Path) -> Result<RunFile, MonteCarloError> {
+    let text = std::fs::read_to_string(path).map_err(|source| MonteCarloError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let path = path.to_path_buf();
+    let f: RunFile = parse(&text).map_err(|source| {
         let format = serde_json::from_str::<serde_json::Value>(&text)
             .ok()
             .and_then(|v| v.get("format").cloned());
         match format {
-            Some(v) if v != FORMAT => {
-                format!("{p}: a result file of format {v}, not {FORMAT:?}: made by another version")
-            }
-            _ => format!("{p}: not a Monte Carlo result file ({e})"),
+            Some(v) if v != FORMAT => MonteCarloError::OtherFormat {
+                path: path.clone(),
+                found: v.to_string(),
+            },
+            _ => MonteCarloError::NotResultFile {
+                path: path.clone(),
+                source,
+            },
         }
     })?;
     if f.format != FORMAT {
-        return Err(format!(
-            "{p}: a result file of format {:?}, not {FORMAT:?}: made by another version",
-            f.format
-        ));
+        return Err(MonteCarloError::OtherFormat {
+            path,
+            found: format!("{:?}", f.format),
+        });
     }
     let named = path.file_name().and_then(|n| n.to_str()).and_then(|n| {
         n.strip_prefix("run-")?
@@ -386,23 +413,25 @@ pub fn read_run_file(path: &Path) -> Result<RunFile, String> {
             .ok()
     });
     if named != Some(f.seed) || f.report.seed != f.seed {
-        return Err(format!(
-            "{p}: holds seed {} (its report: seed {}); a result file is named run-<seed>.json after its seed",
-            f.seed, f.report.seed
-        ));
+        return Err(MonteCarloError::SeedMismatch {
+            path,
+            seed: f.seed,
+            report_seed: f.report.seed,
+        });
     }
     if hash(&f.scenario_toml) != f.campaign.scenario_hash {
-        return Err(format!(
-            "{p}: its scenario does not match its scenario_hash: the file was edited"
-        ));
+        return Err(MonteCarloError::Edited { path });
     }
     let c = &f.campaign;
     let j = f.seed.checked_sub(c.first_seed).filter(|&j| j < c.runs);
     if j.is_none() || f.shard.count == 0 || j.map(|j| j % f.shard.count) != Some(f.shard.index) {
-        return Err(format!(
-            "{p}: seed {} is not one of shard {}'s of {} runs from seed {}",
-            f.seed, f.shard, c.runs, c.first_seed
-        ));
+        return Err(MonteCarloError::NotShardSeed {
+            path,
+            seed: f.seed,
+            shard: f.shard,
+            runs: c.runs,
+            first_seed: c.first_seed,
+        });
     }
     Ok(f)
 }
@@ -426,11 +455,39 @@ fn ranges(spans: &[(u64, u64)]) -> String {
 
 /// Read every `run-<seed>.json` in `dirs`, check that they are one whole campaign —
 /// the same campaign, every seed once — and summarise them as a single-machine run.
-pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, String> {
+pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, MonteCarloError> {
+    let mut files = read_result_files(dirs)?;
+    let c = one_campaign(&files)?;
+    every_seed_once(&files, &c)?;
+    let n_is = files[0].1.report.inertial_sensors.len();
+    if let Some((p, _)) = files
+        .iter()
+        .find(|(_, f)| f.report.inertial_sensors.len() != n_is || n_is == 0)
+    {
+        return Err(MonteCarloError::SensorCount { path: p.clone() });
+    }
+    // Seed order, as a single-machine run sums them.
+    files.sort_by_key(|(_, f)| f.seed);
+    let reports: Vec<Report> = files.into_iter().map(|(_, f)| f.report).collect();
+    Ok(summarise(
+        &c.scenario,
+        n_is,
+        c.first_seed,
+        c.runs,
+        &c.method,
+        reports,
+    ))
+}
+
+/// Every result file of `dirs`, read and checked, folder by folder in name order; a
+/// folder without any is an error.
+fn read_result_files(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, RunFile)>, MonteCarloError> {
     let mut files: Vec<(PathBuf, RunFile)> = Vec::new();
     for d in dirs {
-        let entries = std::fs::read_dir(d)
-            .map_err(|e| format!("{}: cannot read this folder ({e})", d.display()))?;
+        let entries = std::fs::read_dir(d).map_err(|source| MonteCarloError::ReadDir {
+            path: d.clone(),
+            source,
+        })?;
         let mut paths: Vec<PathBuf> = entries
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| {
@@ -440,10 +497,7 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, String> {
             })
             .collect();
         if paths.is_empty() {
-            return Err(format!(
-                "{}: no result files (run-<seed>.json) in this folder",
-                d.display()
-            ));
+            return Err(MonteCarloError::NoResults { path: d.clone() });
         }
         paths.sort();
         for p in paths {
@@ -451,9 +505,13 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, String> {
             files.push((p, f));
         }
     }
-    // One campaign.
+    Ok(files)
+}
+
+/// The one campaign every file belongs to; the error lists the campaigns found.
+fn one_campaign(files: &[(PathBuf, RunFile)]) -> Result<Campaign, MonteCarloError> {
     let mut campaigns: Vec<(&Campaign, &Path, usize)> = Vec::new();
-    for (p, f) in &files {
+    for (p, f) in files {
         match campaigns.iter_mut().find(|c| *c.0 == f.campaign) {
             Some(c) => c.2 += 1,
             None => campaigns.push((&f.campaign, p, 1)),
@@ -468,34 +526,62 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, String> {
         for (c, p, n) in &campaigns {
             e += &format!("\n  {n} file(s) such as {}: {}", p.display(), c.line());
         }
-        return Err(e);
+        return Err(MonteCarloError::MixedCampaigns {
+            campaigns: campaigns.len(),
+            msg: e,
+        });
     }
-    let c = campaigns[0].0.clone();
-    // Every seed once.
+    Ok(campaigns[0].0.clone())
+}
+
+/// Every seed of campaign `c` has exactly one result; the error names the seeds with
+/// several and those with none (files hold only seeds of the campaign).
+fn every_seed_once(files: &[(PathBuf, RunFile)], c: &Campaign) -> Result<(), MonteCarloError> {
     let mut by_seed: BTreeMap<u64, Vec<usize>> = BTreeMap::new();
     for (i, (_, f)) in files.iter().enumerate() {
         by_seed.entry(f.seed).or_default().push(i);
     }
-    let mut problems = Vec::new();
-    let dups: Vec<(&u64, &Vec<usize>)> = by_seed.iter().filter(|(_, v)| v.len() > 1).collect();
-    if !dups.is_empty() {
-        let mut e = format!(
-            "{} seed(s) have more than one result (never counted twice; remove the extra copies):",
-            dups.len()
-        );
-        for (seed, v) in dups.iter().take(10) {
-            let names: Vec<String> = v
-                .iter()
-                .map(|&i| files[i].0.display().to_string())
-                .collect();
-            e += &format!("\n  seed {seed}: {}", names.join(", "));
-        }
-        if dups.len() > 10 {
-            e += &format!("\n  … and {} more seeds", dups.len() - 10);
-        }
-        problems.push(e);
+    let problems: Vec<String> = [duplicates(files, &by_seed), missing(files, &by_seed, c)]
+        .into_iter()
+        .flatten()
+        .collect();
+    if !problems.is_empty() {
+        return Err(MonteCarloError::Incomplete { problems });
     }
-    // The gaps between the seeds present (files hold only seeds of the campaign).
+    Ok(())
+}
+
+/// The seeds with more than one result, as the merge reports them.
+fn duplicates(files: &[(PathBuf, RunFile)], by_seed: &BTreeMap<u64, Vec<usize>>) -> Option<String> {
+    let dups: Vec<(&u64, &Vec<usize>)> = by_seed.iter().filter(|(_, v)| v.len() > 1).collect();
+    if dups.is_empty() {
+        return None;
+    }
+    let mut e = format!(
+        "{} seed(s) have more than one result (never counted twice; remove the extra copies):",
+        dups.len()
+    );
+    for (seed, v) in dups.iter().take(10) {
+        let names: Vec<String> = v
+            .iter()
+            .map(|&i| files[i].0.display().to_string())
+            .collect();
+        e += &format!("\n  seed {seed}: {}", names.join(", "));
+    }
+    if dups.len() > 10 {
+        e += &format!("\n  … and {} more seeds", dups.len() - 10);
+    }
+    Some(e)
+}
+
+/// The seeds of `c` with no result, and the shards short of results when every file
+/// agrees on the shard count.
+fn missing(
+    files: &[(PathBuf, RunFile)],
+    by_seed: &BTreeMap<u64, Vec<usize>>,
+    c: &Campaign,
+) -> Option<String> {
+    // The gaps between the seeds present.
     let mut gaps = Vec::new();
     let mut next = c.first_seed;
     let last = c.first_seed.saturating_add(c.runs - 1);
@@ -508,62 +594,39 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MonteCarlo, String> {
     if by_seed.keys().next_back().is_some_and(|&s| s < last) {
         gaps.push((next, last));
     }
-    if !gaps.is_empty() {
-        let missing: u64 = gaps.iter().map(|(a, b)| b - a + 1).sum();
-        let mut e = format!(
-            "{missing} of {} seeds have no result: {}",
-            c.runs,
-            ranges(&gaps)
-        );
-        // Name the shards short of results, when every file agrees on the count.
-        let count = files[0].1.shard.count;
-        if missing <= 100_000 && files.iter().all(|(_, f)| f.shard.count == count) {
-            let mut short: BTreeMap<u64, u64> = BTreeMap::new();
-            for &(a, b) in &gaps {
-                for seed in a..=b {
-                    *short.entry((seed - c.first_seed) % count).or_default() += 1;
-                }
-            }
-            let lines: Vec<String> = short
-                .iter()
-                .map(|(&i, &n)| {
-                    // Shard i's seeds: the j < runs with j % count == i.
-                    let of = (c.runs - i).div_ceil(count);
-                    match n == of {
-                        true => format!("shard {i}/{count} wrote none of its {of}"),
-                        false => format!("shard {i}/{count} lacks {n} of its {of}"),
-                    }
-                })
-                .collect();
-            e += &format!(
-                "\n  {}: run them again with the same arguments (a re-run keeps the results already written)",
-                lines.join("; ")
-            );
-        }
-        problems.push(e);
+    if gaps.is_empty() {
+        return None;
     }
-    if !problems.is_empty() {
-        return Err(problems.join("\n"));
-    }
-    let n_is = files[0].1.report.inertial_sensors.len();
-    if let Some((p, _)) = files
-        .iter()
-        .find(|(_, f)| f.report.inertial_sensors.len() != n_is || n_is == 0)
-    {
-        return Err(format!(
-            "{}: its report has another number of inertial sensors than the campaign's other results",
-            p.display()
-        ));
-    }
-    // Seed order, as a single-machine run sums them.
-    files.sort_by_key(|(_, f)| f.seed);
-    let reports: Vec<Report> = files.into_iter().map(|(_, f)| f.report).collect();
-    Ok(summarise(
-        &c.scenario,
-        n_is,
-        c.first_seed,
+    let missing: u64 = gaps.iter().map(|(a, b)| b - a + 1).sum();
+    let mut e = format!(
+        "{missing} of {} seeds have no result: {}",
         c.runs,
-        &c.method,
-        reports,
-    ))
+        ranges(&gaps)
+    );
+    // Name the shards short of results, when every file agrees on the count.
+    let count = files[0].1.shard.count;
+    if missing <= 100_000 && files.iter().all(|(_, f)| f.shard.count == count) {
+        let mut short: BTreeMap<u64, u64> = BTreeMap::new();
+        for &(a, b) in &gaps {
+            for seed in a..=b {
+                *short.entry((seed - c.first_seed) % count).or_default() += 1;
+            }
+        }
+        let lines: Vec<String> = short
+            .iter()
+            .map(|(&i, &n)| {
+                // Shard i's seeds: the j < runs with j % count == i.
+                let of = (c.runs - i).div_ceil(count);
+                match n == of {
+                    true => format!("shard {i}/{count} wrote none of its {of}"),
+                    false => format!("shard {i}/{count} lacks {n} of its {of}"),
+                }
+            })
+            .collect();
+        e += &format!(
+            "\n  {}: run them again with the same arguments (a re-run keeps the results already written)",
+            lines.join("; ")
+        );
+    }
+    Some(e)
 }

@@ -173,13 +173,55 @@ impl From<&Plan> for PlanInfo {
     }
 }
 
-/// The planner could not find a maneuver; the message names the binding constraint.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlanError(pub String);
+/// The planner could not find a maneuver, or could not write its plan; the message
+/// names the binding constraint or the file.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The window holds no maneuver at all; `why` says what the periods need.
+    #[error("`duration_s`: {duration_s} s is too short for any maneuver: {why}")]
+    WindowTooShort { duration_s: f64, why: String },
+    /// No candidate has room for any torque.
+    #[error("no torque fits: thruster.max_torque_nm = {max_torque_nm:.3e} N m, front_end.maneuver_limit_m_s2 = {maneuver_limit_m_s2:.1e} m/s² and the maneuver limits leave no room")]
+    NoTorque {
+        max_torque_nm: f64,
+        maneuver_limit_m_s2: f64,
+    },
+    #[error("no candidate could be bounded")]
+    NothingBounded,
+    /// `--margin` is not a number ≥ 1.
+    #[error("`--margin`: must be a number ≥ 1, got {margin}")]
+    Margin { margin: f64 },
+    /// No window up to `max_s` meets the requirements on the search bound.
+    #[error("no window up to the longest verified campaign ({max_s} s) meets every requirement with margin {margin} on the bound")]
+    NoWindow { max_s: f64, margin: f64 },
+    /// No window up to `max_s` meets the requirements on the exact bound.
+    #[error(
+        "no window up to {max_s} s meets every requirement with margin {margin} on the exact bound"
+    )]
+    NoExactWindow { max_s: f64, margin: f64 },
+    /// Planning a scenario's maneuver (`resolve`) failed.
+    #[error("planning the maneuver: {0}")]
+    Planning(#[source] Box<PlanError>),
+    /// The planned maneuver fails the scenario's own checks.
+    #[error("the planned maneuver does not pass the scenario's checks: {0}")]
+    PlannedInvalid(#[source] crate::scenario::ScenarioError),
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+    /// The figure could not be drawn.
+    #[error(transparent)]
+    Figure(#[from] crate::plots::PlotError),
+}
 
-impl std::fmt::Display for PlanError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+/// Bridge for callers still on `Result<_, String>` (the process layer).
+impl From<PlanError> for String {
+    fn from(e: PlanError) -> Self {
+        e.to_string()
     }
 }
 
@@ -459,31 +501,7 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
     base.plan_pending = false;
     base.faults = Default::default();
     let d = base.duration_s;
-    let hold = base.spacecraft.attitude_hold_hz;
-    let both = [Schedule::Sequential, Schedule::Simultaneous];
-    let coarse = shapes(&base, &PERIODS, &both, &[0]);
-    if coarse.is_empty() {
-        let f_lo = (3.0 / d).max(10.0 * hold);
-        return Err(PlanError(if 10.0 * hold > 3.0 / d {
-            format!(
-                "`duration_s`: {d} s is too short for any maneuver: the slowest frequency spacecraft.attitude_hold_hz = {hold} Hz allows is {} Hz, and three whole periods (one per axis) of it need {:.0} s",
-                10.0 * hold,
-                3.0 / f_lo
-            )
-        } else {
-            format!(
-                "`duration_s`: {d} s is too short for any maneuver: three whole periods (one per axis) need at least {:.0} s at the fastest frequency searched ({MAX_FREQUENCY_HZ} Hz, or sample_rate_hz / 8)",
-                3.0 / MAX_FREQUENCY_HZ.min(base.sample_rate_hz / 8.0)
-            )
-        }));
-    }
-    let mut cands: Vec<Candidate> = coarse.into_iter().filter_map(|m| size(&base, m)).collect();
-    if cands.is_empty() {
-        return Err(PlanError(format!(
-            "no torque fits: thruster.max_torque_nm = {:.3e} N m, front_end.maneuver_limit_m_s2 = {:.1e} m/s² and the maneuver limits leave no room",
-            base.thruster.max_torque_nm, base.front_end.maneuver_limit_m_s2
-        )));
-    }
+    let mut cands = coarse_candidates(&base)?;
     // One search rate for every candidate (the bound's coarseness then ranks fairly),
     // fine enough for the fastest wave of the grid.
     let f_fast = cands
@@ -495,35 +513,7 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
         .min((SEARCH_SAMPLES / d).max(SEARCH_SAMPLES_PER_PERIOD * f_fast));
     evaluate(&base, &mut cands, rate);
     best_first(&mut cands);
-    // Refine each schedule's best count with the counts between its neighbours, and
-    // the simultaneous schedule's slow axis.
-    let mut finer = Vec::new();
-    for sch in both {
-        let Some(best) = cands.iter().find(|c| c.maneuver.schedule == sch) else {
-            continue;
-        };
-        let n = match sch {
-            Schedule::Sequential => best.periods[0],
-            Schedule::Simultaneous => *best.periods.iter().min().unwrap_or(&1),
-        };
-        let between: Vec<u64> = ((n / 2 + 1)..(2 * n))
-            .filter(|k| !PERIODS.contains(k))
-            .collect();
-        let between: Vec<u64> = if between.len() > 4 {
-            // At most four counts, spread geometrically.
-            (1..=4)
-                .map(|i| ((n as f64) * 2f64.powf(i as f64 / 5.0 * 2.0 - 1.0)).round() as u64)
-                .filter(|k| !PERIODS.contains(k))
-                .collect()
-        } else {
-            between
-        };
-        finer.extend(shapes(&base, &between, &[sch], &[0]));
-        if sch == Schedule::Simultaneous {
-            finer.extend(shapes(&base, &[n], &[sch], &[1, 2]));
-        }
-    }
-    let mut finer: Vec<Candidate> = finer.into_iter().filter_map(|m| size(&base, m)).collect();
+    let mut finer = finer_counts(&base, &cands);
     evaluate(&base, &mut finer, rate);
     cands.extend(finer);
     best_first(&mut cands);
@@ -533,40 +523,12 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
             best_by_schedule.push((sch, c.worst_ratio));
         }
     }
-    // Refine the best: the other start phase, axis orders, pausing in outages.
-    let top = cands[0].clone();
-    let mut variants = Vec::new();
-    let mut m = top.maneuver.clone();
-    m.start_phase = 0.25;
-    variants.push(m);
-    if top.maneuver.schedule == Schedule::Sequential {
-        for order in ["xzy", "yxz", "yzx", "zxy", "zyx"] {
-            let mut m = top.maneuver.clone();
-            m.axis_order = order.into();
-            variants.push(m);
-        }
-    }
-    let mut refined: Vec<Candidate> = variants
-        .into_iter()
-        .filter_map(|m| size(&base, m))
-        .collect();
+    let mut refined = variants_of(&base, &cands[0]);
     evaluate(&base, &mut refined, rate);
     cands.extend(refined);
     best_first(&mut cands);
     if opts.amplitude_sweep {
-        let mut sweep = Vec::new();
-        for c in cands.iter().filter(|c| {
-            c.maneuver.start_phase == 0.0
-                && (c.maneuver.schedule == Schedule::Sequential && c.maneuver.axis_order == "xyz"
-                    || c.maneuver.schedule == Schedule::Simultaneous)
-        }) {
-            for frac in [0.5, 0.25] {
-                let mut x = c.clone();
-                x.maneuver.torque_amplitude_nm = x.maneuver.torque_amplitude_nm.map(|v| v * frac);
-                x.amplitude_fraction = frac;
-                sweep.push(x);
-            }
-        }
+        let mut sweep = amplitude_sweep(&cands);
         evaluate(&base, &mut sweep, rate);
         cands.extend(sweep);
     }
@@ -575,7 +537,7 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
         .iter()
         .find(|c| c.amplitude_fraction == 1.0)
         .cloned()
-        .ok_or_else(|| PlanError("no candidate could be bounded".into()))?;
+        .ok_or(PlanError::NothingBounded)?;
     let final_rate = if opts.exact {
         base.sample_rate_hz.min((FINAL_SAMPLES / d).max(rate))
     } else {
@@ -601,6 +563,106 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
         elapsed_s: t0.elapsed().as_secs_f64(),
         best_by_schedule,
     })
+}
+
+/// The coarse grid's candidates, sized (not yet bounded); the error when the window
+/// holds no maneuver or no torque fits.
+fn coarse_candidates(base: &Scenario) -> Result<Vec<Candidate>, PlanError> {
+    let d = base.duration_s;
+    let hold = base.spacecraft.attitude_hold_hz;
+    let both = [Schedule::Sequential, Schedule::Simultaneous];
+    let coarse = shapes(base, &PERIODS, &both, &[0]);
+    if coarse.is_empty() {
+        let f_lo = (3.0 / d).max(10.0 * hold);
+        let why = if 10.0 * hold > 3.0 / d {
+            format!(
+                "the slowest frequency spacecraft.attitude_hold_hz = {hold} Hz allows is {} Hz, and three whole periods (one per axis) of it need {:.0} s",
+                10.0 * hold,
+                3.0 / f_lo
+            )
+        } else {
+            format!(
+                "three whole periods (one per axis) need at least {:.0} s at the fastest frequency searched ({MAX_FREQUENCY_HZ} Hz, or sample_rate_hz / 8)",
+                3.0 / MAX_FREQUENCY_HZ.min(base.sample_rate_hz / 8.0)
+            )
+        };
+        return Err(PlanError::WindowTooShort { duration_s: d, why });
+    }
+    let cands: Vec<Candidate> = coarse.into_iter().filter_map(|m| size(base, m)).collect();
+    if cands.is_empty() {
+        return Err(PlanError::NoTorque {
+            max_torque_nm: base.thruster.max_torque_nm,
+            maneuver_limit_m_s2: base.front_end.maneuver_limit_m_s2,
+        });
+    }
+    Ok(cands)
+}
+
+/// Each schedule's best count of periods refined with the counts between its
+/// neighbours, and the simultaneous schedule's slow axis (sized, not yet bounded).
+fn finer_counts(base: &Scenario, ranked: &[Candidate]) -> Vec<Candidate> {
+    let mut finer = Vec::new();
+    for sch in [Schedule::Sequential, Schedule::Simultaneous] {
+        let Some(best) = ranked.iter().find(|c| c.maneuver.schedule == sch) else {
+            continue;
+        };
+        let n = match sch {
+            Schedule::Sequential => best.periods[0],
+            Schedule::Simultaneous => *best.periods.iter().min().unwrap_or(&1),
+        };
+        let between: Vec<u64> = ((n / 2 + 1)..(2 * n))
+            .filter(|k| !PERIODS.contains(k))
+            .collect();
+        let between: Vec<u64> = if between.len() > 4 {
+            // At most four counts, spread geometrically.
+            (1..=4)
+                .map(|i| ((n as f64) * 2f64.powf(i as f64 / 5.0 * 2.0 - 1.0)).round() as u64)
+                .filter(|k| !PERIODS.contains(k))
+                .collect()
+        } else {
+            between
+        };
+        finer.extend(shapes(base, &between, &[sch], &[0]));
+        if sch == Schedule::Simultaneous {
+            finer.extend(shapes(base, &[n], &[sch], &[1, 2]));
+        }
+    }
+    finer.into_iter().filter_map(|m| size(base, m)).collect()
+}
+
+/// Variants of the best candidate: the other start phase, the other axis orders
+/// (sized, not yet bounded).
+fn variants_of(base: &Scenario, top: &Candidate) -> Vec<Candidate> {
+    let mut variants = Vec::new();
+    let mut m = top.maneuver.clone();
+    m.start_phase = 0.25;
+    variants.push(m);
+    if top.maneuver.schedule == Schedule::Sequential {
+        for order in ["xzy", "yxz", "yzx", "zxy", "zyx"] {
+            let mut m = top.maneuver.clone();
+            m.axis_order = order.into();
+            variants.push(m);
+        }
+    }
+    variants.into_iter().filter_map(|m| size(base, m)).collect()
+}
+
+/// The plain candidates at half and a quarter of their torque (to be bounded).
+fn amplitude_sweep(cands: &[Candidate]) -> Vec<Candidate> {
+    let mut sweep = Vec::new();
+    for c in cands.iter().filter(|c| {
+        c.maneuver.start_phase == 0.0
+            && (c.maneuver.schedule == Schedule::Sequential && c.maneuver.axis_order == "xyz"
+                || c.maneuver.schedule == Schedule::Simultaneous)
+    }) {
+        for frac in [0.5, 0.25] {
+            let mut x = c.clone();
+            x.maneuver.torque_amplitude_nm = x.maneuver.torque_amplitude_nm.map(|v| v * frac);
+            x.amplitude_fraction = frac;
+            sweep.push(x);
+        }
+    }
+    sweep
 }
 
 /// Why the best maneuver still misses a requirement, naming what binds it.
@@ -646,9 +708,7 @@ fn infeasible(base: &Scenario, c: &Candidate) -> String {
 /// (stepping up 5 % while it misses).
 pub fn min_duration(s: &Scenario, margin: f64) -> Result<Plan, PlanError> {
     if !(margin.is_finite() && margin >= 1.0) {
-        return Err(PlanError(format!(
-            "`--margin`: must be a number ≥ 1, got {margin}"
-        )));
+        return Err(PlanError::Margin { margin });
     }
     let max = crate::scenario::MAX_DURATION_S;
     let meets = |d: f64, exact: bool| -> Option<Plan> {
@@ -669,9 +729,7 @@ pub fn min_duration(s: &Scenario, margin: f64) -> Result<Plan, PlanError> {
         lo = hi;
         hi *= 2.0;
         if hi > max {
-            return Err(PlanError(format!(
-                "no window up to the longest verified campaign ({max} s) meets every requirement with margin {margin} on the bound"
-            )));
+            return Err(PlanError::NoWindow { max_s: max, margin });
         }
     }
     while hi / lo > 1.02 {
@@ -690,16 +748,14 @@ pub fn min_duration(s: &Scenario, margin: f64) -> Result<Plan, PlanError> {
         }
         d = ((d * 1.05) / 10.0).ceil() * 10.0;
         if d > max {
-            return Err(PlanError(format!(
-                "no window up to {max} s meets every requirement with margin {margin} on the exact bound"
-            )));
+            return Err(PlanError::NoExactWindow { max_s: max, margin });
         }
     }
 }
 
 /// `s` with its maneuver planned if it has none; what the plan was when one was made.
 /// A plan of the same scenario made before by the same code comes from the cache.
-pub fn resolve(s: Scenario) -> Result<(Scenario, Option<PlanInfo>), String> {
+pub fn resolve(s: Scenario) -> Result<(Scenario, Option<PlanInfo>), PlanError> {
     if !s.plan_pending {
         return Ok((s, None));
     }
@@ -717,15 +773,13 @@ pub fn resolve(s: Scenario) -> Result<(Scenario, Option<PlanInfo>), String> {
         exact: false,
         ..PlanOptions::default()
     };
-    let p = plan(&s, &opts).map_err(|e| format!("planning the maneuver: {e}"))?;
+    let p = plan(&s, &opts).map_err(|e| PlanError::Planning(Box::new(e)))?;
     let info = PlanInfo::from(&p);
     warn_shortfall(&info);
     let mut out = s.clone();
     out.maneuver = p.chosen.maneuver.clone();
     out.plan_pending = false;
-    let out = out
-        .validated()
-        .map_err(|e| format!("the planned maneuver does not pass the scenario's checks: {e}"))?;
+    let out = out.validated().map_err(PlanError::PlannedInvalid)?;
     cache::store(&s, &out.maneuver, &info);
     Ok((out, Some(info)))
 }

@@ -2,7 +2,7 @@
 //! `[maneuver]` as TOML, plan.json, and the figure of the bound against frequency and
 //! torque amplitude.
 
-use super::{maneuver_toml, Candidate, Plan};
+use super::{maneuver_toml, Candidate, Plan, PlanError};
 use crate::plots::render::{self, Figure, Panel, Series};
 use crate::scenario::{Scenario, Schedule};
 use std::fmt::Write as _;
@@ -218,7 +218,7 @@ pub fn write(
     dir: &Path,
     top: usize,
     margin: Option<f64>,
-) -> Result<(), String> {
+) -> Result<(), PlanError> {
     print!("{}", summary(s, p, top, margin));
     let toml_path = dir.join("maneuver.toml");
     let mut text = format!(
@@ -229,8 +229,10 @@ pub fn write(
         text.push_str(&format!("duration_s = {}\n", p.duration_s));
     }
     text.push_str(&maneuver_toml(&p.chosen.maneuver));
-    std::fs::write(&toml_path, text)
-        .map_err(|e| format!("cannot write {}: {e}", toml_path.display()))?;
+    std::fs::write(&toml_path, text).map_err(|source| PlanError::Write {
+        path: toml_path.clone(),
+        source,
+    })?;
     let json = serde_json::json!({
         "scenario": s.name,
         "duration_s": p.duration_s,
@@ -244,11 +246,12 @@ pub fn write(
         "candidates": p.candidates,
     });
     let json_path = dir.join("plan.json");
-    std::fs::write(
-        &json_path,
-        serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
-    )
-    .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
+    std::fs::write(&json_path, serde_json::to_string_pretty(&json)?).map_err(|source| {
+        PlanError::Write {
+            path: json_path.clone(),
+            source,
+        }
+    })?;
     render::write(&figure(p), dir)?;
     println!(
         "Wrote {}, {} and {}",

@@ -559,11 +559,45 @@ fn fig_asd(d: &Data) -> Figure {
     }
 }
 
+/// A figure that could not be drawn or written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The folder of the figures could not be made.
+    #[error("cannot create {}: {source}", path.display())]
+    Create {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The drawing backend failed on figure or panel `what` (`detail`: its error).
+    #[error("cannot draw {what}: {detail}")]
+    Draw { what: String, detail: String },
+}
+
+impl PlotError {
+    /// A drawing error of `what` (the backend's errors are generic: kept as their text).
+    pub(crate) fn draw(what: String, e: impl std::fmt::Debug) -> Self {
+        PlotError::Draw {
+            what,
+            detail: format!("{e:?}"),
+        }
+    }
+}
+
+/// Bridge for callers still on `Result<_, String>` (the process layer).
+impl From<PlotError> for String {
+    fn from(e: PlotError) -> Self {
+        e.to_string()
+    }
+}
+
 /// Write every figure to `dir/plots/`; returns the PNG paths.
-pub fn write_all(tel: &Telemetry, s: &Scenario, dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn write_all(tel: &Telemetry, s: &Scenario, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let plots = dir.join("plots");
-    std::fs::create_dir_all(&plots)
-        .map_err(|e| format!("cannot create {}: {e}", plots.display()))?;
+    std::fs::create_dir_all(&plots).map_err(|source| PlotError::Create {
+        path: plots.clone(),
+        source,
+    })?;
     let mut out = Vec::new();
     for f in figures(tel, s) {
         render::write(&f, &plots)?;

@@ -2,6 +2,7 @@
 //! symmetric-log axes) drawn with plotters to PNG and SVG. The font is embedded, so
 //! figures render the same on any machine without system font libraries.
 
+use super::PlotError;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -465,8 +466,12 @@ fn legend_sample<DB: DrawingBackend>(
     Ok(())
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("cannot draw {:?}: {e:?}", p.title);
+/// The panel's title and legend, above the plot; returns the area left for the plot.
+fn draw_title_and_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Panel,
+) -> Result<DrawingArea<DB, Shift>, PlotError> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::draw(format!("{:?}", p.title), e);
     let (w, _) = area.dim_in_pixel();
     let (title, rest) = area.split_vertically(PANEL_TITLE_HEIGHT);
     title
@@ -495,7 +500,15 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
                 .map_err(e)?;
         }
     }
+    Ok(plot)
+}
 
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Panel,
+) -> Result<(), PlotError> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::draw(format!("{:?}", p.title), e);
+    let plot = draw_title_and_legend(area, p)?;
     let ((x0, x1), (y0, y1)) = panel_ranges(p);
     let mut builder = ChartBuilder::on(&plot);
     builder
@@ -589,8 +602,8 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
     Ok(())
 }
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, f: &Figure) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("cannot draw {}: {e:?}", f.name);
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, f: &Figure) -> Result<(), PlotError> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::draw(f.name.clone(), e);
     root.fill(&WHITE).map_err(e)?;
     let root = root.titled(&f.title, ("sans-serif", 22)).map_err(e)?;
     let rows = f.panels.len().div_ceil(f.cols);
@@ -608,7 +621,7 @@ pub fn size(f: &Figure) -> (u32, u32) {
 }
 
 /// Write `dir/<name>.png` and `dir/<name>.svg`.
-pub fn write(f: &Figure, dir: &Path) -> Result<(), String> {
+pub fn write(f: &Figure, dir: &Path) -> Result<(), PlotError> {
     register_font();
     let png = dir.join(format!("{}.png", f.name));
     let svg = dir.join(format!("{}.svg", f.name));

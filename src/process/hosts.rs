@@ -703,19 +703,22 @@ mod tests {
             &TWO_HOSTS.replace("host = \"flight\"", "host = \"moon\""),
             "x",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("taiji-estimator runs on host \"moon\""), "{e}");
         let e = LaunchDescription::parse(
             &TWO_HOSTS.replace("name = \"flight\"", "name = \"sim\""),
             "x",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("listed twice"), "{e}");
         let e = LaunchDescription::parse(
             &TWO_HOSTS.replace("link_timeout_s = 20.0", "link_timeout_s = 0.0"),
             "x",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("link_timeout_s"), "{e}");
     }
 }

@@ -84,7 +84,9 @@ impl StageArgs {
     /// scenario without one plans it itself (deterministic: the same plan).
     pub fn scenario(&self) -> Result<Scenario, String> {
         let s = Scenario::load_or_default(self.scenario.as_deref()).map_err(|e| e.to_string())?;
-        crate::plan::resolve(s).map(|(s, _)| s)
+        crate::plan::resolve(s)
+            .map(|(s, _)| s)
+            .map_err(String::from)
     }
 
     pub fn seed(&self, s: &Scenario) -> u64 {

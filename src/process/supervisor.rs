@@ -63,11 +63,11 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     };
     let (s, plan) = match crate::plan::resolve(s) {
         Ok(x) => x,
-        Err(e) => return Outcome::UserError(e),
+        Err(e) => return Outcome::UserError(e.into()),
     };
     let launch = match LaunchDescription::load_or_default(args.launch.as_deref()) {
         Ok(l) => l,
-        Err(e) => return Outcome::UserError(e),
+        Err(e) => return Outcome::UserError(e.into()),
     };
     if let Err(e) = super::parse_method(&args.method) {
         return Outcome::UserError(e);

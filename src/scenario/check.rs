@@ -4,17 +4,46 @@
 //! maneuver's derived physics (`crate::maneuver`), which both sit below it.
 
 use super::*;
+use crate::scenario::maneuver::{axis_frequencies, round_down_4, torque_boost, Envelope, Timeline};
 use std::path::Path;
+
+/// The error of a value out of range, naming its key.
+fn err<T>(key: &str, msg: &str) -> Result<T, ScenarioError> {
+    Err(ScenarioError::key(key, msg))
+}
+
+/// `v` must be finite and positive.
+fn pos(key: &str, v: f64) -> Result<(), ScenarioError> {
+    if !v.is_finite() {
+        return err(key, &format!("must be finite, got {v}"));
+    }
+    if v <= 0.0 {
+        return err(key, &format!("must be positive, got {v}"));
+    }
+    Ok(())
+}
+
+/// `v` must be finite and ≥ 0.
+fn nonneg(key: &str, v: f64) -> Result<(), ScenarioError> {
+    if !v.is_finite() || v < 0.0 {
+        return err(key, &format!("must be finite and ≥ 0, got {v}"));
+    }
+    Ok(())
+}
+
+/// `given(key)`: the file sets this dotted key.
+type Given<'a> = &'a dyn Fn(&str) -> bool;
+
+/// Of two keys in one check: the second only when the file sets it and not the first.
+fn blame_second(given: Given, first: &str, second: &str) -> bool {
+    given(second) && !given(first)
+}
 
 impl Scenario {
     /// Parse and validate a TOML text.
     pub fn from_toml_str(text: &str) -> Result<Self, ScenarioError> {
-        let mut s: Scenario = toml::from_str(text).map_err(|e| {
-            ScenarioError(format!(
-                "scenario is not valid: {}",
-                e.to_string().trim_end()
-            ))
-        })?;
+        let mut s: Scenario =
+            toml::from_str(text).map_err(|source| ScenarioError::Parse { source })?;
         let given = keys_set(text);
         s.plan_pending = !WAVEFORM_KEYS.iter().any(|k| given.iter().any(|g| g == k));
         s.validate(&|k| given.iter().any(|g| g == k))?;
@@ -23,10 +52,14 @@ impl Scenario {
 
     /// Load a scenario file; the error names the file, the key and the problem.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ScenarioError(format!("cannot read scenario {}: {e}", path.display())))?;
-        Self::from_toml_str(&text)
-            .map_err(|e| ScenarioError(format!("{}: {}", path.display(), e.0)))
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml_str(&text).map_err(|e| ScenarioError::InFile {
+            path: path.to_path_buf(),
+            source: Box::new(e),
+        })
     }
 
     /// Load `path` if given, else the built-in default (the paper's case; its maneuver
@@ -50,26 +83,30 @@ impl Scenario {
     }
 
     /// `given(key)`: the file sets this dotted key. A check between two keys blames the
-    /// one the user wrote, not its partner left at its default.
-    fn validate(&self, given: &dyn Fn(&str) -> bool) -> Result<(), ScenarioError> {
-        let err = |k: &str, m: &str| Err(ScenarioError(format!("`{k}`: {m}")));
-        // Of two keys in one check: the second only when the file sets it and not the first.
-        let blame_second = |first: &str, second: &str| given(second) && !given(first);
-        let pos = |k: &str, v: f64| -> Result<(), ScenarioError> {
-            if !v.is_finite() {
-                return err(k, &format!("must be finite, got {v}"));
-            }
-            if v <= 0.0 {
-                return err(k, &format!("must be positive, got {v}"));
-            }
-            Ok(())
-        };
-        let nonneg = |k: &str, v: f64| -> Result<(), ScenarioError> {
-            if !v.is_finite() || v < 0.0 {
-                return err(k, &format!("must be finite and ≥ 0, got {v}"));
-            }
-            Ok(())
-        };
+    /// one the user wrote, not its partner left at its default. Section by section, in
+    /// the order of the file's documentation.
+    fn validate(&self, given: Given) -> Result<(), ScenarioError> {
+        self.validate_name_and_window()?;
+        self.validate_spacecraft()?;
+        self.faults.validate()?;
+        self.validate_thruster()?;
+        self.validate_star_tracker(given)?;
+        self.validate_srp(given)?;
+        self.validate_front_end(given)?;
+        self.validate_ground_calibration()?;
+        self.validate_inertial_sensors()?;
+        nonneg("maneuver.max_attitude_rad", self.maneuver.max_attitude_rad)?;
+        nonneg("maneuver.max_rate_rad_s", self.maneuver.max_rate_rad_s)?;
+        pos("thruster.max_torque_nm", self.thruster.max_torque_nm)?;
+        if self.plan_pending {
+            // The planner picks the waveform; its result is checked here again.
+            return Ok(());
+        }
+        self.validate_maneuver(given)
+    }
+
+    /// `name`, `duration_s` and `sample_rate_hz` on their own.
+    fn validate_name_and_window(&self) -> Result<(), ScenarioError> {
         if self.name.is_empty() {
             return err("name", "must not be empty");
         }
@@ -90,6 +127,11 @@ impl Scenario {
                 ),
             );
         }
+        Ok(())
+    }
+
+    /// `[spacecraft]`: a symmetric positive definite inertia, the mass, the hold.
+    fn validate_spacecraft(&self) -> Result<(), ScenarioError> {
         let inertia = &self.spacecraft.inertia_kg_m2;
         for (i, row) in inertia.iter().enumerate() {
             for (j, v) in row.iter().enumerate() {
@@ -112,11 +154,11 @@ impl Scenario {
         nonneg(
             "spacecraft.attitude_hold_hz",
             self.spacecraft.attitude_hold_hz,
-        )?;
+        )
+    }
 
-        if let Err((k, m)) = self.faults.validate() {
-            return err(&k, &m);
-        }
+    /// `[thruster]`: response, noise, jitter and overshoot.
+    fn validate_thruster(&self) -> Result<(), ScenarioError> {
         let th = &self.thruster;
         pos("thruster.response_time_s", th.response_time_s)?;
         if th.response_time_s > 5e-3 {
@@ -130,8 +172,11 @@ impl Scenario {
         }
         nonneg("thruster.overshoot_rel", th.overshoot_rel)?;
         pos("thruster.overshoot_decay_s", th.overshoot_decay_s)?;
-        nonneg("thruster.force_noise_n_rthz", th.force_noise_n_rthz)?;
+        nonneg("thruster.force_noise_n_rthz", th.force_noise_n_rthz)
+    }
 
+    /// `[star_tracker]`, with the sample rate's bounds (the tracker's rate is one).
+    fn validate_star_tracker(&self, given: Given) -> Result<(), ScenarioError> {
         let st = &self.star_tracker;
         pos("star_tracker.rate_hz", st.rate_hz)?;
         self.check_sample_rate(given)?;
@@ -144,7 +189,11 @@ impl Scenario {
                 );
             }
         }
+        Ok(())
+    }
 
+    /// `[srp]`: the DC must dominate the fluctuation; a non-zero sun direction.
+    fn validate_srp(&self, given: Given) -> Result<(), ScenarioError> {
         let srp = &self.srp;
         pos("srp.asd_at_3mhz", srp.asd_at_3mhz)?;
         pos("srp.dc_m_s2", srp.dc_m_s2)?;
@@ -154,7 +203,7 @@ impl Scenario {
         // 270×, 1.8–2.0 at 100×, 2.7 at 27×; requirements are met far below). Any
         // sunlit spacecraft has ≳1e-8 m/s², ~10³× the default ASD.
         if srp.dc_m_s2 < SRP_DC_OVER_ASD * srp.asd_at_3mhz {
-            if blame_second("srp.dc_m_s2", "srp.asd_at_3mhz") {
+            if blame_second(given, "srp.dc_m_s2", "srp.asd_at_3mhz") {
                 return err(
                     "srp.asd_at_3mhz",
                     &format!(
@@ -179,8 +228,12 @@ impl Scenario {
         if s.iter().any(|v| !v.is_finite()) || s.iter().map(|v| v * v).sum::<f64>() < 1e-12 {
             return err("srp.sun_direction_b", "must be a finite non-zero vector");
         }
+        Ok(())
+    }
 
-        let fe = &self.front_end;
+    /// `[front_end]`: noise and ranges; the DC SRP must fit in the linear range.
+    fn validate_front_end(&self, given: Given) -> Result<(), ScenarioError> {
+        let (fe, srp) = (&self.front_end, &self.srp);
         nonneg("front_end.ripple_rthz", fe.ripple_rthz)?;
         pos("front_end.linear_noise_rthz", fe.linear_noise_rthz)?;
         pos("front_end.angular_noise_rthz", fe.angular_noise_rthz)?;
@@ -188,7 +241,7 @@ impl Scenario {
         pos("front_end.full_scale_rad_s2", fe.full_scale_rad_s2)?;
         pos("front_end.maneuver_limit_m_s2", fe.maneuver_limit_m_s2)?;
         if srp.dc_m_s2 >= fe.full_scale_m_s2 {
-            return if blame_second("srp.dc_m_s2", "front_end.full_scale_m_s2") {
+            return if blame_second(given, "srp.dc_m_s2", "front_end.full_scale_m_s2") {
                 err(
                     "front_end.full_scale_m_s2",
                     &format!(
@@ -206,7 +259,11 @@ impl Scenario {
                 )
             };
         }
+        Ok(())
+    }
 
+    /// `[ground_calibration]`: the priors' errors.
+    fn validate_ground_calibration(&self) -> Result<(), ScenarioError> {
         let gc = &self.ground_calibration;
         nonneg("ground_calibration.beta_rel_error", gc.beta_rel_error)?;
         if gc.beta_rel_error >= 0.5 {
@@ -215,8 +272,11 @@ impl Scenario {
         nonneg(
             "ground_calibration.com_offset_error_m",
             gc.com_offset_error_m,
-        )?;
+        )
+    }
 
+    /// `[[inertial_sensor]]`: one or two, each with plausible offsets and priors.
+    fn validate_inertial_sensors(&self) -> Result<(), ScenarioError> {
         if self.inertial_sensor.is_empty() || self.inertial_sensor.len() > 2 {
             return err(
                 "inertial_sensor",
@@ -259,22 +319,25 @@ impl Scenario {
                 }
             }
         }
-        nonneg("maneuver.max_attitude_rad", self.maneuver.max_attitude_rad)?;
-        nonneg("maneuver.max_rate_rad_s", self.maneuver.max_rate_rad_s)?;
-        pos("thruster.max_torque_nm", self.thruster.max_torque_nm)?;
-        if self.plan_pending {
-            // The planner picks the waveform; its result is checked here again.
-            return Ok(());
-        }
-        self.validate_maneuver(given)
+        Ok(())
     }
 
     /// The maneuver's own checks: its keys, its fit in the window, the thrusters' torque,
     /// the attitude and rate limits and the IS design limit on |A r| at the true offsets.
-    fn validate_maneuver(&self, given: &dyn Fn(&str) -> bool) -> Result<(), ScenarioError> {
-        use crate::scenario::maneuver::{axis_frequencies, torque_boost, Timeline};
-        let err = |k: &str, m: &str| Err(ScenarioError(format!("`{k}`: {m}")));
-        let blame_second = |first: &str, second: &str| given(second) && !given(first);
+    fn validate_maneuver(&self, given: Given) -> Result<(), ScenarioError> {
+        self.validate_waveform(given)?;
+        let timeline = self.timeline(given)?;
+        let boost = torque_boost(self);
+        self.check_peak_torque(given, boost)?;
+        let inertia = nalgebra::Matrix3::from_fn(|i, j| self.spacecraft.inertia_kg_m2[i][j]);
+        let env = timeline.envelope(&inertia);
+        self.check_attitude_and_rate(&env, boost)?;
+        self.check_is_range(given, &env, &inertia, boost)
+    }
+
+    /// The waveform keys of `[maneuver]` on their own, and its frequencies against the
+    /// attitude hold.
+    fn validate_waveform(&self, given: Given) -> Result<(), ScenarioError> {
         let mv = &self.maneuver;
         if !mv.frequency_hz.is_finite() || mv.frequency_hz <= 0.0 {
             return err(
@@ -310,7 +373,11 @@ impl Scenario {
             .fold(f64::INFINITY, f64::min);
         let hold = self.spacecraft.attitude_hold_hz;
         if hold * 10.0 > lowest {
-            return if blame_second("spacecraft.attitude_hold_hz", "maneuver.frequency_hz") {
+            return if blame_second(
+                given,
+                "spacecraft.attitude_hold_hz",
+                "maneuver.frequency_hz",
+            ) {
                 err(
                     "maneuver.frequency_hz",
                     &format!(
@@ -346,42 +413,51 @@ impl Scenario {
                 "must name each of x, y, z once, e.g. \"xyz\"",
             );
         }
-        let timeline = match Timeline::new(self) {
-            Ok(t) => t,
-            Err(no) => {
-                let what = match mv.schedule {
-                    Schedule::Sequential => "three periods (one per axis, one after the other)",
-                    Schedule::Simultaneous => "one period of every axis",
-                };
-                let quiet = if mv.start_s > 0.0 || mv.pause_in_outages {
-                    " after maneuver.start_s and outside the paused outages"
-                } else {
-                    ""
-                };
-                return if blame_second("maneuver.frequency_hz", "duration_s") {
-                    err(
-                        "duration_s",
-                        &format!(
-                            "{} s does not hold {what}{quiet}: axis {} has a period of {} s",
-                            self.duration_s,
-                            ["x", "y", "z"][no.axis],
-                            sig4(no.period_s, true)
-                        ),
-                    )
-                } else {
-                    err(
-                        "maneuver.frequency_hz",
-                        &format!(
-                            "a period ({} s on axis {}) does not fit: duration_s = {} s must hold {what}{quiet}; raise the frequency, or leave [maneuver] out to have it planned",
-                            sig4(no.period_s, true),
-                            ["x", "y", "z"][no.axis],
-                            self.duration_s,
-                        ),
-                    )
-                };
-            }
+        Ok(())
+    }
+
+    /// The maneuver's timeline; the error when its periods do not fit in the window.
+    fn timeline(&self, given: Given) -> Result<Timeline, ScenarioError> {
+        let mv = &self.maneuver;
+        let no = match Timeline::new(self) {
+            Ok(t) => return Ok(t),
+            Err(no) => no,
         };
-        let boost = torque_boost(self);
+        let what = match mv.schedule {
+            Schedule::Sequential => "three periods (one per axis, one after the other)",
+            Schedule::Simultaneous => "one period of every axis",
+        };
+        let quiet = if mv.start_s > 0.0 || mv.pause_in_outages {
+            " after maneuver.start_s and outside the paused outages"
+        } else {
+            ""
+        };
+        if blame_second(given, "maneuver.frequency_hz", "duration_s") {
+            err(
+                "duration_s",
+                &format!(
+                    "{} s does not hold {what}{quiet}: axis {} has a period of {} s",
+                    self.duration_s,
+                    ["x", "y", "z"][no.axis],
+                    sig4(no.period_s, true)
+                ),
+            )
+        } else {
+            err(
+                "maneuver.frequency_hz",
+                &format!(
+                    "a period ({} s on axis {}) does not fit: duration_s = {} s must hold {what}{quiet}; raise the frequency, or leave [maneuver] out to have it planned",
+                    sig4(no.period_s, true),
+                    ["x", "y", "z"][no.axis],
+                    self.duration_s,
+                ),
+            )
+        }
+    }
+
+    /// The commanded torque, with overshoot and jitter (`boost`), within the thrusters'.
+    fn check_peak_torque(&self, given: Given, boost: f64) -> Result<(), ScenarioError> {
+        let mv = &self.maneuver;
         let peak_cmd = mv.torque_amplitude_nm.iter().fold(0.0f64, |m, v| m.max(*v));
         if peak_cmd * boost > self.thruster.max_torque_nm {
             return err(
@@ -397,8 +473,13 @@ impl Scenario {
                 ),
             );
         }
-        let inertia = nalgebra::Matrix3::from_fn(|i, j| self.spacecraft.inertia_kg_m2[i][j]);
-        let env = timeline.envelope(&inertia);
+        Ok(())
+    }
+
+    /// The maneuver's peak attitude and rate within `maneuver.max_attitude_rad` and
+    /// `maneuver.max_rate_rad_s` (0: no limit).
+    fn check_attitude_and_rate(&self, env: &Envelope, boost: f64) -> Result<(), ScenarioError> {
+        let mv = &self.maneuver;
         if mv.max_attitude_rad > 0.0 && env.peak_attitude_rad * boost > mv.max_attitude_rad {
             return err(
                 "maneuver.max_attitude_rad",
@@ -419,83 +500,102 @@ impl Scenario {
                 ),
             );
         }
-        let fe = &self.front_end;
+        Ok(())
+    }
+
+    /// The IS design limit on |A r| at the true offsets; the error names the torque
+    /// that would fit.
+    fn check_is_range(
+        &self,
+        given: Given,
+        env: &Envelope,
+        inertia: &nalgebra::Matrix3<f64>,
+        boost: f64,
+    ) -> Result<(), ScenarioError> {
         let truths: Vec<nalgebra::Vector3<f64>> = self
             .inertial_sensor
             .iter()
             .map(|is| nalgebra::Vector3::from(is.com_offset_m))
             .collect();
         let peak = env.peak_acceleration(&truths, boost);
-        if peak.1 > fe.maneuver_limit_m_s2 {
-            let limit = fe.maneuver_limit_m_s2;
-            let within = match mv.schedule {
-                // The axes take turns: each axis's own largest torque, where it overshoots.
-                Schedule::Sequential => (0..3)
-                    .filter_map(|a| {
-                        let mut one = self.clone();
-                        one.maneuver.torque_amplitude_nm = [0.0; 3];
-                        one.maneuver.torque_amplitude_nm[a] = mv.torque_amplitude_nm[a];
-                        let env = Timeline::new(&one).ok()?.envelope(&inertia);
-                        (env.peak_acceleration(&truths, boost).1 > limit).then(|| {
-                            let t = crate::scenario::maneuver::round_down_4(
-                                env.largest_scale(&truths, limit, boost) / boost
-                                    * mv.torque_amplitude_nm[a],
-                            );
-                            format!("on axis {} at most {t:.3e} N m", ["x", "y", "z"][a])
-                        })
-                    })
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                Schedule::Simultaneous => {
-                    let fits = env.largest_scale(&truths, limit, boost) / boost;
-                    let t: Vec<String> = mv
-                        .torque_amplitude_nm
-                        .iter()
-                        .map(|t| {
-                            format!("{:.3e}", crate::scenario::maneuver::round_down_4(t * fits))
-                        })
-                        .collect();
-                    format!("at most [{}] N m", t.join(", "))
-                }
-            };
-            let offset = format!("inertial_sensor[{}].com_offset_m", peak.0);
-            // Whichever of the keys behind |A r| the file sets, the torque first.
-            let key = [
-                "maneuver.torque_amplitude_nm",
-                "maneuver.frequency_hz",
-                offset.as_str(),
-                "spacecraft.inertia_kg_m2",
-                "front_end.maneuver_limit_m_s2",
-            ]
-            .into_iter()
-            .find(|k| given(k))
-            .unwrap_or("maneuver.torque_amplitude_nm");
-            return err(
-                key,
-                &format!(
-                    "the maneuver would drive |A r| of inertial_sensor[{}] to {:.3e} m/s², above the IS design limit front_end.maneuver_limit_m_s2 = {:.1e}; with this inertia, frequency and {offset}, maneuver.torque_amplitude_nm must be {within} (or leave the waveform keys out to have the maneuver planned)",
-                    peak.0,
-                    peak.1,
-                    limit,
-                ),
-            );
+        let limit = self.front_end.maneuver_limit_m_s2;
+        if peak.1 <= limit {
+            return Ok(());
         }
-        Ok(())
+        let within = self.torque_within_range(env, inertia, &truths, boost);
+        let offset = format!("inertial_sensor[{}].com_offset_m", peak.0);
+        // Whichever of the keys behind |A r| the file sets, the torque first.
+        let key = [
+            "maneuver.torque_amplitude_nm",
+            "maneuver.frequency_hz",
+            offset.as_str(),
+            "spacecraft.inertia_kg_m2",
+            "front_end.maneuver_limit_m_s2",
+        ]
+        .into_iter()
+        .find(|k| given(k))
+        .unwrap_or("maneuver.torque_amplitude_nm");
+        err(
+            key,
+            &format!(
+                "the maneuver would drive |A r| of inertial_sensor[{}] to {:.3e} m/s², above the IS design limit front_end.maneuver_limit_m_s2 = {:.1e}; with this inertia, frequency and {offset}, maneuver.torque_amplitude_nm must be {within} (or leave the waveform keys out to have the maneuver planned)",
+                peak.0,
+                peak.1,
+                limit,
+            ),
+        )
+    }
+
+    /// The torque that keeps |A r| within the IS range, as the error words it.
+    fn torque_within_range(
+        &self,
+        env: &Envelope,
+        inertia: &nalgebra::Matrix3<f64>,
+        truths: &[nalgebra::Vector3<f64>],
+        boost: f64,
+    ) -> String {
+        let mv = &self.maneuver;
+        let limit = self.front_end.maneuver_limit_m_s2;
+        match mv.schedule {
+            // The axes take turns: each axis's own largest torque, where it overshoots.
+            Schedule::Sequential => (0..3)
+                .filter_map(|a| {
+                    let mut one = self.clone();
+                    one.maneuver.torque_amplitude_nm = [0.0; 3];
+                    one.maneuver.torque_amplitude_nm[a] = mv.torque_amplitude_nm[a];
+                    let env = Timeline::new(&one).ok()?.envelope(inertia);
+                    (env.peak_acceleration(truths, boost).1 > limit).then(|| {
+                        let t = round_down_4(
+                            env.largest_scale(truths, limit, boost) / boost
+                                * mv.torque_amplitude_nm[a],
+                        );
+                        format!("on axis {} at most {t:.3e} N m", ["x", "y", "z"][a])
+                    })
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+            Schedule::Simultaneous => {
+                let fits = env.largest_scale(truths, limit, boost) / boost;
+                let t: Vec<String> = mv
+                    .torque_amplitude_nm
+                    .iter()
+                    .map(|t| format!("{:.3e}", round_down_4(t * fits)))
+                    .collect();
+                format!("at most [{}] N m", t.join(", "))
+            }
+        }
     }
 
     /// The checks between `sample_rate_hz` and the keys that bound it. The file's
     /// `sample_rate_hz` (or, with neither key set, the rate) is blamed, with the range
     /// the other settings allow; a partner key that the file sets alone is blamed instead.
-    fn check_sample_rate(&self, given: &dyn Fn(&str) -> bool) -> Result<(), ScenarioError> {
+    fn check_sample_rate(&self, given: Given) -> Result<(), ScenarioError> {
         let bounds = self.rate_bounds();
         let Some(first) = bounds.iter().find(|b| b.violated) else {
             return Ok(());
         };
         if given(first.partner) && !given("sample_rate_hz") {
-            return Err(ScenarioError(format!(
-                "`{}`: {}",
-                first.partner, first.partner_msg
-            )));
+            return err(first.partner, &first.partner_msg);
         }
         let tightest = |low: bool| {
             let side = bounds.iter().filter(|b| b.low == low);
@@ -506,7 +606,7 @@ impl Scenario {
             }
         };
         let (Some(lo), Some(hi)) = (tightest(true), tightest(false)) else {
-            return Err(ScenarioError(format!("`sample_rate_hz`: {}", first.why)));
+            return err("sample_rate_hz", &first.why);
         };
         let upper = |b: &RateBound| {
             let op = if b.strict { "below" } else { "at most" };
@@ -532,12 +632,15 @@ impl Scenario {
                 other.why
             )
         };
-        Err(ScenarioError(format!(
-            "`sample_rate_hz`: {} Hz is too {}: it must be {need} because {}; {rest}",
-            self.sample_rate_hz,
-            if first.low { "low" } else { "high" },
-            bad.why
-        )))
+        err(
+            "sample_rate_hz",
+            &format!(
+                "{} Hz is too {}: it must be {need} because {}; {rest}",
+                self.sample_rate_hz,
+                if first.low { "low" } else { "high" },
+                bad.why
+            ),
+        )
     }
 
     /// Every bound the other settings put on `sample_rate_hz`, in the order checked.

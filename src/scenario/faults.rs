@@ -80,8 +80,8 @@ impl FaultsConfig {
     }
 
     /// Check every key; the error names it.
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        let e = |k: &str, m: &str| Err((format!("faults.{k}"), m.to_string()));
+    pub fn validate(&self) -> Result<(), super::ScenarioError> {
+        let e = |k: &str, m: &str| Err(super::ScenarioError::key(format!("faults.{k}"), m));
         for (k, v) in [
             ("upset_rate", self.upset_rate),
             ("is_dropout_rate", self.is_dropout_rate),

@@ -6,7 +6,6 @@
 
 use crate::estimate::EstimatorConfig;
 use serde::{Deserialize, Serialize};
-use std::fmt;
 use taiji_core::model::noise::white_sigma;
 
 mod check;
@@ -22,16 +21,43 @@ pub const MAX_DURATION_S: f64 = 1.0e6;
 /// Least ratio of the DC SRP [m/s²] to its fluctuation ASD at 3 mHz [m s⁻² Hz^-½].
 pub const SRP_DC_OVER_ASD: f64 = 250.0;
 
-/// A scenario that failed to load or validate; the message names the key.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ScenarioError(pub String);
+/// A scenario that failed to load or validate; the message names the file or the key.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    #[error("cannot read scenario {}: {source}", path.display())]
+    Read {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not TOML, an unknown key or a value of the wrong type.
+    #[error("scenario is not valid: {}", source.to_string().trim_end())]
+    Parse {
+        #[source]
+        source: toml::de::Error,
+    },
+    /// A value out of its range or at odds with another key.
+    #[error("`{key}`: {msg}")]
+    Key { key: String, msg: String },
+    /// A problem in the scenario file `path`.
+    #[error("{}: {source}", path.display())]
+    InFile {
+        path: std::path::PathBuf,
+        #[source]
+        source: Box<ScenarioError>,
+    },
+}
 
-impl fmt::Display for ScenarioError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
+impl ScenarioError {
+    /// A problem with the value of `key`.
+    pub fn key(key: impl Into<String>, msg: impl Into<String>) -> Self {
+        ScenarioError::Key {
+            key: key.into(),
+            msg: msg.into(),
+        }
     }
 }
-impl std::error::Error for ScenarioError {}
 
 fn default_name() -> String {
     "paper".into()

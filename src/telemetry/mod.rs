@@ -12,6 +12,73 @@ mod write;
 pub use write::{Writer, CHUNK_ROWS};
 
 use crate::msg::{EstimateMsg, SensorSample, TruthState, EST_FINAL};
+use std::path::PathBuf;
+
+/// A recording that could not be written or read; the message names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum TelemetryError {
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The rows handed to a [`Writer`] do not make the recording it was created for.
+    #[error("cannot write {}: {what}", path.display())]
+    Rows { path: PathBuf, what: String },
+    /// The in-memory streams lack rows ([`Telemetry::write`]).
+    #[error("telemetry incomplete: {truth_rows} truth rows and {sensor_rows} sensor rows of different ticks")]
+    Incomplete {
+        truth_rows: usize,
+        sensor_rows: usize,
+    },
+    /// The HDF5 reader gave up on the file (it panicked).
+    #[error("{}: corrupt HDF5 file", path.display())]
+    Corrupt { path: PathBuf },
+    /// The HDF5 reader could not decode the file's structure while reading it.
+    #[error("{}: corrupt HDF5 file (its structure could not be decoded)", path.display())]
+    CorruptStructure { path: PathBuf },
+    #[error("{}: not a readable HDF5 file ({source})", path.display())]
+    NotHdf5 {
+        path: PathBuf,
+        #[source]
+        source: hdf5_pure::Error,
+    },
+    #[error("{}: truncated HDF5 file: it declares {needed} bytes but has {size}", path.display())]
+    Truncated {
+        path: PathBuf,
+        needed: u64,
+        size: u64,
+    },
+    /// A dataset of the layout is absent.
+    #[error("{}: missing dataset /{dataset}", path.display())]
+    MissingDataset { path: PathBuf, dataset: String },
+    /// A dataset has another shape than the layout's.
+    #[error("{}: /{dataset} has shape {got:?}, the layout needs {need:?} ({layout})", path.display())]
+    Shape {
+        path: PathBuf,
+        dataset: String,
+        got: Vec<u64>,
+        need: Vec<u64>,
+        layout: String,
+    },
+    /// Any other departure from the layout (`what` names the dataset or attribute).
+    #[error("{}: {what}", path.display())]
+    Format { path: PathBuf, what: String },
+}
+
+/// Bridge for callers still on `Result<_, String>` (the process layer).
+impl From<TelemetryError> for String {
+    fn from(e: TelemetryError) -> Self {
+        e.to_string()
+    }
+}
 
 /// Estimate rows are recorded at most this often [s] (and always the final one): the
 /// joint estimator solves every 60 s, the paper's filter updates every sample.
@@ -90,30 +157,30 @@ impl RowGate {
 /// both ([`Tee`]).
 pub trait Sink {
     /// One tick: the plant's truth and the front-end's sample of it.
-    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String>;
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), TelemetryError>;
     /// An estimate, kept if a row is due ([`RowGate`]).
-    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String>;
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError>;
 }
 
 impl Sink for Telemetry {
-    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), TelemetryError> {
         self.record_truth(t);
         self.record_sensor(s);
         Ok(())
     }
 
-    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError> {
         Telemetry::record_estimate(self, e);
         Ok(())
     }
 }
 
 impl Sink for Writer {
-    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), TelemetryError> {
         Writer::record(self, t, s)
     }
 
-    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError> {
         Writer::record_estimate(self, e)
     }
 }
@@ -125,7 +192,7 @@ pub struct Tee<'a> {
 }
 
 impl Sink for Tee<'_> {
-    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+    fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), TelemetryError> {
         if let Some(m) = self.memory.as_deref_mut() {
             Sink::record(m, t, s)?;
         }
@@ -135,7 +202,7 @@ impl Sink for Tee<'_> {
         }
     }
 
-    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+    fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError> {
         if let Some(m) = self.memory.as_deref_mut() {
             m.record_estimate(e);
         }
@@ -202,7 +269,7 @@ impl Telemetry {
 
     /// Write `path` (HDF5) through a [`Writer`]. Every truth and sensor row must be
     /// present.
-    pub fn write(&self, path: &std::path::Path, meta: &Meta) -> Result<(), String> {
+    pub fn write(&self, path: &std::path::Path, meta: &Meta) -> Result<(), TelemetryError> {
         write::write(self, path, meta)
     }
 }

@@ -4,7 +4,7 @@
 //! from disk as needed, a window of rows at a time, so memory does not grow with it.
 
 use super::layout as l;
-use super::Telemetry;
+use super::{Telemetry, TelemetryError};
 use crate::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
 use crate::scenario::Scenario;
 use hdf5_pure::{AttrValue, File};
@@ -59,8 +59,18 @@ struct Reader {
 }
 
 impl Reader {
-    fn err(&self, what: impl std::fmt::Display) -> String {
-        format!("{}: {what}", self.origin.display())
+    fn err(&self, what: impl std::fmt::Display) -> TelemetryError {
+        TelemetryError::Format {
+            path: self.origin.clone(),
+            what: what.to_string(),
+        }
+    }
+
+    fn missing(&self, dataset: &str) -> TelemetryError {
+        TelemetryError::MissingDataset {
+            path: self.origin.clone(),
+            dataset: dataset.into(),
+        }
     }
 
     fn has(&self, path: &str) -> bool {
@@ -68,30 +78,30 @@ impl Reader {
     }
 
     /// Dataset `path`, which must exist with exactly `shape`.
-    fn shaped(&self, path: &str, shape: &[u64]) -> Result<hdf5_pure::Dataset, String> {
-        let d = self
-            .file
-            .dataset(path)
-            .map_err(|_| self.err(format!("missing dataset /{path}")))?;
+    fn shaped(&self, path: &str, shape: &[u64]) -> Result<hdf5_pure::Dataset, TelemetryError> {
+        let d = self.file.dataset(path).map_err(|_| self.missing(path))?;
         let got = d
             .shape()
             .map_err(|e| self.err(format!("/{path}: unreadable shape ({e})")))?;
         if got != shape {
-            return Err(self.err(format!(
-                "/{path} has shape {got:?}, the layout needs {shape:?} ({})",
-                l::channel(path).shape
-            )));
+            return Err(TelemetryError::Shape {
+                path: self.origin.clone(),
+                dataset: path.into(),
+                got,
+                need: shape.to_vec(),
+                layout: l::channel(path).shape.to_string(),
+            });
         }
         Ok(d)
     }
 
-    fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, String> {
+    fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, TelemetryError> {
         self.shaped(path, shape)?
             .read_f64()
             .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
     }
 
-    fn ints(&self, path: &str, n: u64) -> Result<Vec<u64>, String> {
+    fn ints(&self, path: &str, n: u64) -> Result<Vec<u64>, TelemetryError> {
         self.shaped(path, &[n])?
             .read_u64()
             .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
@@ -104,7 +114,7 @@ impl Reader {
         path: &str,
         start: u64,
         count: u64,
-    ) -> Result<Vec<f64>, String> {
+    ) -> Result<Vec<f64>, TelemetryError> {
         d.read_f64_rows(start, count)
             .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
     }
@@ -116,14 +126,14 @@ impl Reader {
         path: &str,
         start: u64,
         count: u64,
-    ) -> Result<Vec<u64>, String> {
+    ) -> Result<Vec<u64>, TelemetryError> {
         d.read_u64_rows(start, count)
             .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
     }
 }
 
 /// Open `path` and check what a replay needs (reading /time and /tick in windows).
-pub fn open(path: &Path) -> Result<Recording, String> {
+pub fn open(path: &Path) -> Result<Recording, TelemetryError> {
     let r = load(path)?;
     let c = guarded(&r, read)?;
     Ok(Recording {
@@ -139,28 +149,42 @@ pub fn open(path: &Path) -> Result<Recording, String> {
 }
 
 /// Run `f` on the file; a panic inside the HDF5 reader is reported as corruption.
-fn guarded<T>(r: &Reader, f: impl FnOnce(&Reader) -> Result<T, String>) -> Result<T, String> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(r)))
-        .map_err(|_| r.err("corrupt HDF5 file (its structure could not be decoded)"))?
+fn guarded<T>(
+    r: &Reader,
+    f: impl FnOnce(&Reader) -> Result<T, TelemetryError>,
+) -> Result<T, TelemetryError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(r))).map_err(|_| {
+        TelemetryError::CorruptStructure {
+            path: r.origin.clone(),
+        }
+    })?
 }
 
 /// Open the file (its superblock and length checked; data is read on demand).
-fn load(path: &Path) -> Result<Reader, String> {
-    std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+fn load(path: &Path) -> Result<Reader, TelemetryError> {
+    std::fs::metadata(path).map_err(|source| TelemetryError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     // The HDF5 reader is defensive, but a malformed file must never take the process
     // down with a panic trace: treat a panic as "corrupt".
     let file = std::panic::catch_unwind(|| File::open_streaming(path))
-        .map_err(|_| format!("{}: corrupt HDF5 file", path.display()))?
-        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
+        .map_err(|_| TelemetryError::Corrupt {
+            path: path.to_path_buf(),
+        })?
+        .map_err(|source| TelemetryError::NotHdf5 {
+            path: path.to_path_buf(),
+            source,
+        })?;
     // Contiguous data past the end of a truncated file would read as fill values.
     let sb = file.superblock();
     let needed = sb.base_address.get().saturating_add(sb.eof_address);
     if needed > file.file_size() {
-        return Err(format!(
-            "{}: truncated HDF5 file: it declares {needed} bytes but has {}",
-            path.display(),
-            file.file_size()
-        ));
+        return Err(TelemetryError::Truncated {
+            path: path.to_path_buf(),
+            needed,
+            size: file.file_size(),
+        });
     }
     Ok(Reader {
         file,
@@ -180,7 +204,7 @@ struct Checked {
 
 /// Check that `/time` (and `/tick`, if present) hold `n` finite, strictly increasing
 /// values, reading them a window at a time.
-fn check_increasing(r: &Reader, n: u64) -> Result<bool, String> {
+fn check_increasing(r: &Reader, n: u64) -> Result<bool, TelemetryError> {
     let rows = super::CHUNK_ROWS as u64;
     let time = r.shaped(l::TIME, &[n])?;
     let mut prev: Option<f64> = None;
@@ -219,17 +243,14 @@ fn check_increasing(r: &Reader, n: u64) -> Result<bool, String> {
     Ok(true)
 }
 
-fn read(r: &Reader) -> Result<Checked, String> {
+fn read(r: &Reader) -> Result<Checked, TelemetryError> {
     let attrs: HashMap<String, AttrValue> = r
         .file
         .root()
         .attrs()
         .map_err(|e| r.err(format!("unreadable root attributes ({e})")))?;
     let (n, t01) = {
-        let d = r
-            .file
-            .dataset(l::TIME)
-            .map_err(|_| r.err(format!("missing dataset /{}", l::TIME)))?;
+        let d = r.file.dataset(l::TIME).map_err(|_| r.missing(l::TIME))?;
         let shape = d.shape().map_err(|e| r.err(format!("/time: {e}")))?;
         if shape.len() != 1 || shape[0] == 0 {
             return Err(r.err(format!(
@@ -258,7 +279,7 @@ fn read(r: &Reader) -> Result<Checked, String> {
     }
     let two = r.has(l::IS_VOLTAGE[1]);
     if !r.has(l::IS_VOLTAGE[0]) {
-        return Err(r.err(format!("missing dataset /{}", l::IS_VOLTAGE[0])));
+        return Err(r.missing(l::IS_VOLTAGE[0]));
     }
     let scenario = match attrs.get("scenario") {
         Some(v) => {
@@ -340,14 +361,10 @@ impl Recording {
     }
 
     /// Samples `[start, start + count)`.
-    fn window(&self, start: u64, count: u64) -> Result<Vec<SensorSample>, String> {
+    fn window(&self, start: u64, count: u64) -> Result<Vec<SensorSample>, TelemetryError> {
         guarded(&self.r, |r| {
             let n_is = self.scenario.inertial_sensor.len();
-            let ds = |p: &str| {
-                r.file
-                    .dataset(p)
-                    .map_err(|_| r.err(format!("missing dataset /{p}")))
-            };
+            let ds = |p: &str| r.file.dataset(p).map_err(|_| r.missing(p));
             let ticks = if self.has_tick {
                 r.int_rows(&ds(l::TICK)?, l::TICK, start, count)?
             } else {
@@ -413,7 +430,7 @@ pub struct Samples<'a> {
 }
 
 impl Iterator for Samples<'_> {
-    type Item = Result<SensorSample, String>;
+    type Item = Result<SensorSample, TelemetryError>;
 
     fn next(&mut self) -> Option<Self::Item> {
         if let Some(s) = self.window.next() {
@@ -438,7 +455,9 @@ impl Iterator for Samples<'_> {
 }
 
 /// The fault log of a recording and how many samples of each fault were rejected.
-pub fn fault_log(path: &Path) -> Result<(Vec<crate::faults::FaultRecord>, Vec<u64>), String> {
+pub fn fault_log(
+    path: &Path,
+) -> Result<(Vec<crate::faults::FaultRecord>, Vec<u64>), TelemetryError> {
     let r = load(path)?;
     guarded(&r, |r| {
         let recs = read_faults(r)?;
@@ -452,7 +471,7 @@ pub fn fault_log(path: &Path) -> Result<(Vec<crate::faults::FaultRecord>, Vec<u6
 }
 
 /// The `/faults/*` log, if the file has one.
-fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, String> {
+fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, TelemetryError> {
     if !r.has(l::FAULT_TICK) {
         return Ok(Vec::new());
     }
@@ -488,12 +507,12 @@ fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, String> {
 
 /// Every stream of a complete recording (truth included), in memory: for figures and
 /// tests, not replay.
-pub fn full(path: &Path) -> Result<(Telemetry, Scenario), String> {
+pub fn full(path: &Path) -> Result<(Telemetry, Scenario), TelemetryError> {
     let rec = open(path)?;
     guarded(&rec.r, |r| with_truth(r, &rec))
 }
 
-fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), String> {
+fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), TelemetryError> {
     let s = rec.scenario.clone();
     let n = s.n_samples();
     let ni = s.inertial_sensor.len() as u64;
@@ -501,7 +520,7 @@ fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), Stri
         .file
         .dataset(l::EST_TIME)
         .and_then(|d| d.shape())
-        .map_err(|_| r.err(format!("missing dataset /{}", l::EST_TIME)))?
+        .map_err(|_| r.missing(l::EST_TIME))?
         .first()
         .copied()
         .unwrap_or(0);

@@ -11,7 +11,7 @@
 
 use super::h5::{self, Kind, Msg, Value};
 use super::layout as l;
-use super::{Meta, RowGate, Telemetry};
+use super::{Meta, RowGate, Telemetry, TelemetryError};
 use crate::faults::FaultRecord;
 use crate::msg::{EstimateMsg, Header, IsSample, SensorSample, StarSample, TruthState};
 use std::os::unix::fs::FileExt;
@@ -305,121 +305,19 @@ pub struct Writer {
 impl Writer {
     /// Create `path` for `n` samples of the run `meta` describes, written `chunk_rows`
     /// rows at a time ([`CHUNK_ROWS`] outside tests).
-    pub fn create(path: &Path, meta: &Meta, n: u64, chunk_rows: usize) -> Result<Self, String> {
-        let err = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+    pub fn create(
+        path: &Path,
+        meta: &Meta,
+        n: u64,
+        chunk_rows: usize,
+    ) -> Result<Self, TelemetryError> {
         let ni = meta.n_is;
         let fs = meta.sample_rate_hz;
-        let mut samples = sample_columns(ni);
-        let mut estimates = estimate_columns(ni);
-        // Estimate rows are ≥ one spacing apart, plus the first and the final one; more
-        // (a foreign estimator cadence) moves their storage to the end of the file.
-        let spacing = ((super::ESTIMATE_ROW_EVERY_S * fs).round() as u64).max(1);
-        for c in &mut samples {
-            c.capacity = n;
-        }
-        for c in &mut estimates {
-            c.capacity = n / spacing + 2;
-        }
-
+        let (mut samples, mut estimates) = sized_columns(ni, fs, n);
         // Sizes first (they do not depend on addresses), then addresses, then bytes.
-        let mut strings = Strings::default();
-        let root_attrs = root_attributes(meta, &mut strings);
-        for c in samples.iter_mut().chain(estimates.iter_mut()) {
-            c.attrs = channel_attrs(c.path, &mut strings, 0);
-        }
-        let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
-        let tree = groups(all.iter().copied());
-        let root_links = |addr: &dyn Fn(&str, usize) -> u64| -> Vec<Msg> {
-            let mut m = h5::group(&[]);
-            for (group, items) in &tree {
-                if group.is_empty() {
-                    for &(name, i) in items {
-                        m.push(h5::link(name, addr("", i)));
-                    }
-                } else {
-                    m.push(h5::link(group, addr(group, 0)));
-                }
-            }
-            m
-        };
-        let mut root_msgs = root_links(&|_, _| 0);
-        root_msgs.extend(root_attrs.iter().map(|v| h5::attribute(v.0, &v.1)));
-        let root_len = root_header(&root_msgs, None).len() as u64;
-        let mut alloc = Alloc { at: 48 };
-        let root_at = alloc.take(root_len);
-        let mut group_at = Vec::new();
-        for (group, items) in &tree {
-            if !group.is_empty() {
-                let links: Vec<(&str, u64)> = items.iter().map(|&(n, _)| (n, 0)).collect();
-                let len = h5::object_header(&h5::group(&links)).len() as u64;
-                group_at.push((*group, alloc.take(len)));
-            }
-        }
-        let mut header_at = Vec::new();
-        for c in &all {
-            header_at.push(alloc.take(c.header().len() as u64));
-        }
-        let heap = strings.heap();
-        let heap_at = alloc.take(heap.len() as u64);
-        let meta_end = alloc.at;
-        let mut data_at = Vec::new();
-        for c in &all {
-            data_at.push(alloc.take(c.capacity * c.row_bytes));
-        }
-        let eof = alloc.at;
-
-        // Now with addresses.
-        let mut strings = Strings::default();
-        let root_attrs = root_attributes(meta, &mut strings);
-        for (k, c) in samples.iter_mut().chain(estimates.iter_mut()).enumerate() {
-            c.attrs = channel_attrs(c.path, &mut strings, heap_at);
-            c.header_at = header_at[k];
-            c.data_at = data_at[k];
-            c.buf.reserve(chunk_rows * c.row_bytes as usize);
-        }
-        let mut image = vec![0u8; meta_end as usize];
-        let mut put = |at: u64, bytes: &[u8]| {
-            image[at as usize..at as usize + bytes.len()].copy_from_slice(bytes);
-        };
-        let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
-        let group_addr = |g: &str| group_at.iter().find(|(n, _)| *n == g).map_or(0, |x| x.1);
-        let mut root = root_links(&|g, i| {
-            if g.is_empty() {
-                all[i].header_at
-            } else {
-                group_addr(g)
-            }
-        });
-        root.extend(
-            root_attrs
-                .iter()
-                .map(|v| h5::attribute(v.0, &at_heap(&v.1, heap_at))),
-        );
-        put(root_at, &root_header(&root, None));
-        for (group, items) in &tree {
-            if !group.is_empty() {
-                let links: Vec<(&str, u64)> =
-                    items.iter().map(|&(n, i)| (n, all[i].header_at)).collect();
-                put(group_addr(group), &h5::object_header(&h5::group(&links)));
-            }
-        }
-        for c in &all {
-            put(c.header_at, &c.header());
-        }
-        put(heap_at, &heap);
-        put(0, &h5::superblock(eof, root_at));
-
-        // Read too: moving the estimate rows copies them.
-        let file = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .open(path)
-            .map_err(err)?;
-        file.write_all_at(&image, 0).map_err(err)?;
-        // The reserved storage reads as zeros (and takes no disk space) until written.
-        file.set_len(eof).map_err(err)?;
+        let at = place(meta, &mut samples, &mut estimates);
+        let (image, root) = metadata_image(meta, &mut samples, &mut estimates, &at, chunk_rows);
+        let file = open_file(path, &image, at.eof)?;
         Ok(Writer {
             file,
             path: path.to_path_buf(),
@@ -430,14 +328,25 @@ impl Writer {
             samples,
             estimates,
             gate: RowGate::default(),
-            root_at,
+            root_at: at.root,
             root_msgs: root,
-            eof,
+            eof: at.eof,
         })
     }
 
-    fn err(&self, e: impl std::fmt::Display) -> String {
-        format!("cannot write {}: {e}", self.path.display())
+    /// The rows handed over do not make the recording: `what`.
+    fn rows_err(&self, what: String) -> TelemetryError {
+        TelemetryError::Rows {
+            path: self.path.clone(),
+            what,
+        }
+    }
+
+    fn io_err(&self, source: std::io::Error) -> TelemetryError {
+        TelemetryError::Write {
+            path: self.path.clone(),
+            source,
+        }
     }
 
     /// Samples recorded so far (written or buffered).
@@ -446,15 +355,15 @@ impl Writer {
     }
 
     /// Record one tick: the plant's truth and the front-end's sample of it.
-    pub fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), String> {
+    pub fn record(&mut self, t: &TruthState, s: &SensorSample) -> Result<(), TelemetryError> {
         if t.header.tick != s.header.tick {
-            return Err(self.err(format!(
+            return Err(self.rows_err(format!(
                 "truth of tick {} recorded with the sample of tick {}",
                 t.header.tick, s.header.tick
             )));
         }
         if self.samples() >= self.n {
-            return Err(self.err(format!(
+            return Err(self.rows_err(format!(
                 "more than the scenario's {} samples recorded",
                 self.n
             )));
@@ -470,7 +379,7 @@ impl Writer {
     }
 
     /// Record `e` if a row is due (see [`RowGate`]).
-    pub fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+    pub fn record_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError> {
         if self.gate.due(e, self.fs) {
             self.push_estimate(e)?;
         }
@@ -478,7 +387,7 @@ impl Writer {
     }
 
     /// Append an estimate row.
-    fn push_estimate(&mut self, e: &EstimateMsg) -> Result<(), String> {
+    fn push_estimate(&mut self, e: &EstimateMsg) -> Result<(), TelemetryError> {
         let (fs, ni) = (self.fs, self.n_is);
         for c in &mut self.estimates {
             c.put_estimate(e, fs, ni);
@@ -490,14 +399,17 @@ impl Writer {
     }
 
     /// Write the buffered rows, then publish them in the datasets' headers.
-    pub fn flush(&mut self) -> Result<(), String> {
+    pub fn flush(&mut self) -> Result<(), TelemetryError> {
         let need = self.estimates[0].rows + self.estimates[0].pending();
         if need > self.estimates[0].capacity {
             self.grow_estimates(need)?;
         }
         let file = &self.file;
         let path = &self.path;
-        let err = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+        let err = |source| TelemetryError::Write {
+            path: path.clone(),
+            source,
+        };
         let cols = || self.samples.iter().chain(self.estimates.iter());
         for c in cols().filter(|c| !c.buf.is_empty()) {
             file.write_all_at(&c.buf, c.data_at + c.rows * c.row_bytes)
@@ -515,7 +427,7 @@ impl Writer {
 
     /// Move the estimate columns' storage to the end of the file, with room for
     /// `rows` rows at least.
-    fn grow_estimates(&mut self, rows: u64) -> Result<(), String> {
+    fn grow_estimates(&mut self, rows: u64) -> Result<(), TelemetryError> {
         let cap = rows.max(2 * self.estimates[0].capacity);
         let mut chunk = vec![0u8; 1 << 20];
         for k in 0..self.estimates.len() {
@@ -527,10 +439,10 @@ impl Writer {
                 let n = (used - done).min(chunk.len() as u64) as usize;
                 self.file
                     .read_exact_at(&mut chunk[..n], c.data_at + done)
-                    .map_err(|e| self.err(e))?;
+                    .map_err(|e| self.io_err(e))?;
                 self.file
                     .write_all_at(&chunk[..n], at + done)
-                    .map_err(|e| self.err(e))?;
+                    .map_err(|e| self.io_err(e))?;
                 done += n as u64;
             }
             self.eof = align8(at + cap * c.row_bytes);
@@ -538,30 +450,34 @@ impl Writer {
             c.data_at = at;
             c.capacity = cap;
         }
-        self.file.set_len(self.eof).map_err(|e| self.err(e))?;
+        self.file.set_len(self.eof).map_err(|e| self.io_err(e))?;
         // The headers point to the new storage once the pending rows are published;
         // until then they still name the old one, intact.
         self.file
             .write_all_at(&h5::superblock(self.eof, self.root_at), 0)
-            .map_err(|e| self.err(e))
+            .map_err(|e| self.io_err(e))
     }
 
     /// Write what is buffered and the fault log (`[faults]` runs), and close the file.
     /// Fewer samples than the scenario's is an error, after they are written.
-    pub fn finish(mut self, faults: &[FaultRecord], detected: &[u64]) -> Result<(), String> {
+    pub fn finish(
+        mut self,
+        faults: &[FaultRecord],
+        detected: &[u64],
+    ) -> Result<(), TelemetryError> {
         self.flush()?;
         if !faults.is_empty() {
             self.write_faults(faults, detected)?;
         }
         let got = self.samples[0].rows;
         if got != self.n {
-            return Err(self.err(format!("incomplete recording: {got} of {} samples", self.n)));
+            return Err(self.rows_err(format!("incomplete recording: {got} of {} samples", self.n)));
         }
         Ok(())
     }
 
     /// The `/faults` group, at the end of the file, then linked from the root.
-    fn write_faults(&mut self, f: &[FaultRecord], detected: &[u64]) -> Result<(), String> {
+    fn write_faults(&mut self, f: &[FaultRecord], detected: &[u64]) -> Result<(), TelemetryError> {
         let nf = f.len();
         let u = |g: &dyn Fn(&FaultRecord) -> u64| -> Vec<u8> {
             f.iter().flat_map(|r| g(r).to_le_bytes()).collect()
@@ -626,7 +542,11 @@ impl Writer {
             put(data_at[k], &c.2);
         }
         put(heap_at, &heap);
-        let err = |e: std::io::Error| format!("cannot write {}: {e}", self.path.display());
+        let path = self.path.clone();
+        let err = |source| TelemetryError::Write {
+            path: path.clone(),
+            source,
+        };
         self.file.write_all_at(&image, base).map_err(err)?;
         self.eof = eof;
         self.file.set_len(eof).map_err(err)?;
@@ -638,6 +558,176 @@ impl Writer {
         self.file.write_all_at(&root, self.root_at).map_err(err)?;
         Ok(())
     }
+}
+
+/// The datasets of a file grouped as the layout's paths say (see [`groups`]).
+type Tree = Vec<(&'static str, Vec<(&'static str, usize)>)>;
+
+/// The sample and estimate columns of a file for `n` samples of `ni` sensors at `fs`
+/// [Hz], with their capacities.
+fn sized_columns(ni: usize, fs: f64, n: u64) -> (Vec<Column>, Vec<Column>) {
+    let mut samples = sample_columns(ni);
+    let mut estimates = estimate_columns(ni);
+    // Estimate rows are ≥ one spacing apart, plus the first and the final one; more
+    // (a foreign estimator cadence) moves their storage to the end of the file.
+    let spacing = ((super::ESTIMATE_ROW_EVERY_S * fs).round() as u64).max(1);
+    for c in &mut samples {
+        c.capacity = n;
+    }
+    for c in &mut estimates {
+        c.capacity = n / spacing + 2;
+    }
+    (samples, estimates)
+}
+
+/// The root's links: to each top-level dataset and each group, at `addr(group, column)`.
+fn root_links(tree: &Tree, addr: &dyn Fn(&str, usize) -> u64) -> Vec<Msg> {
+    let mut m = h5::group(&[]);
+    for (group, items) in tree {
+        if group.is_empty() {
+            for &(name, i) in items {
+                m.push(h5::link(name, addr("", i)));
+            }
+        } else {
+            m.push(h5::link(group, addr(group, 0)));
+        }
+    }
+    m
+}
+
+/// Where every object of a new file goes.
+struct Placement {
+    root: u64,
+    /// Each group's header.
+    groups: Vec<(&'static str, u64)>,
+    /// Each column's header and storage, samples then estimates.
+    headers: Vec<u64>,
+    data: Vec<u64>,
+    heap: u64,
+    /// The global heap's bytes (the strings of every attribute).
+    heap_bytes: Vec<u8>,
+    /// The end of the metadata (headers and heap).
+    meta_end: u64,
+    eof: u64,
+}
+
+/// The first pass: the objects' sizes (which do not depend on addresses), hence their
+/// addresses.
+fn place(meta: &Meta, samples: &mut [Column], estimates: &mut [Column]) -> Placement {
+    let mut strings = Strings::default();
+    let root_attrs = root_attributes(meta, &mut strings);
+    for c in samples.iter_mut().chain(estimates.iter_mut()) {
+        c.attrs = channel_attrs(c.path, &mut strings, 0);
+    }
+    let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
+    let tree = groups(all.iter().copied());
+    let mut root_msgs = root_links(&tree, &|_, _| 0);
+    root_msgs.extend(root_attrs.iter().map(|v| h5::attribute(v.0, &v.1)));
+    let root_len = root_header(&root_msgs, None).len() as u64;
+    let mut alloc = Alloc { at: 48 };
+    let root = alloc.take(root_len);
+    let mut group_at = Vec::new();
+    for (group, items) in &tree {
+        if !group.is_empty() {
+            let links: Vec<(&str, u64)> = items.iter().map(|&(n, _)| (n, 0)).collect();
+            let len = h5::object_header(&h5::group(&links)).len() as u64;
+            group_at.push((*group, alloc.take(len)));
+        }
+    }
+    let mut header_at = Vec::new();
+    for c in &all {
+        header_at.push(alloc.take(c.header().len() as u64));
+    }
+    let heap = strings.heap();
+    let heap_at = alloc.take(heap.len() as u64);
+    let meta_end = alloc.at;
+    let mut data_at = Vec::new();
+    for c in &all {
+        data_at.push(alloc.take(c.capacity * c.row_bytes));
+    }
+    Placement {
+        root,
+        groups: group_at,
+        headers: header_at,
+        data: data_at,
+        heap: heap_at,
+        heap_bytes: heap,
+        meta_end,
+        eof: alloc.at,
+    }
+}
+
+/// The second pass: the metadata's bytes (superblock, headers, heap) at the addresses
+/// of `at`, the columns given theirs; and the root's messages.
+fn metadata_image(
+    meta: &Meta,
+    samples: &mut [Column],
+    estimates: &mut [Column],
+    at: &Placement,
+    chunk_rows: usize,
+) -> (Vec<u8>, Vec<Msg>) {
+    let heap_at = at.heap;
+    let mut strings = Strings::default();
+    let root_attrs = root_attributes(meta, &mut strings);
+    for (k, c) in samples.iter_mut().chain(estimates.iter_mut()).enumerate() {
+        c.attrs = channel_attrs(c.path, &mut strings, heap_at);
+        c.header_at = at.headers[k];
+        c.data_at = at.data[k];
+        c.buf.reserve(chunk_rows * c.row_bytes as usize);
+    }
+    let mut image = vec![0u8; at.meta_end as usize];
+    let mut put = |addr: u64, bytes: &[u8]| {
+        image[addr as usize..addr as usize + bytes.len()].copy_from_slice(bytes);
+    };
+    let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
+    let tree = groups(all.iter().copied());
+    let group_addr = |g: &str| at.groups.iter().find(|(n, _)| *n == g).map_or(0, |x| x.1);
+    let mut root = root_links(&tree, &|g, i| {
+        if g.is_empty() {
+            all[i].header_at
+        } else {
+            group_addr(g)
+        }
+    });
+    root.extend(
+        root_attrs
+            .iter()
+            .map(|v| h5::attribute(v.0, &at_heap(&v.1, heap_at))),
+    );
+    put(at.root, &root_header(&root, None));
+    for (group, items) in &tree {
+        if !group.is_empty() {
+            let links: Vec<(&str, u64)> =
+                items.iter().map(|&(n, i)| (n, all[i].header_at)).collect();
+            put(group_addr(group), &h5::object_header(&h5::group(&links)));
+        }
+    }
+    for c in &all {
+        put(c.header_at, &c.header());
+    }
+    put(heap_at, &at.heap_bytes);
+    put(0, &h5::superblock(at.eof, at.root));
+    (image, root)
+}
+
+/// Create `path` holding `image`, `eof` bytes long.
+fn open_file(path: &Path, image: &[u8], eof: u64) -> Result<std::fs::File, TelemetryError> {
+    let err = |source| TelemetryError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    // Read too: moving the estimate rows copies them.
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(path)
+        .map_err(err)?;
+    file.write_all_at(image, 0).map_err(err)?;
+    // The reserved storage reads as zeros (and takes no disk space) until written.
+    file.set_len(eof).map_err(err)?;
+    Ok(file)
 }
 
 fn name_of(path: &'static str) -> &'static str {
@@ -683,14 +773,13 @@ fn root_attributes(meta: &Meta, strings: &mut Strings) -> Vec<(&'static str, Val
 }
 
 /// Write a recording held in memory. Every truth and sensor row must be present.
-pub(super) fn write(t: &Telemetry, path: &Path, meta: &Meta) -> Result<(), String> {
+pub(super) fn write(t: &Telemetry, path: &Path, meta: &Meta) -> Result<(), TelemetryError> {
     let n = t.truth_tick.len();
     if t.sensor_tick.len() != n || t.truth_tick != t.sensor_tick {
-        return Err(format!(
-            "telemetry incomplete: {} truth rows and {} sensor rows of different ticks",
-            n,
-            t.sensor_tick.len()
-        ));
+        return Err(TelemetryError::Incomplete {
+            truth_rows: n,
+            sensor_rows: t.sensor_tick.len(),
+        });
     }
     let mut w = Writer::create(path, meta, n as u64, CHUNK_ROWS)?;
     let ni = t.n_is;
