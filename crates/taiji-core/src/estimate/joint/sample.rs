@@ -47,45 +47,10 @@ impl JointEstimator {
         let (mut ok, mut axis_ok) = self.is_checks(s);
         // Per axis: did both IS pass the cross test (the pair then enters the
         // angular-consistency group and the ratio fit)?
-        let mut pair = [false; 3];
-        if n == 2 {
-            let (d0, d1) = (s.is[0].angular_volts(), s.is[1].angular_volts());
-            let tested: [bool; 3] = core::array::from_fn(|a| axis_ok[0][a] && axis_ok[1][a]);
-            pair = self.angular_consistent(&d0, &d1, &tested);
-            if (0..3).any(|a| tested[a] && !pair[a]) {
-                // One of them is corrupted, its linear data too: the sample's linear
-                // data are not used. The attitude must still be propagated, and bridging
-                // with the previous ω̇ would cost far more than either IS: on the failed
-                // axis, keep the one nearer the previous ω̇.
-                self.reject(CAUSE_ANGULAR_MISMATCH);
-                ok = [false; 2];
-                let sums = [s.is[0].linear_volts(), s.is[1].linear_volts()];
-                // A plain range (not `filter`): the index bound stays visible, no check is linked.
-                for a in 0..3 {
-                    if !tested[a] || pair[a] {
-                        continue;
-                    }
-                    let t = self.trusted_is(a, [&d0, &d1], [&sums[0], &sums[1]]);
-                    axis_ok[0][a] = t[0];
-                    axis_ok[1][a] = t[1];
-                    // Should the kept IS be the corrupted one, the propagated rate is off
-                    // by dt times the mismatch from here on: the drift filter must allow
-                    // that step of its rate, or it would smear the ramp over the maneuver.
-                    let c = &self.cfg;
-                    let step = (c.beta_prior[0][a] * d0[a] - c.beta_prior[1][a] * d1[a]) / c.fs;
-                    if step.is_finite() {
-                        self.drift_p[a][2][2] += step * step;
-                    }
-                }
-            }
-            // A plain range (not `filter`): the index bound stays visible, no check is linked.
-            for a in 0..3 {
-                if !(pair[a]) {
-                    continue;
-                }
-                self.ratio[a].add(d0[a], d1[a]);
-            }
-        }
+        let pair = match n {
+            2 => self.cross_check(s, &mut ok, &mut axis_ok),
+            _ => [false; 3],
+        };
         let data = [is_data(&s.is[0]), is_data(&s.is[1])];
         let all_valid = (0..n).all(|i| ok[i]);
         if self.started == 0 {
@@ -151,9 +116,68 @@ impl JointEstimator {
             self.n_rejected += 1;
             self.whitening_time_update();
         }
+        self.add_angular_pairs(&pair, &dv);
+        self.end_bridges(&n_ang, &dv);
+        self.star_time_update(&dv, &n_ang);
+        let kappa = self.kappa();
+        self.update_star(s, &kappa, t);
+        self.tick_done(tick);
+    }
+
+    /// The two IS's cross test per axis (both IS present): returns which axes passed
+    /// with both (the pair then enters the angular-consistency group and the ratio
+    /// fit); on a mismatch the sample's linear data are refused (`ok`) and the IS to
+    /// keep is chosen per failed axis (`axis_ok`).
+    fn cross_check(
+        &mut self,
+        s: &SensorSample,
+        ok: &mut [bool; 2],
+        axis_ok: &mut [[bool; 3]; 2],
+    ) -> [bool; 3] {
+        let (d0, d1) = (s.is[0].angular_volts(), s.is[1].angular_volts());
+        let tested: [bool; 3] = core::array::from_fn(|a| axis_ok[0][a] && axis_ok[1][a]);
+        let pair = self.angular_consistent(&d0, &d1, &tested);
+        if (0..3).any(|a| tested[a] && !pair[a]) {
+            // One of them is corrupted, its linear data too: the sample's linear
+            // data are not used. The attitude must still be propagated, and bridging
+            // with the previous ω̇ would cost far more than either IS: on the failed
+            // axis, keep the one nearer the previous ω̇.
+            self.reject(CAUSE_ANGULAR_MISMATCH);
+            *ok = [false; 2];
+            let sums = [s.is[0].linear_volts(), s.is[1].linear_volts()];
+            // A plain range (not `filter`): the index bound stays visible, no check is linked.
+            for a in 0..3 {
+                if !tested[a] || pair[a] {
+                    continue;
+                }
+                let t = self.trusted_is(a, [&d0, &d1], [&sums[0], &sums[1]]);
+                axis_ok[0][a] = t[0];
+                axis_ok[1][a] = t[1];
+                // Should the kept IS be the corrupted one, the propagated rate is off
+                // by dt times the mismatch from here on: the drift filter must allow
+                // that step of its rate, or it would smear the ramp over the maneuver.
+                let c = &self.cfg;
+                let step = (c.beta_prior[0][a] * d0[a] - c.beta_prior[1][a] * d1[a]) / c.fs;
+                if step.is_finite() {
+                    self.drift_p[a][2][2] += step * step;
+                }
+            }
+        }
         // A plain range (not `filter`): the index bound stays visible, no check is linked.
         for a in 0..3 {
-            if !(pair[a]) {
+            if !pair[a] {
+                continue;
+            }
+            self.ratio[a].add(d0[a], d1[a]);
+        }
+        pair
+    }
+
+    /// The angular-consistency group: the pair's voltages of every axis both IS passed.
+    fn add_angular_pairs(&mut self, pair: &[bool; 3], dv: &[[f64; 3]; 2]) {
+        // A plain range (not `filter`): the index bound stays visible, no check is linked.
+        for a in 0..3 {
+            if !pair[a] {
                 continue;
             }
             // Residual ΔV1 − (β2/β1) ΔV2 [V], weighted with its noise at the priors
@@ -166,6 +190,11 @@ impl JointEstimator {
             let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
             rank1_upper(&mut self.m_ang[a], &v, 1.0 / var);
         }
+    }
+
+    /// Per axis: a bridge starts or runs on when no IS's angular data were used, and
+    /// ends (closed against the data) when some were.
+    fn end_bridges(&mut self, n_ang: &[usize; 3], dv: &[[f64; 3]; 2]) {
         if n_ang.contains(&0) {
             self.n_bridged += 1;
         }
@@ -174,13 +203,9 @@ impl JointEstimator {
                 self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
                 self.drift_bridged(a);
             } else {
-                self.close_bridge(a, &dv);
+                self.close_bridge(a, dv);
             }
         }
-        self.star_time_update(&dv, &n_ang);
-        let kappa = self.kappa();
-        self.update_star(s, &kappa, t);
-        self.tick_done(tick);
     }
 
     /// The SRP in IS1's channels against the reference sample [V], inertial: the
