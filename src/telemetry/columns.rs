@@ -1,0 +1,200 @@
+//! The datasets of `telemetry.h5` as the writer fills them: one column per dataset,
+//! where its values come from in the messages, its place in the file, and its rows
+//! published and buffered (`write.rs` lays the columns out and streams them).
+
+use super::h5::{self, Kind, Msg};
+use super::layout as l;
+use crate::msg::{EstimateMsg, SensorSample, TruthState};
+
+/// Where a column's values come from.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Src {
+    Time,
+    Tick,
+    TorqueCmd,
+    Torque,
+    Attitude,
+    Omega,
+    OmegaDot,
+    TmAcc,
+    SrpAcc,
+    StarQ,
+    StarValid,
+    Volts(usize),
+    Flags(usize),
+    EstTime,
+    EstTick,
+    Beta,
+    BetaSigma,
+    K,
+    KSigma,
+    R,
+    RSigma,
+    NUsed,
+    NRejected,
+    Final,
+    Status,
+    ByCause,
+    Chi2,
+}
+
+/// One dataset: its place in the file, its published rows and its buffered ones.
+pub(super) struct Column {
+    pub(super) path: &'static str,
+    pub(super) kind: Kind,
+    pub(super) src: Src,
+    /// Dimensions after the first.
+    pub(super) row_shape: Vec<u64>,
+    pub(super) row_bytes: u64,
+    pub(super) attrs: Vec<Msg>,
+    pub(super) header_at: u64,
+    pub(super) data_at: u64,
+    pub(super) capacity: u64,
+    /// Rows in the file (its header says so).
+    pub(super) rows: u64,
+    /// Rows not yet written, little-endian.
+    pub(super) buf: Vec<u8>,
+}
+
+impl Column {
+    pub(super) fn new(path: &'static str, kind: Kind, src: Src, row_shape: &[usize]) -> Self {
+        let row_shape: Vec<u64> = row_shape.iter().map(|&n| n as u64).collect();
+        Column {
+            path,
+            kind,
+            src,
+            row_bytes: row_shape.iter().product::<u64>() * kind.size() as u64,
+            row_shape,
+            attrs: Vec::new(),
+            header_at: 0,
+            data_at: 0,
+            capacity: 0,
+            rows: 0,
+            buf: Vec::new(),
+        }
+    }
+
+    pub(super) fn header(&self) -> Vec<u8> {
+        let mut dims = vec![self.rows];
+        dims.extend(&self.row_shape);
+        h5::object_header(&h5::dataset(self.kind, &dims, self.data_at, &self.attrs))
+    }
+
+    pub(super) fn pending(&self) -> u64 {
+        self.buf.len() as u64 / self.row_bytes
+    }
+
+    pub(super) fn f64s(&mut self, v: &[f64]) {
+        for x in v {
+            self.buf.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+
+    pub(super) fn u64s(&mut self, v: &[u64]) {
+        for x in v {
+            self.buf.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+
+    pub(super) fn put_sample(&mut self, t: &TruthState, s: &SensorSample, fs: f64, ni: usize) {
+        match self.src {
+            Src::Time => self.f64s(&[(t.header.tick + 1) as f64 / fs]),
+            Src::Tick => self.u64s(&[t.header.tick]),
+            Src::TorqueCmd => self.f64s(&t.torque_cmd_b),
+            Src::Torque => self.f64s(&t.torque_b),
+            Src::Attitude => self.f64s(&t.q_bn),
+            Src::Omega => self.f64s(&t.omega_b),
+            Src::OmegaDot => self.f64s(&t.omega_dot_b),
+            Src::TmAcc => {
+                for a in &t.a_tm_b[..ni] {
+                    self.f64s(a);
+                }
+            }
+            Src::SrpAcc => self.f64s(&t.a_srp_b),
+            Src::StarQ => self.f64s(&s.star.q_bn),
+            Src::StarValid => self.buf.push(s.star.valid),
+            Src::Volts(i) => {
+                for v in &s.is[i].volts {
+                    self.f64s(v);
+                }
+            }
+            Src::Flags(i) => self.buf.push(s.is[i].flags),
+            _ => unreachable!("{} is not a sample column", self.path),
+        }
+    }
+
+    pub(super) fn put_estimate(&mut self, e: &EstimateMsg, fs: f64, ni: usize) {
+        let per_is = |c: &mut Self, v: &[[f64; 3]; 2]| {
+            for x in &v[..ni] {
+                c.f64s(x);
+            }
+        };
+        match self.src {
+            Src::EstTime => self.f64s(&[(e.header.tick + 1) as f64 / fs]),
+            Src::EstTick => self.u64s(&[e.solved_tick]),
+            Src::Beta => per_is(self, &e.beta),
+            Src::BetaSigma => per_is(self, &e.beta_sigma),
+            Src::K => per_is(self, &e.k),
+            Src::KSigma => per_is(self, &e.k_sigma),
+            Src::R => per_is(self, &e.r_b),
+            Src::RSigma => per_is(self, &e.r_sigma),
+            Src::NUsed => self.u64s(&[e.n_used]),
+            Src::NRejected => self.u64s(&[e.n_rejected]),
+            Src::Final => self
+                .buf
+                .push(u8::from(e.flags & crate::msg::EST_FINAL != 0)),
+            Src::Status => self.u64s(&[e.status]),
+            Src::ByCause => self.u64s(&e.rejected_by_cause),
+            Src::Chi2 => self.f64s(&e.chi2_per_dof),
+            _ => unreachable!("{} is not an estimate column", self.path),
+        }
+    }
+}
+
+pub(super) fn sample_columns(ni: usize) -> Vec<Column> {
+    use Kind::*;
+    let mut c = vec![
+        Column::new(l::TIME, F64, Src::Time, &[]),
+        Column::new(l::TICK, U64, Src::Tick, &[]),
+        Column::new(l::TORQUE_CMD, F64, Src::TorqueCmd, &[3]),
+        Column::new(l::TORQUE, F64, Src::Torque, &[3]),
+        Column::new(l::ATTITUDE, F64, Src::Attitude, &[4]),
+        Column::new(l::OMEGA, F64, Src::Omega, &[3]),
+        Column::new(l::OMEGA_DOT, F64, Src::OmegaDot, &[3]),
+        Column::new(l::TM_ACC, F64, Src::TmAcc, &[ni, 3]),
+        Column::new(l::SRP_ACC, F64, Src::SrpAcc, &[3]),
+        Column::new(l::STAR_Q, F64, Src::StarQ, &[4]),
+        Column::new(l::STAR_VALID, U8, Src::StarValid, &[]),
+    ];
+    for i in 0..ni {
+        c.push(Column::new(l::IS_VOLTAGE[i], F64, Src::Volts(i), &[3, 2]));
+        c.push(Column::new(l::IS_FLAGS[i], U8, Src::Flags(i), &[]));
+    }
+    c
+}
+
+pub(super) fn estimate_columns(ni: usize) -> Vec<Column> {
+    use Kind::*;
+    vec![
+        Column::new(l::EST_TIME, F64, Src::EstTime, &[]),
+        Column::new(l::EST_TICK, U64, Src::EstTick, &[]),
+        Column::new(l::EST_BETA, F64, Src::Beta, &[ni, 3]),
+        Column::new(l::EST_BETA_SIGMA, F64, Src::BetaSigma, &[ni, 3]),
+        Column::new(l::EST_K, F64, Src::K, &[ni, 3]),
+        Column::new(l::EST_K_SIGMA, F64, Src::KSigma, &[ni, 3]),
+        Column::new(l::EST_R, F64, Src::R, &[ni, 3]),
+        Column::new(l::EST_R_SIGMA, F64, Src::RSigma, &[ni, 3]),
+        Column::new(l::EST_N_USED, U64, Src::NUsed, &[]),
+        Column::new(l::EST_N_REJECTED, U64, Src::NRejected, &[]),
+        Column::new(l::EST_FINAL, U8, Src::Final, &[]),
+        Column::new(l::EST_STATUS, U64, Src::Status, &[]),
+        Column::new(
+            l::EST_REJECTED_BY_CAUSE,
+            U64,
+            Src::ByCause,
+            &[crate::msg::N_CAUSES],
+        ),
+        Column::new(l::EST_CHI2, F64, Src::Chi2, &[crate::msg::N_GROUPS]),
+    ]
+}
+
