@@ -416,15 +416,15 @@ pub unsafe extern "C" fn taiji_estimator_restore(
         st.magic = 0;
         // SAFETY: non-null, `len` readable bytes.
         let bytes = unsafe { core::slice::from_raw_parts(buf, len) };
-        let est = snapshot::read(bytes).map_err(|e| match e {
+        // In place: the state is read straight into `mem` (no 64 kB value on the stack).
+        snapshot::read_into(bytes, &mut st.est).map_err(|e| match e {
             snapshot::SnapshotError::TooSmall => TAIJI_ERR_SIZE,
             snapshot::SnapshotError::Version => TAIJI_ERR_VERSION,
             _ => TAIJI_ERR_CHECKPOINT,
         })?;
-        if bytemuck::bytes_of(est.config()) != bytemuck::bytes_of(&cfg) {
+        if bytemuck::bytes_of(st.est.config()) != bytemuck::bytes_of(&cfg) {
             return Err(TAIJI_ERR_CONFIG);
         }
-        st.est = est;
         st.finished = 0;
         st.final_msg = EstimateMsg::default();
         reseal(st);

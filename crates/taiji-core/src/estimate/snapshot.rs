@@ -68,6 +68,15 @@ pub fn write(est: &JointEstimator, buf: &mut [u8]) -> Result<usize, SnapshotErro
 
 /// Reads a checkpoint written by `write` (the buffer needs no alignment).
 pub fn read(buf: &[u8]) -> Result<JointEstimator, SnapshotError> {
+    let mut est = <JointEstimator as bytemuck::Zeroable>::zeroed();
+    read_into(buf, &mut est)?;
+    Ok(est)
+}
+
+/// `read` into `dst` in place (the C ABI's caller-owned memory: no 64 kB value on the
+/// stack). On an error `dst` may hold part of the checkpoint; the caller treats it as
+/// uninitialised.
+pub fn read_into(buf: &[u8], dst: &mut JointEstimator) -> Result<(), SnapshotError> {
     if buf.len() < HEADER {
         return Err(SnapshotError::TooSmall);
     }
@@ -85,9 +94,9 @@ pub fn read(buf: &[u8]) -> Result<JointEstimator, SnapshotError> {
     if word(buf, 3) != fnv1a(state) {
         return Err(SnapshotError::Corrupt);
     }
-    let est: JointEstimator = bytemuck::pod_read_unaligned(state);
-    if !est.is_sane() {
+    bytemuck::bytes_of_mut(dst).copy_from_slice(state);
+    if !dst.is_sane() {
         return Err(SnapshotError::Invalid);
     }
-    Ok(est)
+    Ok(())
 }

@@ -202,7 +202,17 @@ const RANGE_MARGIN: f64 = 1.25;
 const CHI2_MIN_DOF: f64 = 2000.0;
 impl JointEstimator {
     pub fn new(cfg: EstimatorConfig) -> Self {
-        let bank = PowerLawBank::new(cfg.srp_asd_at_3mhz, 3e-3, 2.0 / 3.0, cfg.fs);
+        let mut e = <Self as bytemuck::Zeroable>::zeroed();
+        Self::init_in_place(&mut e, cfg);
+        e
+    }
+
+    /// Builds the estimator in place (the C ABI's caller-owned memory): zeroed, then
+    /// every field that does not start at zero set, so no 64 kB value is built on the
+    /// stack of `taiji_estimator_init`. Whatever the memory held before, the same bytes
+    /// result (a unit test).
+    pub fn init_in_place(dst: &mut Self, cfg: EstimatorConfig) {
+        bytemuck::bytes_of_mut(dst).fill(0);
         let mut p = Par::zeros();
         let mut ps = Par::zeros();
         for i in 0..2 {
@@ -219,76 +229,24 @@ impl JointEstimator {
             ps[P_TH0 + a] = PRIOR_THETA0_RAD;
             ps[P_THD + a] = PRIOR_THETA_RATE_RAD_S;
         }
-        let mut wp = SMatrix::zeros();
-        for k in 0..bank.poles() {
-            wp[(k, k)] = bank.var[k];
+        dst.bank = PowerLawBank::new(cfg.srp_asd_at_3mhz, 3e-3, 2.0 / 3.0, cfg.fs);
+        for k in 0..dst.bank.poles() {
+            dst.wp[(k, k)] = dst.bank.var[k];
         }
-        JointEstimator {
-            cfg,
-            started: 0,
-            next_tick: 0,
-            n_ticks: 0,
-            jump_candidate: [0; 2],
-            sum_ref: [[0.0; 3]; 2],
-            q_ref: UnitQuaternion::identity(),
-            q_ref_set: 0,
-            psi: [[0.0; 3]; 2],
-            phi: [[0.0; 3]; 2],
-            dv_last: [[0.0; 3]; 2],
-            q_model: UnitQuaternion::identity(),
-            phi_hat: [0.0; 3],
-            m_star: [SMatrix::zeros(); 3],
-            st_x: [[[0.0; 2]; 5]; 3],
-            st_p: [[[0.0; 2]; 2]; 3],
-            m_ang: [SMatrix::zeros(); 3],
-            m_raw: [Gram::zeros(); N_REG],
-            m_filt: Gram::zeros(),
-            bank,
-            wp,
-            wx: [[0.0; MAX_POLES]; NS],
-            hn: 0.0,
-            t_u: SVector::zeros(),
-            p,
-            p_prior: p,
-            p_sigma: ps,
-            sigma: ps,
-            solved_tick: 0,
-            solve_due: [0; 2],
-            n_used: 0,
-            n_rejected: 0,
-            seq: 0,
-            n_star: 0,
-            causes: [0; N_CAUSES],
-            tick_mask: 0,
-            status: ST_NO_SOLUTION,
-            chi2: [0.0; N_GROUPS],
-            group_weight: [1.0; N_GROUPS],
-            inflation: 1.0,
-            stuck: [Stuck::default(); 2],
-            ratio: [RatioFit::default(); 3],
-            jerk_var: [0.0; 3],
-            bridge_run: [0; 3],
-            n_bridged: 0,
-            dv_anchor: [[0.0; 3]; 2],
-            drift_x: [[0.0; 4]; 3],
-            drift_p: core::array::from_fn(|a| {
-                let mut p = [[0.0; 4]; 4];
-                p[0][0] = PRIOR_THETA0_VAR_RAD2;
-                p[3][3] = (PRIOR_BETA_REL * cfg.beta_prior[0][a]).powi(2);
-                p
-            }),
-            gate_c: SMatrix::zeros(),
-            gate_w: SMatrix::zeros(),
-            gate_s: Sig::zeros(),
-            lin_track: [Track::default(); 6],
-            lone_track: [Track::default(); 6],
-            star_track: [Track::default(); 3],
+        dst.cfg = cfg;
+        dst.q_ref = UnitQuaternion::identity();
+        dst.q_model = UnitQuaternion::identity();
+        dst.p = p;
+        dst.p_prior = p;
+        dst.p_sigma = ps;
+        dst.sigma = ps;
+        dst.status = ST_NO_SOLUTION;
+        dst.group_weight = [1.0; N_GROUPS];
+        dst.inflation = 1.0;
+        for (a, d) in dst.drift_p.iter_mut().enumerate() {
+            d[0][0] = PRIOR_THETA0_VAR_RAD2;
+            d[3][3] = (PRIOR_BETA_REL * cfg.beta_prior[0][a]).powi(2);
         }
-    }
-
-    /// Builds the estimator in place (the C ABI's caller-owned memory).
-    pub fn init_in_place(dst: &mut Self, cfg: EstimatorConfig) {
-        *dst = Self::new(cfg);
     }
 
     /// Could this state have come from `new` and `update`s? Its table passes its
@@ -512,6 +470,23 @@ pub(super) fn test_config() -> EstimatorConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn init_in_place_gives_the_same_bytes_whatever_the_memory_held() {
+        let cfg = test_config();
+        let mut a = <JointEstimator as bytemuck::Zeroable>::zeroed();
+        let mut b = a;
+        bytemuck::bytes_of_mut(&mut b).fill(0xA5);
+        JointEstimator::init_in_place(&mut a, cfg);
+        JointEstimator::init_in_place(&mut b, cfg);
+        assert_eq!(bytemuck::bytes_of(&a), bytemuck::bytes_of(&b));
+        assert!(a.is_sane());
+        assert_eq!(a.p[P_BETA], cfg.beta_prior[0][0]);
+        assert_eq!(a.p_prior, a.p);
+        assert_eq!(a.status, ST_NO_SOLUTION);
+        assert_eq!(a.drift_p[2][0][0], PRIOR_THETA0_VAR_RAD2);
+        assert_eq!(a.wp[(0, 0)], a.bank.var[0]);
+    }
 
     fn quiet(tick: u64) -> SensorSample {
         let mut s = SensorSample::default();
