@@ -414,3 +414,103 @@ pub enum SetError {
         checkpoint: PathBuf,
     },
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::process::hosts::HostError;
+    use std::os::unix::process::ExitStatusExt;
+
+    /// The typed errors print what the `format!` strings they replaced printed.
+    #[test]
+    fn messages_are_those_of_the_string_errors_they_replaced() {
+        let ended = Ended {
+            name: "taiji-plant".into(),
+            status: std::process::ExitStatus::from_raw(256),
+            restart: Restart::OnFailure,
+            max_restarts: 3,
+        };
+        assert_eq!(
+            SetError::Stopped(ended).to_string(),
+            "taiji-plant died (exit status 1); taiji-plant exhausted its 3 restarts; stopping the set"
+        );
+        let never = Ended {
+            name: "taiji-fee".into(),
+            status: std::process::ExitStatus::from_raw(9),
+            restart: Restart::Never,
+            max_restarts: 0,
+        };
+        assert_eq!(
+            SetError::HostStopped {
+                host: "sim".into(),
+                ended: never
+            }
+            .to_string(),
+            "host sim: taiji-fee died (signal 9); taiji-fee is not restartable (restart = \"never\" in the launch description); stopping host sim's processes"
+        );
+        let kept = SetError::CheckpointKept {
+            error: Box::new(SetError::Stalled {
+                heartbeat_s: 5.0,
+                ticks: vec![("taiji-plant".into(), 7), ("taiji-fee".into(), 6)],
+            }),
+            checkpoint: "out/estimator.ckpt".into(),
+        };
+        assert_eq!(
+            kept.to_string(),
+            "the set stalled: no tick advanced for 5 s (taiji-plant at tick 7, taiji-fee at tick 6); stopping the set (the estimator's last crash-restart checkpoint is kept: out/estimator.ckpt)"
+        );
+        assert_eq!(
+            UserError::AnotherRun {
+                prefix: "taiji_".into(),
+                pid: Some(42),
+                alive: vec!["taiji-plant".into()]
+            }
+            .to_string(),
+            "another run is active on bus prefix \"taiji_\" (supervisor pid 42; live nodes: taiji-plant); stop it or pass a different --bus-prefix"
+        );
+        assert_eq!(
+            UserError::AnotherRun {
+                prefix: "p_".into(),
+                pid: None,
+                alive: vec![]
+            }
+            .to_string(),
+            "another run is active on bus prefix \"p_\" (no live node yet); stop it or pass a different --bus-prefix"
+        );
+        assert_eq!(
+            HostError::UnknownHost {
+                host: "moon".into(),
+                hosts: vec!["sim".into(), "flight".into()]
+            }
+            .to_string(),
+            "--host moon: the launch description's hosts are sim, flight"
+        );
+        assert_eq!(
+            HostError::LinkLost {
+                me: "sim".into(),
+                host: "flight".into(),
+                timeout_s: 20.0
+            }
+            .to_string(),
+            "link sim <-> flight lost: no heartbeat crossed it for 20 s (link_timeout_s); stopping the set"
+        );
+        assert_eq!(
+            ProcessError::FaultHold { value: "x".into() }.to_string(),
+            "TAIJI_FAULT_HOLD must be TICK:PATH, not \"x\""
+        );
+        assert_eq!(
+            ProcessError::ResumeOutsideRing {
+                resumed: 1,
+                from: 2,
+                to: 3
+            }
+            .to_string(),
+            "the estimator resumed at tick 1 but the front-end holds ticks 2..3"
+        );
+        assert_eq!(
+            ProcessError::Outbox(BusError::Loan(iceoryx2::port::LoanError::OutOfMemory))
+                .to_string(),
+            "estimate publisher: loan failed: OutOfMemory"
+        );
+    }
+}
