@@ -47,7 +47,7 @@ fn main() -> Result<(), String> {
     let wait_s: f64 = opt("--wait-s", "30")
         .parse()
         .map_err(|e| format!("--wait-s: {e}"))?;
-    let cfg = taiji::bus::config(&prefix)?;
+    let cfg = taiji::bus::config(&prefix).map_err(|e| e.to_string())?;
     let node = NodeBuilder::new()
         .config(&cfg)
         .create::<ipc::Service>()

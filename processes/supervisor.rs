@@ -36,13 +36,28 @@ fn main() -> std::process::ExitCode {
     std::process::ExitCode::from(outcome.exit_code())
 }
 
+/// Why the reports of a completed run could not be written (exit 2).
+#[derive(Debug, thiserror::Error)]
+enum ReportsError {
+    #[error(transparent)]
+    Report(#[from] taiji::report::ReportError),
+    /// The recording could not be read back for the figures.
+    #[error(transparent)]
+    Telemetry(#[from] taiji::telemetry::TelemetryError),
+    #[error(transparent)]
+    Plot(#[from] taiji::plots::PlotError),
+}
+
 /// report.json, report.md, report.html, and the figures from the recording.
-fn write_reports(args: &SupervisorArgs, report: &taiji::report::Report) -> Result<(), String> {
+fn write_reports(
+    args: &SupervisorArgs,
+    report: &taiji::report::Report,
+) -> Result<(), ReportsError> {
     taiji::report::write(&args.out, report)?;
     if args.plots {
         let path = args.out.join(taiji::process::recorder::TELEMETRY_FILE);
         let (tel, s) = taiji::telemetry::read::full(&path)?;
         taiji::plots::write_all(&tel, &s, &args.out)?;
     }
-    taiji::report_doc::write(report, &args.out, args.plots).map_err(String::from)
+    Ok(taiji::report_doc::write(report, &args.out, args.plots)?)
 }

@@ -8,10 +8,22 @@
 
 use crate::msg::{Control, EstimateMsg, Progress, SensorSample, TorqueCommand, TruthState};
 use iceoryx2::node::NodeView;
+use iceoryx2::node::{NodeCreationFailure, NodeListFailure};
+use iceoryx2::port::listener::ListenerCreateError;
+use iceoryx2::port::notifier::NotifierCreateError;
 use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::publisher::PublisherCreateError;
 use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::subscriber::SubscriberCreateError;
+use iceoryx2::port::{LoanError, ReceiveError, SendError};
 use iceoryx2::prelude::*;
+use iceoryx2::service::builder::event::EventOpenOrCreateError;
+use iceoryx2::service::builder::publish_subscribe::{
+    PublishSubscribeOpenError, PublishSubscribeOpenOrCreateError,
+};
+use iceoryx2::service::service_name::ServiceNameError;
 use std::fmt::Debug;
+use std::path::PathBuf;
 use std::time::Duration;
 
 pub const SVC_TORQUE: &str = "taiji/torque_cmd";
@@ -82,14 +94,110 @@ payloads!(
     Control
 );
 
+/// What went wrong on the bus. The variants met on every tick (`Loan`, `Send`,
+/// `Receive`) carry iceoryx2's own small `Copy` error values, so building them
+/// allocates nothing (the text is made only when displayed); the others name the
+/// prefix, node or service concerned.
+#[derive(Debug, thiserror::Error)]
+pub enum BusError {
+    #[error("invalid bus prefix {prefix:?}: {cause:?}")]
+    Prefix {
+        prefix: String,
+        cause: SemanticStringError,
+    },
+    #[error("invalid node name {name}: {cause:?}")]
+    NodeName {
+        name: String,
+        cause: SemanticStringError,
+    },
+    #[error("cannot create iceoryx2 node {name}: {cause:?}")]
+    Node {
+        name: String,
+        cause: NodeCreationFailure,
+    },
+    #[error("invalid service name {service}: {cause:?}")]
+    ServiceName {
+        service: String,
+        cause: ServiceNameError,
+    },
+    /// The service exists with another payload type: a peer of another build or layout.
+    #[error(
+        "cannot open service {service}: its payload type differs from this build's \
+         ({type_name}, message layout version {}): a process of another build (or an \
+         outside client with another layout) holds the bus; use the same \
+         build everywhere or another --bus-prefix",
+        crate::msg::LAYOUT_VERSION
+    )]
+    IncompatiblePayload {
+        service: String,
+        type_name: &'static str,
+    },
+    #[error("cannot open service {service}: {cause:?}")]
+    Service {
+        service: String,
+        cause: PublishSubscribeOpenOrCreateError,
+    },
+    #[error("cannot open event service {service}: {cause:?}")]
+    EventService {
+        service: String,
+        cause: EventOpenOrCreateError,
+    },
+    #[error("cannot create publisher on {service}: {cause:?}")]
+    Publisher {
+        service: String,
+        cause: PublisherCreateError,
+    },
+    #[error("cannot create subscriber on {service}: {cause:?}")]
+    Subscriber {
+        service: String,
+        cause: SubscriberCreateError,
+    },
+    #[error("cannot create listener on {service}: {cause:?}")]
+    Listener {
+        service: String,
+        cause: ListenerCreateError,
+    },
+    #[error("cannot create notifier on {service}: {cause:?}")]
+    Notifier {
+        service: String,
+        cause: NotifierCreateError,
+    },
+    #[error("loan failed: {0:?}")]
+    Loan(LoanError),
+    #[error("send failed: {0:?}")]
+    Send(SendError),
+    #[error("receive failed: {0:?}")]
+    Receive(ReceiveError),
+    #[error("cannot list iceoryx2 nodes: {0:?}")]
+    ListNodes(NodeListFailure),
+    #[error("cannot start the shared-memory cleanup: {0}")]
+    CleanupThread(#[source] std::io::Error),
+    #[error(
+        "the cleanup of stale shared memory (prefix {prefix:?}) did not finish in {timeout_s} s"
+    )]
+    CleanupTimeout { prefix: String, timeout_s: u64 },
+    #[error("the shared-memory cleanup thread failed")]
+    CleanupDied,
+    /// The prefix's lock file (`action`: create its folder, open or lock it).
+    #[error("cannot {action} {}: {source}", path.display())]
+    Io {
+        action: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
 pub type Pub<T> = Publisher<ipc::Service, Wire<T>, ()>;
 pub type Sub<T> = Subscriber<ipc::Service, Wire<T>, ()>;
 
 /// iceoryx2 configuration of a run: the default with our resource prefix.
-pub fn config(prefix: &str) -> Result<Config, String> {
+pub fn config(prefix: &str) -> Result<Config, BusError> {
     let mut c = Config::default();
-    c.global.prefix = FileName::new(prefix.as_bytes())
-        .map_err(|e| format!("invalid bus prefix {prefix:?}: {e:?}"))?;
+    c.global.prefix = FileName::new(prefix.as_bytes()).map_err(|cause| BusError::Prefix {
+        prefix: prefix.to_string(),
+        cause,
+    })?;
     // Dead nodes are cleaned by the supervisor alone (at start, before a restart and at
     // the end), not by every process as it starts or stops: concurrent cleaners race.
     c.global.node.cleanup_dead_nodes_on_creation = false;
@@ -99,14 +207,20 @@ pub fn config(prefix: &str) -> Result<Config, String> {
 
 /// A node named after the process, in the run's prefix. SIGINT/SIGTERM make
 /// `Node::wait` return an error, which the loops treat as a stop request.
-pub fn node(name: &str, prefix: &str) -> Result<Node<ipc::Service>, String> {
+pub fn node(name: &str, prefix: &str) -> Result<Node<ipc::Service>, BusError> {
     let cfg = config(prefix)?;
-    let node_name = NodeName::new(name).map_err(|e| format!("invalid node name {name}: {e:?}"))?;
+    let node_name = NodeName::new(name).map_err(|cause| BusError::NodeName {
+        name: name.to_string(),
+        cause,
+    })?;
     NodeBuilder::new()
         .name(&node_name)
         .config(&cfg)
         .create::<ipc::Service>()
-        .map_err(|e| format!("cannot create iceoryx2 node {name}: {e:?}"))
+        .map_err(|cause| BusError::Node {
+            name: name.to_string(),
+            cause,
+        })
 }
 
 fn service<T: Payload>(
@@ -115,11 +229,9 @@ fn service<T: Payload>(
     queue: usize,
 ) -> Result<
     iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, Wire<T>, ()>,
-    String,
+    BusError,
 > {
-    let sn: ServiceName = name
-        .try_into()
-        .map_err(|e| format!("invalid service name {name}: {e:?}"))?;
+    let sn = service_name(name)?;
     node.service_builder(&sn)
         .publish_subscribe::<Wire<T>>()
         .max_publishers(MAX_PUBLISHERS)
@@ -128,21 +240,25 @@ fn service<T: Payload>(
         .subscriber_max_buffer_size(queue)
         .history_size(0)
         .open_or_create()
-        .map_err(|e| {
-            let e = format!("{e:?}");
-            if e.contains("IncompatibleTypes") {
-                format!(
-                    "cannot open service {name}: its payload type differs from this build's \
-                     ({}, message layout version {}): a process of another build (or an \
-                     outside client with another layout) holds the bus; use the same \
-                     build everywhere or another --bus-prefix",
-                    T::TYPE_NAME,
-                    crate::msg::LAYOUT_VERSION
-                )
-            } else {
-                format!("cannot open service {name}: {e}")
-            }
+        .map_err(|cause| match cause {
+            PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(
+                PublishSubscribeOpenError::IncompatibleTypes,
+            ) => BusError::IncompatiblePayload {
+                service: name.to_string(),
+                type_name: T::TYPE_NAME,
+            },
+            cause => BusError::Service {
+                service: name.to_string(),
+                cause,
+            },
         })
+}
+
+fn service_name(name: &str) -> Result<ServiceName, BusError> {
+    name.try_into().map_err(|cause| BusError::ServiceName {
+        service: name.to_string(),
+        cause,
+    })
 }
 
 fn is_small(name: &str) -> bool {
@@ -167,14 +283,17 @@ fn max_queue_of(name: &str) -> usize {
     }
 }
 
-pub fn publisher<T: Payload>(node: &Node<ipc::Service>, name: &str) -> Result<Pub<T>, String> {
+pub fn publisher<T: Payload>(node: &Node<ipc::Service>, name: &str) -> Result<Pub<T>, BusError> {
     service::<T>(node, name, max_queue_of(name))?
         .publisher_builder()
         .create()
-        .map_err(|e| format!("cannot create publisher on {name}: {e:?}"))
+        .map_err(|cause| BusError::Publisher {
+            service: name.to_string(),
+            cause,
+        })
 }
 
-pub fn subscriber<T: Payload>(node: &Node<ipc::Service>, name: &str) -> Result<Sub<T>, String> {
+pub fn subscriber<T: Payload>(node: &Node<ipc::Service>, name: &str) -> Result<Sub<T>, BusError> {
     subscriber_with_queue(node, name, queue_of(name))
 }
 
@@ -183,30 +302,34 @@ pub fn subscriber_with_queue<T: Payload>(
     node: &Node<ipc::Service>,
     name: &str,
     q: usize,
-) -> Result<Sub<T>, String> {
+) -> Result<Sub<T>, BusError> {
     service::<T>(node, name, max_queue_of(name))?
         .subscriber_builder()
         .buffer_size(q)
         .create()
-        .map_err(|e| format!("cannot create subscriber on {name}: {e:?}"))
+        .map_err(|cause| BusError::Subscriber {
+            service: name.to_string(),
+            cause,
+        })
 }
 
-/// Publish one message by value into a loaned shared-memory sample (no heap allocation).
-pub fn publish<T: Payload>(p: &Pub<T>, value: T) -> Result<(), String> {
-    let sample = p.loan_uninit().map_err(|e| format!("loan failed: {e:?}"))?;
+/// Publish one message by value into a loaned shared-memory sample (no heap
+/// allocation, failure included: the error is iceoryx2's value).
+pub fn publish<T: Payload>(p: &Pub<T>, value: T) -> Result<(), BusError> {
+    let sample = p.loan_uninit().map_err(BusError::Loan)?;
     sample
         .write_payload(Wire(value))
         .send()
         .map(|_| ())
-        .map_err(|e| format!("send failed: {e:?}"))
+        .map_err(BusError::Send)
 }
 
-/// Receive the next message by value, if any.
-pub fn receive<T: Payload>(s: &Sub<T>) -> Result<Option<T>, String> {
+/// Receive the next message by value, if any (no heap allocation, failure included).
+pub fn receive<T: Payload>(s: &Sub<T>) -> Result<Option<T>, BusError> {
     match s.receive() {
         Ok(Some(sample)) => Ok(Some(sample.payload().0)),
         Ok(None) => Ok(None),
-        Err(e) => Err(format!("receive failed: {e:?}")),
+        Err(e) => Err(BusError::Receive(e)),
     }
 }
 
@@ -274,7 +397,7 @@ pub fn sweep_abandoned(prefix: &str, min_age: Duration) -> usize {
 /// earlier run or a killed stage) and list the nodes still alive. Runs iceoryx2's
 /// cleanup on a thread while sweeping abandoned half-made objects, which would
 /// otherwise hang it.
-pub fn cleanup_stale(prefix: &str) -> Result<BusSurvey, String> {
+pub fn cleanup_stale(prefix: &str) -> Result<BusSurvey, BusError> {
     let (tx, rx) = std::sync::mpsc::channel();
     let p = prefix.to_string();
     std::thread::Builder::new()
@@ -282,7 +405,7 @@ pub fn cleanup_stale(prefix: &str) -> Result<BusSurvey, String> {
         .spawn(move || {
             let _ = tx.send(cleanup_dead_nodes(&p));
         })
-        .map_err(|e| format!("cannot start the shared-memory cleanup: {e}"))?;
+        .map_err(BusError::CleanupThread)?;
     let t0 = std::time::Instant::now();
     loop {
         match rx.recv_timeout(Duration::from_millis(100)) {
@@ -290,14 +413,14 @@ pub fn cleanup_stale(prefix: &str) -> Result<BusSurvey, String> {
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                 sweep_abandoned(prefix, ABANDONED_AFTER);
                 if t0.elapsed() > CLEANUP_TIMEOUT {
-                    return Err(format!(
-                        "the cleanup of stale shared memory (prefix {prefix:?}) did not finish in {} s",
-                        CLEANUP_TIMEOUT.as_secs()
-                    ));
+                    return Err(BusError::CleanupTimeout {
+                        prefix: prefix.to_string(),
+                        timeout_s: CLEANUP_TIMEOUT.as_secs(),
+                    });
                 }
             }
             Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                return Err("the shared-memory cleanup thread failed".into())
+                return Err(BusError::CleanupDied)
             }
         }
     }
@@ -326,7 +449,7 @@ fn node_name(view: &impl NodeView) -> String {
         .unwrap_or_default()
 }
 
-fn cleanup_dead_nodes(prefix: &str) -> Result<BusSurvey, String> {
+fn cleanup_dead_nodes(prefix: &str) -> Result<BusSurvey, BusError> {
     let cfg = config(prefix)?;
     let mut survey = BusSurvey::default();
     let mut dead = Vec::new();
@@ -338,7 +461,7 @@ fn cleanup_dead_nodes(prefix: &str) -> Result<BusSurvey, String> {
         }
         CallbackProgression::Continue
     })
-    .map_err(|e| format!("cannot list iceoryx2 nodes: {e:?}"))?;
+    .map_err(BusError::ListNodes)?;
     for view in dead {
         if view.try_remove_stale_resources().is_ok() {
             survey.removed_dead += 1;
@@ -374,14 +497,14 @@ impl Drop for PrefixLock {
 }
 
 /// The lock file of a prefix, in the iceoryx2 root of its configuration.
-pub fn lock_path(prefix: &str) -> Result<std::path::PathBuf, String> {
+pub fn lock_path(prefix: &str) -> Result<std::path::PathBuf, BusError> {
     let cfg = config(prefix)?;
     Ok(std::path::PathBuf::from(cfg.global.root_path().to_string())
         .join(format!("{prefix}supervisor.lock")))
 }
 
 /// Take the prefix without waiting, or say who has it.
-pub fn claim_prefix(prefix: &str) -> Result<Claim, String> {
+pub fn claim_prefix(prefix: &str) -> Result<Claim, BusError> {
     use std::io::{Read, Write};
     use std::os::fd::AsRawFd;
     use std::os::unix::fs::MetadataExt;
@@ -393,7 +516,11 @@ pub fn claim_prefix(prefix: &str) -> Result<Claim, String> {
             .recursive(true)
             .mode(0o750)
             .create(dir)
-            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+            .map_err(|source| BusError::Io {
+                action: "create",
+                path: dir.to_path_buf(),
+                source,
+            })?;
     }
     loop {
         let mut file = std::fs::OpenOptions::new()
@@ -402,7 +529,11 @@ pub fn claim_prefix(prefix: &str) -> Result<Claim, String> {
             .create(true)
             .truncate(false)
             .open(&path)
-            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+            .map_err(|source| BusError::Io {
+                action: "open",
+                path: path.clone(),
+                source,
+            })?;
         // SAFETY: flock on a descriptor this function owns.
         if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } != 0 {
             let e = std::io::Error::last_os_error();
@@ -415,7 +546,13 @@ pub fn claim_prefix(prefix: &str) -> Result<Claim, String> {
                     });
                 }
                 Some(libc::EINTR) => continue,
-                _ => return Err(format!("cannot lock {}: {e}", path.display())),
+                _ => {
+                    return Err(BusError::Io {
+                        action: "lock",
+                        path,
+                        source: e,
+                    })
+                }
             }
         }
         // The holder before us unlinks the file before releasing it: a lock won on a file
@@ -457,7 +594,7 @@ pub struct Released {
 /// lock): remove the resources of its dead nodes, then, when no node of the prefix is
 /// left at all, its global management object. Live nodes and anything of another
 /// prefix are never touched.
-pub fn release(prefix: &str) -> Result<Released, String> {
+pub fn release(prefix: &str) -> Result<Released, BusError> {
     if prefix.is_empty() {
         return Ok(Released::default());
     }
@@ -472,7 +609,7 @@ pub fn release(prefix: &str) -> Result<Released, String> {
         left += 1;
         CallbackProgression::Continue
     })
-    .map_err(|e| format!("cannot list iceoryx2 nodes: {e:?}"))?;
+    .map_err(BusError::ListNodes)?;
     if left > 0 {
         return Ok(released);
     }
@@ -501,31 +638,38 @@ pub type Notifier = iceoryx2::port::notifier::Notifier<ipc::Service>;
 fn event_service(
     node: &Node<ipc::Service>,
     name: &str,
-) -> Result<iceoryx2::service::port_factory::event::PortFactory<ipc::Service>, String> {
-    let sn: ServiceName = name
-        .try_into()
-        .map_err(|e| format!("invalid service name {name}: {e:?}"))?;
+) -> Result<iceoryx2::service::port_factory::event::PortFactory<ipc::Service>, BusError> {
+    let sn = service_name(name)?;
     node.service_builder(&sn)
         .event()
         .max_nodes(MAX_NODES)
         .max_listeners(MAX_SUBSCRIBERS)
         .max_notifiers(MAX_PUBLISHERS)
         .open_or_create()
-        .map_err(|e| format!("cannot open event service {name}: {e:?}"))
+        .map_err(|cause| BusError::EventService {
+            service: name.to_string(),
+            cause,
+        })
 }
 
-pub fn listener(node: &Node<ipc::Service>, name: &str) -> Result<Listener, String> {
+pub fn listener(node: &Node<ipc::Service>, name: &str) -> Result<Listener, BusError> {
     event_service(node, name)?
         .listener_builder()
         .create()
-        .map_err(|e| format!("cannot create listener on {name}: {e:?}"))
+        .map_err(|cause| BusError::Listener {
+            service: name.to_string(),
+            cause,
+        })
 }
 
-pub fn notifier(node: &Node<ipc::Service>, name: &str) -> Result<Notifier, String> {
+pub fn notifier(node: &Node<ipc::Service>, name: &str) -> Result<Notifier, BusError> {
     event_service(node, name)?
         .notifier_builder()
         .create()
-        .map_err(|e| format!("cannot create notifier on {name}: {e:?}"))
+        .map_err(|cause| BusError::Notifier {
+            service: name.to_string(),
+            cause,
+        })
 }
 
 #[cfg(test)]

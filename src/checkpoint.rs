@@ -51,12 +51,6 @@ pub enum CheckpointError {
     },
 }
 
-/// Bridge for callers still on `Result<_, CheckpointError>` (the process layer).
-impl From<CheckpointError> for String {
-    fn from(e: CheckpointError) -> Self {
-        e.to_string()
-    }
-}
 const HEADER: usize = 32;
 
 /// Hand-off between the filter loop and the writer thread: one slot, newest wins.

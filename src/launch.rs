@@ -147,13 +147,6 @@ pub enum LaunchProblem {
     RecorderTwice,
 }
 
-/// Bridge for callers still on `Result<_, String>` (the process layer).
-impl From<LaunchError> for String {
-    fn from(e: LaunchError) -> Self {
-        e.to_string()
-    }
-}
-
 impl LaunchDescription {
     pub fn parse(text: &str, origin: &str) -> Result<Self, LaunchError> {
         let d: LaunchDescription = toml::from_str(text).map_err(|source| LaunchError::Parse {

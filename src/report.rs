@@ -436,13 +436,6 @@ pub enum ReportError {
     Json(#[from] serde_json::Error),
 }
 
-/// Bridge for callers still on `Result<_, String>` (the process layer).
-impl From<ReportError> for String {
-    fn from(e: ReportError) -> Self {
-        e.to_string()
-    }
-}
-
 /// Write `DIR/report.json` (creating DIR).
 pub fn write(out: &std::path::Path, report: &Report) -> Result<(), ReportError> {
     std::fs::create_dir_all(out).map_err(|source| ReportError::Create {

@@ -30,6 +30,7 @@ fn a_peer_with_another_layout_is_refused_with_a_clear_message() {
     let Err(e) = bus::subscriber::<EstimateMsg>(&ours, bus::SVC_ESTIMATE) else {
         panic!("a service of another layout must be refused");
     };
+    let e = e.to_string();
     assert!(e.contains("message layout version 1"), "{e}");
     assert!(e.contains("another build"), "{e}");
     drop(ours);

@@ -190,8 +190,12 @@ enum CliError {
     )]
     Duration { duration: f64 },
     /// The recording's `method` attribute names no estimator.
-    #[error("{}: attribute `method`: {msg}", path.display())]
-    MethodAttribute { path: PathBuf, msg: String },
+    #[error("{}: attribute `method`: {source}", path.display())]
+    MethodAttribute {
+        path: PathBuf,
+        #[source]
+        source: Box<taiji::process::ProcessError>,
+    },
     /// The bound of the scenario does not exist (`crlb`).
     #[error("the Fisher information of this scenario is singular")]
     Singular,
@@ -455,9 +459,9 @@ fn replay(
     let method: Method = match (method, rec.method.as_deref()) {
         (Some(m), _) => m.into(),
         (None, Some(name)) => {
-            taiji::process::parse_method(name).map_err(|msg| CliError::MethodAttribute {
+            taiji::process::parse_method(name).map_err(|source| CliError::MethodAttribute {
                 path: telemetry.to_path_buf(),
-                msg,
+                source: Box::new(source),
             })?
         }
         (None, None) => Method::Joint,

@@ -218,13 +218,6 @@ pub enum PlanError {
     Figure(#[from] crate::plots::PlotError),
 }
 
-/// Bridge for callers still on `Result<_, String>` (the process layer).
-impl From<PlanError> for String {
-    fn from(e: PlanError) -> Self {
-        e.to_string()
-    }
-}
-
 /// The CoM offsets the planner must keep within the IS range: every corner of the
 /// box the priors' uncertainty allows. A given prior ± the ground-calibration error;
 /// a drawn prior is itself ± that error around the scenario's offset, so ± twice it.

@@ -584,13 +584,6 @@ impl PlotError {
     }
 }
 
-/// Bridge for callers still on `Result<_, String>` (the process layer).
-impl From<PlotError> for String {
-    fn from(e: PlotError) -> Self {
-        e.to_string()
-    }
-}
-
 /// Write every figure to `dir/plots/`; returns the PNG paths.
 pub fn write_all(tel: &Telemetry, s: &Scenario, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let plots = dir.join("plots");

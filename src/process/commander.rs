@@ -2,7 +2,7 @@
 //! downstream credit (accelerated) or by the clock (real-time).
 
 use super::driver::{self, Service, Turn};
-use super::{Exit, Link, StageArgs};
+use super::{Exit, Link, ProcessError, StageArgs};
 use crate::bus;
 use crate::commander::Commander;
 use crate::msg::{TorqueCommand, STATE_RUNNING};
@@ -15,7 +15,7 @@ use std::time::Duration;
 /// tunnel) however fast or slow the machine, then let the run go on.
 pub const FAULT_HOLD: &str = "TAIJI_FAULT_HOLD";
 
-fn fault_hold() -> Result<Option<(u64, std::path::PathBuf)>, String> {
+fn fault_hold() -> Result<Option<(u64, std::path::PathBuf)>, ProcessError> {
     let Ok(v) = std::env::var(FAULT_HOLD) else {
         return Ok(None);
     };
@@ -26,14 +26,14 @@ fn fault_hold() -> Result<Option<(u64, std::path::PathBuf)>, String> {
                     log::warn!("taiji-commander: fault injection: holding before tick {t} while {p} exists");
                     Ok(Some((t, p.into())))
                 }
-                Err(_) => Err(format!("{FAULT_HOLD} must be TICK:PATH, not {v:?}")),
+                Err(_) => Err(ProcessError::FaultHold { value: v }),
             }
         }
-        _ => Err(format!("{FAULT_HOLD} must be TICK:PATH, not {v:?}")),
+        _ => Err(ProcessError::FaultHold { value: v }),
     }
 }
 
-pub fn run(args: &StageArgs) -> Result<Exit, String> {
+pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let hold = fault_hold()?;
     let s = args.scenario()?;
     let period = args.period_ns(&s)?;
@@ -83,7 +83,7 @@ impl CommanderService {
 }
 
 impl Service for CommanderService {
-    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, ProcessError> {
         // Start the clock only once the whole chain can take samples: tick 0 is due now.
         let Some(t0) = self.t0 else {
             if link.started() && link.downstream.primed && (!self.record || link.recorder.heard) {

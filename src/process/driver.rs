@@ -4,7 +4,7 @@
 //! and the linger after the last tick. A process says only what one pass does
 //! (`Service::turn`); the stage's tick itself is `stage::Stage::process`.
 
-use super::{Exit, Link};
+use super::{Exit, Link, ProcessError};
 use crate::msg::STATE_DONE;
 use std::time::Duration;
 
@@ -29,7 +29,7 @@ pub enum Turn {
 pub trait Service {
     /// One pass: take what has arrived, publish what the credit allows. Progress goes
     /// into `link.progress` (`next_tick`, `state`, counters); the loop beats for it.
-    fn turn(&mut self, link: &mut Link) -> Result<Turn, String>;
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, ProcessError>;
 
     /// Checkpoint hook: the tick this process could resume from after a restart, when
     /// it has moved (a checkpoint reached the disk). Upstream keeps samples from it on.
@@ -38,13 +38,13 @@ pub trait Service {
     }
 
     /// On the way out, whatever the exit: flush files, drain outboxes.
-    fn stop(&mut self, _link: &mut Link, _exit: Exit) -> Result<(), String> {
+    fn stop(&mut self, _link: &mut Link, _exit: Exit) -> Result<(), ProcessError> {
         Ok(())
     }
 }
 
 /// Run `service` on `link` until the supervisor says stop or the process is signalled.
-pub fn drive(link: &mut Link, service: &mut impl Service) -> Result<Exit, String> {
+pub fn drive(link: &mut Link, service: &mut impl Service) -> Result<Exit, ProcessError> {
     link.beat()?;
     let mut beat_block = link.progress.next_tick / BEAT_TICKS;
     let exit = loop {

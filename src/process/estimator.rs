@@ -2,7 +2,7 @@
 //! checkpoint when restarted; allocates nothing in its loop (it counts and reports it).
 
 use super::driver::{self, Service, Turn};
-use super::{BusArgs, Exit, Link};
+use super::{BusArgs, Exit, Link, ProcessError};
 use crate::alloc_count;
 use crate::bus;
 use crate::checkpoint::{self, Checkpointer};
@@ -23,7 +23,7 @@ pub const CHECKPOINT_FILE: &str = "estimator.ckpt";
 /// (a slow disk), so tests can show that the set neither stalls nor loses a sample.
 pub const FAULT_CHECKPOINT_DELAY: &str = "TAIJI_FAULT_CHECKPOINT_DELAY_MS";
 
-fn fault_checkpoint_delay() -> Result<Duration, String> {
+fn fault_checkpoint_delay() -> Result<Duration, ProcessError> {
     match std::env::var(FAULT_CHECKPOINT_DELAY) {
         Err(_) => Ok(Duration::ZERO),
         Ok(v) => match v.trim().parse::<u64>() {
@@ -31,9 +31,7 @@ fn fault_checkpoint_delay() -> Result<Duration, String> {
                 log::warn!("taiji-estimator: fault injection: every checkpoint write held {ms} ms");
                 Ok(Duration::from_millis(ms))
             }
-            _ => Err(format!(
-                "{FAULT_CHECKPOINT_DELAY} must be a whole number of milliseconds up to 60000, not {v:?}"
-            )),
+            _ => Err(ProcessError::FaultCheckpointDelay { value: v }),
         },
     }
 }
@@ -64,19 +62,29 @@ impl EstimatorTable {
         }
     }
 
-    pub fn write(&self, path: &std::path::Path) -> Result<(), String> {
-        let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
-        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    pub fn write(&self, path: &std::path::Path) -> Result<(), ProcessError> {
+        let text = serde_json::to_string_pretty(self).map_err(ProcessError::TableJson)?;
+        std::fs::write(path, text).map_err(|source| ProcessError::TableWrite {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 
-    pub fn load(path: &std::path::Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("cannot read the estimator table {}: {e}", path.display()))?;
-        let t: Self = serde_json::from_str(&text)
-            .map_err(|e| format!("{}: not an estimator table: {e}", path.display()))?;
+    pub fn load(path: &std::path::Path) -> Result<Self, ProcessError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ProcessError::TableRead {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let t: Self = serde_json::from_str(&text).map_err(|source| ProcessError::TableParse {
+            path: path.to_path_buf(),
+            source,
+        })?;
         t.config
             .check()
-            .map_err(|e| format!("{}: estimator table refused: {e:?}", path.display()))?;
+            .map_err(|problem| ProcessError::TableRefused {
+                path: path.to_path_buf(),
+                problem,
+            })?;
         Ok(t)
     }
 }
@@ -95,14 +103,16 @@ pub struct EstimatorArgs {
     pub bus: BusArgs,
 }
 
-pub fn run(args: &EstimatorArgs) -> Result<Exit, String> {
+pub fn run(args: &EstimatorArgs) -> Result<Exit, ProcessError> {
     let table = EstimatorTable::load(&args.table)?;
     let resync_ns = args.resync_after_ms.saturating_mul(1_000_000);
     let args = &args.bus;
     let method = args.method()?;
     let period = args.period_ns(table.config.fs)?;
-    std::fs::create_dir_all(&args.run_dir)
-        .map_err(|e| format!("cannot create {}: {e}", args.run_dir.display()))?;
+    std::fs::create_dir_all(&args.run_dir).map_err(|source| ProcessError::CreateDir {
+        path: args.run_dir.clone(),
+        source,
+    })?;
     let ckpt_path = args.run_dir.join(CHECKPOINT_FILE);
     let (est, next) = match checkpoint::load(&ckpt_path)? {
         Some((est, next)) => {
@@ -161,7 +171,7 @@ struct EstimatorService {
 impl EstimatorService {
     /// No sample: starved mid-campaign (samples lost on a link between hosts), or done
     /// and still no stop (the final estimate lost as it crossed).
-    fn starved(&mut self, link: &mut Link) -> Result<Turn, String> {
+    fn starved(&mut self, link: &mut Link) -> Result<Turn, ProcessError> {
         // A new incarnation makes the front-end resend from `next`, and what is still in
         // flight under the old one is dropped (`turn`): nothing lost, nothing twice.
         let now = monotonic_ns();
@@ -191,7 +201,7 @@ impl EstimatorService {
     }
 
     /// The campaign's last sample is in: the final estimate.
-    fn finish(&mut self, link: &mut Link, origin_ns: u64) -> Result<(), String> {
+    fn finish(&mut self, link: &mut Link, origin_ns: u64) -> Result<(), ProcessError> {
         let mut f = self.est.stop().unwrap_or_default();
         f.header.origin_ns = origin_ns;
         f.header.publish_ns = monotonic_ns();
@@ -207,7 +217,7 @@ impl EstimatorService {
         self.final_sent = monotonic_ns();
         link.progress.state = STATE_DONE;
         self.count_allocations(link);
-        link.beat()
+        Ok(link.beat()?)
     }
 
     fn count_allocations(&self, link: &mut Link) {
@@ -218,7 +228,7 @@ impl EstimatorService {
 }
 
 impl Service for EstimatorService {
-    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, ProcessError> {
         let Some(sample) = bus::receive(&self.input)? else {
             return self.starved(link);
         };
@@ -268,7 +278,7 @@ impl Service for EstimatorService {
         self.ckpt.written()
     }
 
-    fn stop(&mut self, link: &mut Link, _exit: Exit) -> Result<(), String> {
+    fn stop(&mut self, link: &mut Link, _exit: Exit) -> Result<(), ProcessError> {
         match self.allocs_before {
             Some(a) => log::info!(
                 "taiji-estimator: heap allocations in the filter loop: {}",
@@ -277,6 +287,6 @@ impl Service for EstimatorService {
             None => log::info!("taiji-estimator: allocation counting not installed"),
         }
         self.out.finish()?;
-        link.beat()
+        Ok(link.beat()?)
     }
 }

@@ -3,7 +3,7 @@
 //! ring, so a restarted estimator catches up without a lost sample.
 
 use super::driver::{self, Service, Turn};
-use super::{Exit, Link, StageArgs};
+use super::{Exit, Link, ProcessError, StageArgs};
 use crate::bus;
 use crate::faults::Delivery;
 use crate::fee::FrontEnd;
@@ -15,7 +15,7 @@ use crate::timing::monotonic_ns;
 /// interval plus the flow-control window.
 pub const RING: u64 = 8192;
 
-pub fn run(args: &StageArgs) -> Result<Exit, String> {
+pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
     let mut link = Link::new(<FrontEnd as Stage>::PROCESS, args)?;
@@ -54,7 +54,7 @@ struct FeeService {
 
 impl FeeService {
     /// A new estimator instance (a restart): resend from its checkpoint.
-    fn follow(&mut self, est: &super::Downstream) -> Result<(), String> {
+    fn follow(&mut self, est: &super::Downstream) -> Result<(), ProcessError> {
         if !est.heard || est.incarnation == self.estimator {
             return Ok(());
         }
@@ -65,12 +65,11 @@ impl FeeService {
             );
         }
         if est.next_tick + RING < self.produced || est.next_tick > self.produced {
-            return Err(format!(
-                "the estimator resumed at tick {} but the front-end holds ticks {}..{}",
-                est.next_tick,
-                self.produced.saturating_sub(RING),
-                self.produced
-            ));
+            return Err(ProcessError::ResumeOutsideRing {
+                resumed: est.next_tick,
+                from: self.produced.saturating_sub(RING),
+                to: self.produced,
+            });
         }
         self.estimator = est.incarnation;
         self.sent = est.next_tick;
@@ -78,7 +77,7 @@ impl FeeService {
     }
 
     /// Send from the ring what the estimator's credit allows; true if anything went.
-    fn send(&mut self, link: &mut Link, est: &super::Downstream) -> Result<bool, String> {
+    fn send(&mut self, link: &mut Link, est: &super::Downstream) -> Result<bool, bus::BusError> {
         let mut busy = false;
         while self.sent < self.produced && est.credit(self.sent) {
             let sent = self.sent;
@@ -104,7 +103,7 @@ impl FeeService {
 
     /// Turn one truth into a sample in the ring, while the ring keeps everything since
     /// the estimator's checkpoint; true if a truth was taken.
-    fn produce(&mut self, link: &mut Link, est: &super::Downstream) -> Result<bool, String> {
+    fn produce(&mut self, link: &mut Link, est: &super::Downstream) -> Result<bool, bus::BusError> {
         let keep_from = if est.heard { est.resume_tick } else { 0 };
         let room = self.produced < self.n && self.produced < keep_from + RING;
         if !(room && self.sent == self.produced) {
@@ -135,7 +134,7 @@ impl FeeService {
 }
 
 impl Service for FeeService {
-    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, ProcessError> {
         let est = link.downstream;
         self.follow(&est)?;
         let sent = self.send(link, &est)?;

@@ -13,8 +13,8 @@
 //! `header.origin_ns` = that time and `header.due_ns` = how long it held it, so the
 //! round trip is measured on one clock (hosts share none): hop ≈ round trip / 2.
 
-use super::set::{Reap, Set, SupervisorArgs, SupervisorError};
-use crate::bus;
+use super::set::{Reap, Set, SetError, SupervisorArgs};
+use crate::bus::{self, BusError};
 use crate::launch::LaunchDescription;
 use crate::msg::{Header, Progress, CMD_STOP, STATE_DONE, STATE_READY};
 use crate::timing::{monotonic_ns, LatencyHistogram};
@@ -40,6 +40,46 @@ const ACK_QUIET: Duration = Duration::from_millis(300);
 /// its first N stop commands, as if the link broke as they crossed, so tests can show
 /// that the stop is repeated until the other hosts acknowledge it.
 pub const FAULT_DROP_STOPS: &str = "TAIJI_FAULT_DROP_STOPS";
+
+/// What went wrong with the hosts of a set, their tunnel or the link between them.
+#[derive(Debug, thiserror::Error)]
+pub enum HostError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    #[error(transparent)]
+    FaultVar(#[from] super::FaultVarError),
+    #[error("--host {host}: no such [[host]] in the launch description")]
+    NoSuchHost { host: String },
+    #[error("--host {host}: the launch description names no hosts (add [[host]] tables, see tools/two_hosts.toml)")]
+    NoHosts { host: String },
+    #[error("--host {host}: the launch description's hosts are {}", hosts.join(", "))]
+    UnknownHost { host: String, hosts: Vec<String> },
+    #[error(
+        "cannot start the tunnel {} ({source}); build it with `cargo build --release --manifest-path tools/tunnel/Cargo.toml` and pass --tunnel-bin",
+        exe.display()
+    )]
+    TunnelSpawn {
+        exe: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot watch the tunnel: {0}")]
+    TunnelWatch(#[source] std::io::Error),
+    /// The supervisor in charge heard nothing from host `host` for the link timeout.
+    #[error("link {me} <-> {host} lost: no heartbeat crossed it for {timeout_s:.0} s (link_timeout_s); stopping the set")]
+    LinkLost {
+        me: String,
+        host: String,
+        timeout_s: f64,
+    },
+    /// An agent heard nothing from the supervisor in charge (`boss`) for `quiet_s`.
+    #[error("link {me} <-> {boss} lost: no heartbeat of the supervisor in charge crossed it for {quiet_s:.0} s; stopping host {me}'s processes")]
+    BossLost {
+        me: String,
+        boss: String,
+        quiet_s: f64,
+    },
+}
 
 /// Services whose users run on more than one host: only these cross the link (the
 /// truth, for one, never reaches the flight computer).
@@ -95,11 +135,15 @@ impl TunnelChild {
         launch: &LaunchDescription,
         me: &str,
         record: bool,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, HostError> {
         let own =
-            launch.host.iter().find(|h| h.name == me).ok_or_else(|| {
-                format!("--host {me}: no such [[host]] in the launch description")
-            })?;
+            launch
+                .host
+                .iter()
+                .find(|h| h.name == me)
+                .ok_or_else(|| HostError::NoSuchHost {
+                    host: me.to_string(),
+                })?;
         let mut args = vec![
             "--bus-prefix".to_string(),
             prefix.to_string(),
@@ -122,17 +166,27 @@ impl TunnelChild {
         })
     }
 
-    /// Restart the tunnel if it died; the reason, for the log and the report.
-    pub fn check(&mut self) -> Result<Option<String>, String> {
+    /// Restart the tunnel if it died; how it ended, for the log and the report.
+    pub fn check(&mut self) -> Result<Option<TunnelDied>, HostError> {
         match self.child.try_wait() {
             Ok(None) => Ok(None),
             Ok(Some(status)) => {
                 self.child = spawn(&self.exe, &self.args)?;
                 self.restarts += 1;
-                Ok(Some(format!("the tunnel died ({status}); restarted it")))
+                Ok(Some(TunnelDied(status)))
             }
-            Err(e) => Err(format!("cannot watch the tunnel: {e}")),
+            Err(e) => Err(HostError::TunnelWatch(e)),
         }
+    }
+}
+
+/// The tunnel died (its exit status) and was restarted.
+#[derive(Debug, Clone, Copy)]
+pub struct TunnelDied(pub std::process::ExitStatus);
+
+impl std::fmt::Display for TunnelDied {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "the tunnel died ({}); restarted it", self.0)
     }
 }
 
@@ -149,16 +203,14 @@ impl Drop for TunnelChild {
     }
 }
 
-fn spawn(exe: &Path, args: &[String]) -> Result<Child, String> {
+fn spawn(exe: &Path, args: &[String]) -> Result<Child, HostError> {
     Command::new(exe)
         .args(args)
         .stdin(Stdio::null())
         .spawn()
-        .map_err(|e| {
-            format!(
-                "cannot start the tunnel {} ({e}); build it with `cargo build --release --manifest-path tools/tunnel/Cargo.toml` and pass --tunnel-bin",
-                exe.display()
-            )
+        .map_err(|source| HostError::TunnelSpawn {
+            exe: exe.to_path_buf(),
+            source,
         })
 }
 
@@ -233,7 +285,7 @@ impl InCharge {
         launch: &LaunchDescription,
         node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
         bin_dir: &Path,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, HostError> {
         let me = launch.host[0].name.clone();
         let exe = tunnel_exe(args, bin_dir);
         let tunnel = TunnelChild::start(&exe, &args.bus_prefix, launch, &me, args.record)?;
@@ -298,7 +350,7 @@ impl InCharge {
     /// Beat, watch the tunnel and the links. Ok(true) while some link is silent (the
     /// caller holds its stall and heartbeat verdicts on that host's processes);
     /// Err once a host stayed silent for the link timeout.
-    pub fn poll(&mut self) -> Result<bool, String> {
+    pub fn poll(&mut self) -> Result<bool, HostError> {
         if Instant::now() >= self.next_beat {
             self.next_beat = Instant::now() + BEAT;
             self.seq += 1;
@@ -306,7 +358,7 @@ impl InCharge {
         }
         if let Some(why) = self.tunnel.check()? {
             log::warn!("host {}: {why}", self.me);
-            self.tunnel_deaths.push(why);
+            self.tunnel_deaths.push(why.to_string());
         }
         let mut silent = false;
         for h in &mut self.remote {
@@ -330,12 +382,11 @@ impl InCharge {
                 }
                 if quiet > self.link_timeout {
                     self.lost = true;
-                    return Err(format!(
-                        "link {} <-> {} lost: no heartbeat crossed it for {:.0} s (link_timeout_s); stopping the set",
-                        self.me,
-                        h.name,
-                        self.link_timeout.as_secs_f64()
-                    ));
+                    return Err(HostError::LinkLost {
+                        me: self.me.clone(),
+                        host: h.name.clone(),
+                        timeout_s: self.link_timeout.as_secs_f64(),
+                    });
                 }
             } else if let Some(since) = h.silent_since.take() {
                 let gap = (h.last_heard - since).as_secs_f64();
@@ -360,7 +411,7 @@ impl InCharge {
         &mut self,
         node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
         progress: &bus::Sub<Progress>,
-        send: &dyn Fn(u32, u64) -> Result<(), String>,
+        send: &dyn Fn(u32, u64) -> Result<(), BusError>,
     ) {
         let t0 = Instant::now();
         let mut next_stop = t0;
@@ -440,21 +491,19 @@ impl InCharge {
 pub fn my_host(
     args: &SupervisorArgs,
     launch: &LaunchDescription,
-) -> Result<Option<String>, String> {
+) -> Result<Option<String>, HostError> {
     match (&args.host, launch.in_charge()) {
         (None, None) => Ok(None),
-        (Some(h), None) => Err(format!(
-            "--host {h}: the launch description names no hosts (add [[host]] tables, see tools/two_hosts.toml)"
-        )),
+        (Some(h), None) => Err(HostError::NoHosts { host: h.clone() }),
         (None, Some(first)) => Ok(Some(first.name.clone())),
         (Some(h), Some(_)) => {
             if launch.host.iter().any(|x| &x.name == h) {
                 Ok(Some(h.clone()))
             } else {
-                Err(format!(
-                    "--host {h}: the launch description's hosts are {}",
-                    launch.host.iter().map(|x| x.name.as_str()).collect::<Vec<_>>().join(", ")
-                ))
+                Err(HostError::UnknownHost {
+                    host: h.clone(),
+                    hosts: launch.host.iter().map(|x| x.name.clone()).collect(),
+                })
             }
         }
     }
@@ -471,16 +520,14 @@ pub(crate) fn agent_watch(
     launch: &LaunchDescription,
     me: &str,
     args: &SupervisorArgs,
-) -> Result<Option<u64>, SupervisorError> {
+) -> Result<Option<u64>, SetError> {
     use crate::msg::{Control, PROC_ESTIMATOR};
-    let set_err = SupervisorError::Set;
     let index = launch.host.iter().position(|h| h.name == me).unwrap_or(0) as u64;
     let boss = launch.host[0].name.clone();
     let exe = tunnel_exe(args, &set.bin_dir);
-    let mut tunnel =
-        TunnelChild::start(&exe, &args.bus_prefix, launch, me, false).map_err(set_err)?;
-    let control = bus::subscriber::<Control>(node, bus::SVC_CONTROL).map_err(set_err)?;
-    let beat_pub = bus::publisher::<Progress>(node, bus::SVC_PROGRESS).map_err(set_err)?;
+    let mut tunnel = TunnelChild::start(&exe, &args.bus_prefix, launch, me, false)?;
+    let control = bus::subscriber::<Control>(node, bus::SVC_CONTROL)?;
+    let beat_pub = bus::publisher::<Progress>(node, bus::SVC_PROGRESS)?;
     let link_timeout = Duration::from_secs_f64(launch.link_timeout_s);
     let heartbeat = Duration::from_secs_f64(launch.heartbeat_timeout_s);
     let mut seq = 0u64;
@@ -507,7 +554,7 @@ pub(crate) fn agent_watch(
         if node.wait(Duration::from_micros(200)).is_err() {
             return Ok(None);
         }
-        while let Some(p) = bus::receive(progress).map_err(set_err)? {
+        while let Some(p) = bus::receive(progress)? {
             if p.process == PROC_SUPERVISOR {
                 let got = monotonic_ns();
                 boss_heard = Some(Instant::now());
@@ -515,7 +562,7 @@ pub(crate) fn agent_watch(
                 let mut echo = beat(PROC_AGENT, p.header.publish_ns, 0, seq);
                 echo.header.tick = index;
                 echo.header.due_ns = monotonic_ns().saturating_sub(got);
-                bus::publish(&beat_pub, echo).map_err(set_err)?;
+                bus::publish(&beat_pub, echo)?;
                 continue;
             }
             if let Some(m) = set.members.iter_mut().find(|m| m.id == p.process) {
@@ -523,12 +570,11 @@ pub(crate) fn agent_watch(
                 m.last_seen = Instant::now();
             }
         }
-        while let Some(c) = bus::receive(&control).map_err(set_err)? {
+        while let Some(c) = bus::receive(&control)? {
             if c.command == CMD_STOP {
                 log::info!("host {me}: the supervisor in charge said stop");
                 let tick = tick_of_estimator(set);
-                acknowledge_stop(node, &control, &beat_pub, index, &mut seq, link_timeout)
-                    .map_err(set_err)?;
+                acknowledge_stop(node, &control, &beat_pub, index, &mut seq, link_timeout)?;
                 return Ok(Some(tick));
             }
         }
@@ -537,21 +583,22 @@ pub(crate) fn agent_watch(
             seq += 1;
             let mut b = beat(PROC_AGENT, 0, 0, seq);
             b.header.tick = index;
-            bus::publish(&beat_pub, b).map_err(set_err)?;
+            bus::publish(&beat_pub, b)?;
         }
-        if let Some(why) = tunnel.check().map_err(set_err)? {
+        if let Some(why) = tunnel.check()? {
             log::warn!("host {me}: {why}");
         }
         // The one in charge: silent for the link timeout ends this host's part.
-        boss_link.check(boss_heard).map_err(set_err)?;
+        boss_link.check(boss_heard)?;
         // This host's processes: restart by policy, like the supervisor in charge.
-        match set.reap(&format!("host {me}: ")).map_err(set_err)? {
+        match set.reap(&format!("host {me}: "))? {
             Reap::Running => {}
             Reap::Interrupted => return Ok(None),
-            Reap::Stopped(why) => {
-                return Err(set_err(format!(
-                    "host {me}: {why}; stopping host {me}'s processes"
-                )))
+            Reap::Stopped(ended) => {
+                return Err(SetError::HostStopped {
+                    host: me.to_string(),
+                    ended,
+                })
             }
         }
         // A restartable process silent on its own host is hung: kill it (restarted above).
@@ -594,7 +641,7 @@ struct BossLink<'a> {
 
 impl BossLink<'_> {
     /// `heard`: when the one in charge was last heard (None: not yet).
-    fn check(&mut self, heard: Option<Instant>) -> Result<(), String> {
+    fn check(&mut self, heard: Option<Instant>) -> Result<(), HostError> {
         let (me, boss) = (self.me, self.boss);
         let quiet = heard.map_or(self.t_start.elapsed(), |t| t.elapsed());
         let limit = match heard {
@@ -603,10 +650,11 @@ impl BossLink<'_> {
             None => self.link_timeout + self.ready_timeout,
         };
         if quiet > limit {
-            return Err(format!(
-                "link {me} <-> {boss} lost: no heartbeat of the supervisor in charge crossed it for {:.0} s; stopping host {me}'s processes",
-                quiet.as_secs_f64()
-            ));
+            return Err(HostError::BossLost {
+                me: me.to_string(),
+                boss: boss.to_string(),
+                quiet_s: quiet.as_secs_f64(),
+            });
         }
         if heard.is_some() && quiet > LINK_SUSPECT {
             if !self.silent_logged {
@@ -636,7 +684,7 @@ fn acknowledge_stop(
     index: u64,
     seq: &mut u64,
     limit: Duration,
-) -> Result<(), String> {
+) -> Result<(), BusError> {
     let t0 = Instant::now();
     let mut last_stop = t0;
     let mut ack = true;

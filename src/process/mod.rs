@@ -17,7 +17,7 @@ pub mod recorder;
 pub mod set;
 pub mod supervisor;
 
-use crate::bus::{self, Pub, Sub};
+use crate::bus::{self, BusError, Pub, Sub};
 use crate::estimate::Method;
 use crate::msg::{Control, Header, Progress, CMD_START, CMD_STOP, PROC_RECORDER, STATE_READY};
 use crate::scenario::Scenario;
@@ -25,6 +25,100 @@ use crate::timing::{monotonic_ns, LatencyHistogram};
 use iceoryx2::prelude::*;
 use std::path::PathBuf;
 use std::time::Duration;
+
+/// Why a stage process (or a helper of the supervisor's) failed. Wraps the error
+/// enums of the modules it uses; the variants of the filter loop (`Bus`,
+/// `Checkpoint`, the outbox's) allocate nothing until displayed.
+#[derive(Debug, thiserror::Error)]
+pub enum ProcessError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    #[error(transparent)]
+    Plan(#[from] crate::plan::PlanError),
+    #[error(transparent)]
+    Checkpoint(#[from] crate::checkpoint::CheckpointError),
+    #[error(transparent)]
+    Telemetry(#[from] crate::telemetry::TelemetryError),
+    #[error(transparent)]
+    FaultVar(#[from] FaultVarError),
+    /// `Link::new` for a binary that is no stage of `topology::STAGES`.
+    #[error("{process} is no stage of the set (topology::STAGES)")]
+    NotAStage { process: String },
+    #[error("--time-scale must be a positive number, not {time_scale}")]
+    TimeScale { time_scale: f64 },
+    #[error("--method must be joint or paper, not {method:?}")]
+    Method { method: String },
+    /// `TAIJI_FAULT_HOLD` is not TICK:PATH.
+    #[error("{} must be TICK:PATH, not {value:?}", commander::FAULT_HOLD)]
+    FaultHold { value: String },
+    /// `TAIJI_FAULT_CHECKPOINT_DELAY_MS` is not a number of milliseconds up to 60000.
+    #[error(
+        "{} must be a whole number of milliseconds up to 60000, not {value:?}",
+        estimator::FAULT_CHECKPOINT_DELAY
+    )]
+    FaultCheckpointDelay { value: String },
+    /// The run directory could not be made.
+    #[error("cannot create {}: {source}", path.display())]
+    CreateDir {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The estimator's table could not be serialised.
+    #[error("{0}")]
+    TableJson(#[source] serde_json::Error),
+    #[error("cannot write {}: {source}", path.display())]
+    TableWrite {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot read the estimator table {}: {source}", path.display())]
+    TableRead {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: not an estimator table: {source}", path.display())]
+    TableParse {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("{}: estimator table refused: {problem:?}", path.display())]
+    TableRefused {
+        path: PathBuf,
+        problem: crate::estimate::config::ConfigError,
+    },
+    /// A (restarted) estimator asked for ticks the front end's ring no longer holds.
+    #[error("the estimator resumed at tick {resumed} but the front-end holds ticks {from}..{to}")]
+    ResumeOutsideRing { resumed: u64, from: u64, to: u64 },
+    /// Samples never reached the recorder: its file lacks them.
+    #[error("{lost} samples never reached the recorder; {} is incomplete", path.display())]
+    IncompleteRecording { lost: u64, path: PathBuf },
+    #[error("cannot start the estimate publisher thread: {0}")]
+    OutboxSpawn(#[source] std::io::Error),
+    #[error("the estimate publisher thread died at start")]
+    OutboxDiedAtStart,
+    /// The estimate publisher thread failed on the bus.
+    #[error("estimate publisher: {0}")]
+    Outbox(#[source] BusError),
+    #[error("the estimate publisher thread panicked")]
+    OutboxPanicked,
+    #[error("the estimate publisher stopped")]
+    OutboxStopped,
+}
+
+/// A fault-injection environment variable that is not a whole number in range.
+#[derive(Debug, thiserror::Error)]
+#[error("{var} must be a whole number from 0 to {max}, not {value:?}")]
+pub struct FaultVarError {
+    pub var: &'static str,
+    pub max: u32,
+    pub value: String,
+}
 
 /// Arguments of the stages that simulate (commander, plant, front-end, recorder): the
 /// bus arguments and the scenario, truths included.
@@ -82,11 +176,9 @@ impl StageArgs {
     /// The stage's scenario. The supervisor hands every stage the scenario with its
     /// maneuver planned (`PLANNED_SCENARIO_FILE`); a stage started by hand on a
     /// scenario without one plans it itself (deterministic: the same plan).
-    pub fn scenario(&self) -> Result<Scenario, String> {
-        let s = Scenario::load_or_default(self.scenario.as_deref()).map_err(|e| e.to_string())?;
-        crate::plan::resolve(s)
-            .map(|(s, _)| s)
-            .map_err(String::from)
+    pub fn scenario(&self) -> Result<Scenario, ProcessError> {
+        let s = Scenario::load_or_default(self.scenario.as_deref())?;
+        Ok(crate::plan::resolve(s).map(|(s, _)| s)?)
     }
 
     pub fn seed(&self, s: &Scenario) -> u64 {
@@ -94,26 +186,25 @@ impl StageArgs {
     }
 
     /// Real-time tick period [ns] (0 in accelerated mode).
-    pub fn period_ns(&self, s: &Scenario) -> Result<u64, String> {
+    pub fn period_ns(&self, s: &Scenario) -> Result<u64, ProcessError> {
         self.bus.period_ns(s.sample_rate_hz)
     }
 }
 
 impl BusArgs {
-    pub fn method(&self) -> Result<Method, String> {
+    pub fn method(&self) -> Result<Method, ProcessError> {
         parse_method(&self.method)
     }
 
     /// Real-time tick period [ns] at sample rate `fs` [Hz] (0 in accelerated mode).
-    pub fn period_ns(&self, fs: f64) -> Result<u64, String> {
+    pub fn period_ns(&self, fs: f64) -> Result<u64, ProcessError> {
         if !self.realtime {
             return Ok(0);
         }
         if !(self.time_scale.is_finite() && self.time_scale > 0.0) {
-            return Err(format!(
-                "--time-scale must be a positive number, not {}",
-                self.time_scale
-            ));
+            return Err(ProcessError::TimeScale {
+                time_scale: self.time_scale,
+            });
         }
         Ok((1e9 / (fs * self.time_scale)).round().max(1.0) as u64)
     }
@@ -184,9 +275,10 @@ impl Link {
     /// The link of the stage run by binary `process`: its wake-up event, and its
     /// neighbours' from the set's table (`topology::STAGES`; it obeys the credit of
     /// its downstream).
-    pub fn new(process: &str, args: &BusArgs) -> Result<Self, String> {
-        let stage = crate::topology::stage(process)
-            .ok_or_else(|| format!("{process} is no stage of the set (topology::STAGES)"))?;
+    pub fn new(process: &str, args: &BusArgs) -> Result<Self, ProcessError> {
+        let stage = crate::topology::stage(process).ok_or_else(|| ProcessError::NotAStage {
+            process: process.to_string(),
+        })?;
         let name = stage.process;
         let downstream = stage.downstream.and_then(crate::topology::stage_named);
         let node = bus::node(name, &args.bus_prefix)?;
@@ -256,7 +348,7 @@ impl Link {
     }
 
     /// Publish progress now.
-    pub fn beat(&mut self) -> Result<(), String> {
+    pub fn beat(&mut self) -> Result<(), BusError> {
         let now = monotonic_ns();
         self.progress.primed = self.primed() as u32;
         let p = &mut self.progress;
@@ -306,7 +398,7 @@ impl Link {
 
     /// Read control and downstream progress; publish a heartbeat when one is due.
     /// Returns `Some(exit)` when the stage must stop.
-    pub fn poll(&mut self) -> Result<Option<Exit>, String> {
+    pub fn poll(&mut self) -> Result<Option<Exit>, BusError> {
         // Drain wake-ups: their data is already visible (publish precedes notify), and a
         // full socket would make the neighbour's notify fail (which allocates).
         let _ = self.wake.try_wait_all(|_| {});
@@ -397,7 +489,7 @@ impl Link {
     }
 
     /// After the last tick: report done and wait for the supervisor's stop.
-    pub fn linger(&mut self, state: u32) -> Result<Exit, String> {
+    pub fn linger(&mut self, state: u32) -> Result<Exit, BusError> {
         self.progress.state = state;
         self.beat()?;
         loop {
@@ -412,11 +504,13 @@ impl Link {
 }
 
 /// `--method` of the stages and the supervisor.
-pub fn parse_method(name: &str) -> Result<Method, String> {
+pub fn parse_method(name: &str) -> Result<Method, ProcessError> {
     match name {
         "joint" => Ok(Method::Joint),
         "paper" => Ok(Method::Paper),
-        m => Err(format!("--method must be joint or paper, not {m:?}")),
+        m => Err(ProcessError::Method {
+            method: m.to_string(),
+        }),
     }
 }
 
@@ -464,7 +558,10 @@ pub fn init_logging() {
 }
 
 /// Common `main` of a stage binary: logging, run, exit code (0 done, 2 error, 130 signal).
-pub fn main_of(name: &str, run: impl FnOnce() -> Result<Exit, String>) -> std::process::ExitCode {
+pub fn main_of(
+    name: &str,
+    run: impl FnOnce() -> Result<Exit, ProcessError>,
+) -> std::process::ExitCode {
     init_logging();
     match run() {
         Ok(Exit::Stopped) => std::process::ExitCode::SUCCESS,
@@ -481,14 +578,12 @@ pub fn main_of(name: &str, run: impl FnOnce() -> Result<Exit, String>) -> std::p
 
 /// A fault-injection count from the environment variable `var` (unset: 0), at most
 /// `max`; anything else is a user error naming the variable.
-pub(crate) fn fault_count(var: &str, max: u32) -> Result<u32, String> {
+pub(crate) fn fault_count(var: &'static str, max: u32) -> Result<u32, FaultVarError> {
     match std::env::var(var) {
         Err(_) => Ok(0),
         Ok(v) => match v.trim().parse::<u32>() {
             Ok(k) if k <= max => Ok(k),
-            _ => Err(format!(
-                "{var} must be a whole number from 0 to {max}, not {v:?}"
-            )),
+            _ => Err(FaultVarError { var, max, value: v }),
         },
     }
 }

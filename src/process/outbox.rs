@@ -7,7 +7,8 @@
 //! which the credit windows make rare), and a subscriber that never reads only
 //! overflows its own queue (iceoryx2's safe overflow), stalling nobody.
 
-use crate::bus;
+use super::ProcessError;
+use crate::bus::{self, BusError};
 use crate::msg::EstimateMsg;
 use crate::timing::monotonic_ns;
 use heapless::spsc::{Producer, Queue};
@@ -22,7 +23,7 @@ const DEPTH: usize = 1024;
 pub struct Outbox {
     tx: Producer<'static, EstimateMsg, DEPTH>,
     thread: Thread,
-    handle: Option<JoinHandle<Result<(), String>>>,
+    handle: Option<JoinHandle<Result<(), BusError>>>,
     quit: Arc<AtomicBool>,
     dead: Arc<AtomicBool>,
 }
@@ -30,52 +31,58 @@ pub struct Outbox {
 impl Outbox {
     /// Starts the thread with its own node and publisher on the estimate service and
     /// returns once the publisher exists (estimates sent before would be lost).
-    pub fn start(prefix: &str) -> Result<Self, String> {
+    pub fn start(prefix: &str) -> Result<Self, ProcessError> {
         // Start-up allocation, once: the queue lives as long as the process.
         let queue: &'static mut Queue<EstimateMsg, DEPTH> = Box::leak(Box::new(Queue::new()));
         let (tx, mut rx) = queue.split();
         let quit = Arc::new(AtomicBool::new(false));
         let dead = Arc::new(AtomicBool::new(false));
-        let (ready_tx, ready_rx) = std::sync::mpsc::channel::<Result<(), String>>();
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel::<Result<(), BusError>>();
         let prefix = prefix.to_string();
         let (q, d) = (quit.clone(), dead.clone());
         let handle = std::thread::Builder::new()
             .name("estimate-out".into())
             .spawn(move || {
-                let mut run = || -> Result<(), String> {
-                    let node = bus::node("taiji-estimator-out", &prefix)?;
+                let ports = bus::node("taiji-estimator-out", &prefix).and_then(|node| {
                     let publisher = bus::publisher::<EstimateMsg>(&node, bus::SVC_ESTIMATE)?;
-                    let _ = ready_tx.send(Ok(()));
-                    loop {
-                        let mut sent = false;
-                        while let Some(mut m) = rx.dequeue() {
-                            m.header.publish_ns = monotonic_ns();
-                            bus::publish(&publisher, m)?;
-                            sent = true;
-                        }
-                        if q.load(Ordering::Acquire) && !rx.ready() {
-                            break;
-                        }
-                        if !sent {
-                            std::thread::park_timeout(Duration::from_millis(5));
-                        }
+                    Ok((node, publisher))
+                });
+                let (node, publisher) = match ports {
+                    Ok(ports) => ports,
+                    Err(e) => {
+                        // Reported by `start`, which is waiting for it.
+                        d.store(true, Ordering::Release);
+                        let _ = ready_tx.send(Err(e));
+                        return Ok(());
                     }
-                    drop(publisher);
-                    drop(node);
-                    Ok(())
                 };
-                let r = run();
-                if let Err(e) = &r {
+                let _ = ready_tx.send(Ok(()));
+                let r = (|| loop {
+                    let mut sent = false;
+                    while let Some(mut m) = rx.dequeue() {
+                        m.header.publish_ns = monotonic_ns();
+                        bus::publish(&publisher, m)?;
+                        sent = true;
+                    }
+                    if q.load(Ordering::Acquire) && !rx.ready() {
+                        return Ok(());
+                    }
+                    if !sent {
+                        std::thread::park_timeout(Duration::from_millis(5));
+                    }
+                })();
+                if r.is_err() {
                     d.store(true, Ordering::Release);
-                    let _ = ready_tx.send(Err(e.clone()));
                 }
+                drop(publisher);
+                drop(node);
                 r
             })
-            .map_err(|e| format!("cannot start the estimate publisher thread: {e}"))?;
+            .map_err(ProcessError::OutboxSpawn)?;
         match ready_rx.recv() {
             Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(e),
-            Err(_) => return Err("the estimate publisher thread died at start".into()),
+            Ok(Err(e)) => return Err(e.into()),
+            Err(_) => return Err(ProcessError::OutboxDiedAtStart),
         }
         Ok(Outbox {
             tx,
@@ -87,7 +94,7 @@ impl Outbox {
     }
 
     /// Hands one estimate to the publisher (no allocation; waits while the queue is full).
-    pub fn send(&mut self, mut m: EstimateMsg) -> Result<(), String> {
+    pub fn send(&mut self, mut m: EstimateMsg) -> Result<(), ProcessError> {
         loop {
             match self.tx.enqueue(m) {
                 Ok(()) => {
@@ -106,23 +113,23 @@ impl Outbox {
         }
     }
 
-    fn stop(&mut self) -> String {
+    fn stop(&mut self) -> ProcessError {
         self.quit.store(true, Ordering::Release);
         self.thread.unpark();
         match self.handle.take().map(|h| h.join()) {
-            Some(Ok(Err(e))) => format!("estimate publisher: {e}"),
-            Some(Err(_)) => "the estimate publisher thread panicked".into(),
-            _ => "the estimate publisher stopped".into(),
+            Some(Ok(Err(e))) => ProcessError::Outbox(e),
+            Some(Err(_)) => ProcessError::OutboxPanicked,
+            _ => ProcessError::OutboxStopped,
         }
     }
 
     /// Publishes what is queued and stops the thread.
-    pub fn finish(&mut self) -> Result<(), String> {
+    pub fn finish(&mut self) -> Result<(), ProcessError> {
         self.quit.store(true, Ordering::Release);
         self.thread.unpark();
         match self.handle.take().map(|h| h.join()) {
-            Some(Ok(r)) => r.map_err(|e| format!("estimate publisher: {e}")),
-            Some(Err(_)) => Err("the estimate publisher thread panicked".into()),
+            Some(Ok(r)) => r.map_err(ProcessError::Outbox),
+            Some(Err(_)) => Err(ProcessError::OutboxPanicked),
             None => Ok(()),
         }
     }

@@ -2,14 +2,14 @@
 //! publishes the truth (to the front-end electronics only).
 
 use super::driver::{self, Service, Turn};
-use super::{Exit, Link, StageArgs};
+use super::{Exit, Link, ProcessError, StageArgs};
 use crate::bus;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::{TorqueCommand, TruthState, STATE_RUNNING};
 use crate::stage::Stage;
 use crate::timing::monotonic_ns;
 
-pub fn run(args: &StageArgs) -> Result<Exit, String> {
+pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
     let mut link = Link::new(<Plant as Stage>::PROCESS, args)?;
@@ -38,7 +38,7 @@ struct PlantService {
 }
 
 impl Service for PlantService {
-    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, ProcessError> {
         if self.next >= self.n {
             return Ok(Turn::Done);
         }
@@ -73,7 +73,11 @@ impl Service for PlantService {
     }
 }
 
-fn publish_truth(out: &bus::Pub<TruthState>, mut t: TruthState, due_ns: u64) -> Result<(), String> {
+fn publish_truth(
+    out: &bus::Pub<TruthState>,
+    mut t: TruthState,
+    due_ns: u64,
+) -> Result<(), bus::BusError> {
     let now = monotonic_ns();
     t.header.publish_ns = now;
     t.header.origin_ns = now;

@@ -11,7 +11,7 @@
 //! It pairs each estimate message with the bus delivery behind it to score detection.
 
 use super::driver::{self, Service, Turn};
-use super::{Exit, Link, StageArgs};
+use super::{Exit, Link, ProcessError, StageArgs};
 use crate::bus;
 use crate::faults::{FaultScore, Injector};
 use crate::fee::FrontEnd;
@@ -43,12 +43,14 @@ impl Cursor {
     }
 }
 
-pub fn run(args: &StageArgs) -> Result<Exit, String> {
+pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let s = args.scenario()?;
     let seed = args.seed(&s);
     let method = args.method()?;
-    std::fs::create_dir_all(&args.run_dir)
-        .map_err(|e| format!("cannot create {}: {e}", args.run_dir.display()))?;
+    std::fs::create_dir_all(&args.run_dir).map_err(|source| ProcessError::CreateDir {
+        path: args.run_dir.clone(),
+        source,
+    })?;
     let path = args.run_dir.join(TELEMETRY_FILE);
     let mut link = Link::new("taiji-recorder", args)?;
     let q = bus::RECORDER_QUEUE;
@@ -97,7 +99,7 @@ struct RecorderService {
 
 impl RecorderService {
     /// Record every truth that has arrived, with its sample rebuilt; returns how many.
-    fn take_truths(&mut self) -> Result<u64, String> {
+    fn take_truths(&mut self) -> Result<u64, ProcessError> {
         let Some(t) = self.tel.as_mut() else {
             return Ok(0);
         };
@@ -117,7 +119,7 @@ impl RecorderService {
 
     /// Record the estimates that have arrived, each scored once its tick's truth (hence
     /// its faults) is in; returns how many arrived.
-    fn take_estimates(&mut self) -> Result<u64, String> {
+    fn take_estimates(&mut self) -> Result<u64, ProcessError> {
         let Some(t) = self.tel.as_mut() else {
             return Ok(0);
         };
@@ -162,13 +164,13 @@ impl RecorderService {
     }
 
     /// Everything is in: close the file with the fault log and its scores.
-    fn complete(&mut self, mut t: Writer, lost: u64) -> Result<(), String> {
+    fn complete(&mut self, mut t: Writer, lost: u64) -> Result<(), ProcessError> {
         if lost > 0 {
             t.flush()?;
-            return Err(format!(
-                "{lost} samples never reached the recorder; {} is incomplete",
-                self.path.display()
-            ));
+            return Err(ProcessError::IncompleteRecording {
+                lost,
+                path: self.path.clone(),
+            });
         }
         let none: (&[_], &[_]) = (&[], &[]);
         let (records, detected) = match self.inj.enabled() {
@@ -182,7 +184,7 @@ impl RecorderService {
 }
 
 impl Service for RecorderService {
-    fn turn(&mut self, link: &mut Link) -> Result<Turn, String> {
+    fn turn(&mut self, link: &mut Link) -> Result<Turn, ProcessError> {
         let got = self.take_truths()? + self.take_estimates()?;
         if got > 0 {
             link.progress.state = STATE_RUNNING;
@@ -205,7 +207,7 @@ impl Service for RecorderService {
         })
     }
 
-    fn stop(&mut self, _link: &mut Link, _exit: Exit) -> Result<(), String> {
+    fn stop(&mut self, _link: &mut Link, _exit: Exit) -> Result<(), ProcessError> {
         if let Some(mut t) = self.tel.take() {
             // Stopped early: the file keeps every sample received.
             t.flush()?;

@@ -3,7 +3,9 @@
 //! its policy. The supervisor (one host) and the hosts module (a set over hosts) both
 //! drive it.
 
-use crate::bus;
+use super::hosts::HostError;
+use super::ProcessError;
+use crate::bus::{self, BusError};
 use crate::launch::{ProcessSpec, Restart};
 use crate::msg::Progress;
 use std::path::PathBuf;
@@ -100,14 +102,49 @@ pub(crate) enum Reap {
     /// One was stopped by SIGINT/SIGTERM: the user is stopping the set.
     Interrupted,
     /// One exited and may not be restarted: its name, how it ended, and why not.
-    Stopped(String),
+    Stopped(Ended),
+}
+
+/// A member that exited and may not be restarted.
+#[derive(Debug)]
+pub struct Ended {
+    pub name: String,
+    pub status: std::process::ExitStatus,
+    pub restart: Restart,
+    pub max_restarts: u32,
+}
+
+impl std::fmt::Display for Ended {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = &self.name;
+        write!(f, "{name} died ({}); ", describe(self.status))?;
+        match self.restart {
+            Restart::Never => write!(
+                f,
+                "{name} is not restartable (restart = \"never\" in the launch description)"
+            ),
+            Restart::OnFailure if self.status.success() => {
+                write!(f, "{name} exited before the campaign ended")
+            }
+            Restart::OnFailure => write!(f, "{name} exhausted its {} restarts", self.max_restarts),
+        }
+    }
+}
+
+/// A member's binary could not be started.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot start {}: {source}", exe.display())]
+pub struct SpawnError {
+    pub exe: PathBuf,
+    #[source]
+    pub source: std::io::Error,
 }
 
 impl Set {
     /// Watch this host's processes: restart what died by its policy (after its delay,
     /// releasing the dead node's shared memory first); the first that may not be
     /// restarted ends the watch. `who` prefixes the log lines ("host sim: ").
-    pub(crate) fn reap(&mut self, who: &str) -> Result<Reap, String> {
+    pub(crate) fn reap(&mut self, who: &str) -> Result<Reap, SetError> {
         for i in 0..self.members.len() {
             let Some(child) = self.members[i].child.as_mut() else {
                 continue;
@@ -115,7 +152,12 @@ impl Set {
             let status = match child.try_wait() {
                 Ok(Some(st)) => st,
                 Ok(None) => continue,
-                Err(e) => return Err(format!("cannot watch {}: {e}", self.members[i].spec.name)),
+                Err(source) => {
+                    return Err(SetError::Watch {
+                        name: self.members[i].spec.name.clone(),
+                        source,
+                    })
+                }
             };
             if interrupted(status) {
                 return Ok(Reap::Interrupted);
@@ -145,28 +187,19 @@ impl Set {
                 m.last_seen = Instant::now();
                 continue;
             }
-            let why = match m.spec.restart {
-                Restart::Never => format!(
-                    "{name} is not restartable (restart = \"never\" in the launch description)"
-                ),
-                Restart::OnFailure if status.success() => {
-                    format!("{name} exited before the campaign ended")
-                }
-                Restart::OnFailure => {
-                    format!("{name} exhausted its {} restarts", m.spec.max_restarts)
-                }
-            };
-            return Ok(Reap::Stopped(format!(
-                "{name} died ({}); {why}",
-                describe(status)
-            )));
+            return Ok(Reap::Stopped(Ended {
+                name,
+                status,
+                restart: m.spec.restart,
+                max_restarts: m.spec.max_restarts,
+            }));
         }
         Ok(Reap::Running)
     }
 }
 
 impl Set {
-    pub(crate) fn spawn(&self, spec: &ProcessSpec) -> Result<Child, String> {
+    pub(crate) fn spawn(&self, spec: &ProcessSpec) -> Result<Child, SpawnError> {
         let exe = self.bin_dir.join(&spec.name);
         let mut cmd = Command::new(&exe);
         cmd.args(&self.common);
@@ -184,7 +217,7 @@ impl Set {
         cmd.args(&spec.args)
             .stdin(Stdio::null())
             .spawn()
-            .map_err(|e| format!("cannot start {}: {e}", exe.display()))
+            .map_err(|source| SpawnError { exe, source })
     }
 
     /// After the stop command: wait for everyone to exit by themselves, then SIGTERM
@@ -244,6 +277,240 @@ pub(crate) fn interrupted(status: std::process::ExitStatus) -> bool {
 
 /// Why a supervised run stopped: the user's mistake (exit 2) or the set's failure (exit 3).
 pub(crate) enum SupervisorError {
-    User(String),
-    Set(String),
+    /// Boxed: the scenario's and launch description's errors are large.
+    User(Box<UserError>),
+    Set(SetError),
+}
+
+impl SupervisorError {
+    pub(crate) fn user(e: UserError) -> Self {
+        SupervisorError::User(Box::new(e))
+    }
+}
+
+/// A supervised run refused: bad arguments, scenario, launch description or folders,
+/// or a prefix in use (exit 2).
+#[derive(Debug, thiserror::Error)]
+pub enum UserError {
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    #[error(transparent)]
+    Plan(#[from] crate::plan::PlanError),
+    #[error(transparent)]
+    Launch(#[from] crate::launch::LaunchError),
+    /// `--method`, `--time-scale`, the estimator's table.
+    #[error(transparent)]
+    Process(#[from] ProcessError),
+    /// `--host`, the tunnel.
+    #[error(transparent)]
+    Host(#[from] HostError),
+    #[error(transparent)]
+    Spawn(#[from] SpawnError),
+    #[error("--record: recording a set spread over hosts is not supported (the recorder's streams would cross the link)")]
+    RecordOverHosts,
+    #[error("the Fisher information of this scenario is singular: the maneuver does not excite every parameter")]
+    SingularFisher,
+    /// `--out` cannot be made (a path through a file).
+    #[error("--out {}: cannot create this folder ({source})", path.display())]
+    OutFolder {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A prefix iceoryx2 cannot use as a file name.
+    #[error("--bus-prefix: {0}")]
+    BusPrefix(#[source] BusError),
+    /// Another run holds the prefix: its supervisor (when known) and live nodes.
+    #[error(
+        "another run is active on bus prefix {prefix:?} ({}); stop it or pass a different --bus-prefix",
+        holders(*pid, alive)
+    )]
+    AnotherRun {
+        prefix: String,
+        pid: Option<u32>,
+        alive: Vec<String>,
+    },
+    #[error("cannot create {}: {source}", path.display())]
+    CreateDir {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot remove old {}: {source}", path.display())]
+    RemoveCheckpoint {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot find the directory of the supervisor's executable")]
+    NoBinDir,
+    #[error("cannot write the scenario: {0}")]
+    ScenarioToml(#[source] toml::ser::Error),
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Who holds a prefix: its supervisor's pid (when known), its live nodes.
+fn holders(pid: Option<u32>, alive: &[String]) -> String {
+    let mut who: Vec<String> = pid
+        .map(|p| format!("supervisor pid {p}"))
+        .into_iter()
+        .collect();
+    who.push(match alive {
+        [] => "no live node yet".into(),
+        _ => format!("live nodes: {}", alive.join(", ")),
+    });
+    who.join("; ")
+}
+
+/// The process set failed and could not go on (exit 3).
+#[derive(Debug, thiserror::Error)]
+pub enum SetError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    #[error(transparent)]
+    Host(#[from] HostError),
+    /// A restart could not start the member again.
+    #[error(transparent)]
+    Spawn(#[from] SpawnError),
+    #[error("cannot start the shared-memory janitor: {0}")]
+    Janitor(#[source] std::io::Error),
+    #[error("cannot watch {name}: {source}")]
+    Watch {
+        name: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A member exited and may not be restarted.
+    #[error("{0}; stopping the set")]
+    Stopped(Ended),
+    /// A member exited and may not be restarted, on a host not in charge.
+    #[error("host {host}: {ended}; stopping host {host}'s processes")]
+    HostStopped { host: String, ended: Ended },
+    #[error("not ready after {timeout_s:.0} s: {}", missing.join(", "))]
+    NotReady {
+        timeout_s: f64,
+        missing: Vec<String>,
+    },
+    /// No tick advanced: each member's last tick.
+    #[error(
+        "the set stalled: no tick advanced for {heartbeat_s:.0} s ({}); stopping the set",
+        ticks.iter().map(|(n, t)| format!("{n} at tick {t}")).collect::<Vec<_>>().join(", ")
+    )]
+    Stalled {
+        heartbeat_s: f64,
+        ticks: Vec<(String, u64)>,
+    },
+    #[error("{name} published no progress for {heartbeat_s:.0} s (hung?); stopping the set")]
+    Hung { name: String, heartbeat_s: f64 },
+    /// The failure, with the estimator's checkpoint kept for diagnosis.
+    #[error("{error} (the estimator's last crash-restart checkpoint is kept: {})", checkpoint.display())]
+    CheckpointKept {
+        error: Box<SetError>,
+        checkpoint: PathBuf,
+    },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::process::hosts::HostError;
+    use std::os::unix::process::ExitStatusExt;
+
+    /// The typed errors print what the `format!` strings they replaced printed.
+    #[test]
+    fn messages_are_those_of_the_string_errors_they_replaced() {
+        let ended = Ended {
+            name: "taiji-plant".into(),
+            status: std::process::ExitStatus::from_raw(256),
+            restart: Restart::OnFailure,
+            max_restarts: 3,
+        };
+        assert_eq!(
+            SetError::Stopped(ended).to_string(),
+            "taiji-plant died (exit status 1); taiji-plant exhausted its 3 restarts; stopping the set"
+        );
+        let never = Ended {
+            name: "taiji-fee".into(),
+            status: std::process::ExitStatus::from_raw(9),
+            restart: Restart::Never,
+            max_restarts: 0,
+        };
+        assert_eq!(
+            SetError::HostStopped {
+                host: "sim".into(),
+                ended: never
+            }
+            .to_string(),
+            "host sim: taiji-fee died (signal 9); taiji-fee is not restartable (restart = \"never\" in the launch description); stopping host sim's processes"
+        );
+        let kept = SetError::CheckpointKept {
+            error: Box::new(SetError::Stalled {
+                heartbeat_s: 5.0,
+                ticks: vec![("taiji-plant".into(), 7), ("taiji-fee".into(), 6)],
+            }),
+            checkpoint: "out/estimator.ckpt".into(),
+        };
+        assert_eq!(
+            kept.to_string(),
+            "the set stalled: no tick advanced for 5 s (taiji-plant at tick 7, taiji-fee at tick 6); stopping the set (the estimator's last crash-restart checkpoint is kept: out/estimator.ckpt)"
+        );
+        assert_eq!(
+            UserError::AnotherRun {
+                prefix: "taiji_".into(),
+                pid: Some(42),
+                alive: vec!["taiji-plant".into()]
+            }
+            .to_string(),
+            "another run is active on bus prefix \"taiji_\" (supervisor pid 42; live nodes: taiji-plant); stop it or pass a different --bus-prefix"
+        );
+        assert_eq!(
+            UserError::AnotherRun {
+                prefix: "p_".into(),
+                pid: None,
+                alive: vec![]
+            }
+            .to_string(),
+            "another run is active on bus prefix \"p_\" (no live node yet); stop it or pass a different --bus-prefix"
+        );
+        assert_eq!(
+            HostError::UnknownHost {
+                host: "moon".into(),
+                hosts: vec!["sim".into(), "flight".into()]
+            }
+            .to_string(),
+            "--host moon: the launch description's hosts are sim, flight"
+        );
+        assert_eq!(
+            HostError::LinkLost {
+                me: "sim".into(),
+                host: "flight".into(),
+                timeout_s: 20.0
+            }
+            .to_string(),
+            "link sim <-> flight lost: no heartbeat crossed it for 20 s (link_timeout_s); stopping the set"
+        );
+        assert_eq!(
+            ProcessError::FaultHold { value: "x".into() }.to_string(),
+            "TAIJI_FAULT_HOLD must be TICK:PATH, not \"x\""
+        );
+        assert_eq!(
+            ProcessError::ResumeOutsideRing {
+                resumed: 1,
+                from: 2,
+                to: 3
+            }
+            .to_string(),
+            "the estimator resumed at tick 1 but the front-end holds ticks 2..3"
+        );
+        assert_eq!(
+            ProcessError::Outbox(BusError::Loan(iceoryx2::port::LoanError::OutOfMemory))
+                .to_string(),
+            "estimate publisher: loan failed: OutOfMemory"
+        );
+    }
 }

@@ -3,7 +3,7 @@
 //! heartbeats), restarts what may be restarted, stops everything cleanly, and writes
 //! the report.
 
-use crate::bus;
+use crate::bus::{self, BusError};
 use crate::launch::{LaunchDescription, ProcessSpec, Restart};
 use crate::msg::{
     Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_COMMANDER,
@@ -12,6 +12,7 @@ use crate::msg::{
 use crate::process::estimator::{EstimatorTable, CHECKPOINT_FILE, TABLE_FILE};
 pub use crate::process::set::SupervisorArgs;
 use crate::process::set::{Member, Reap, Set, SupervisorError};
+pub use crate::process::set::{SetError, SpawnError, UserError};
 use crate::report::Report;
 use crate::scenario::Scenario;
 use crate::timing::monotonic_ns;
@@ -28,9 +29,9 @@ pub enum Outcome {
     /// The campaign completed; `met` says whether the requirements were met.
     Completed { report: Box<Report>, met: bool },
     /// Bad arguments, scenario or launch description (exit 2).
-    UserError(String),
+    UserError(UserError),
     /// A process of the set failed and could not be restarted (exit 3).
-    SetFailed(String),
+    SetFailed(SetError),
     /// SIGINT / SIGTERM (exit 130).
     Interrupted,
     /// A host that is not in charge: its processes ran until the one in charge said
@@ -59,7 +60,7 @@ pub const PLANNED_SCENARIO_FILE: &str = "scenario.toml";
 pub fn run(args: &SupervisorArgs) -> Outcome {
     let s = match Scenario::load_or_default(args.scenario.as_deref()) {
         Ok(s) => s,
-        Err(e) => return Outcome::UserError(e.to_string()),
+        Err(e) => return Outcome::UserError(e.into()),
     };
     let (s, plan) = match crate::plan::resolve(s) {
         Ok(x) => x,
@@ -70,27 +71,25 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
         Err(e) => return Outcome::UserError(e.into()),
     };
     if let Err(e) = super::parse_method(&args.method) {
-        return Outcome::UserError(e);
+        return Outcome::UserError(e.into());
     }
     if args.realtime && !(args.time_scale.is_finite() && args.time_scale > 0.0) {
-        return Outcome::UserError(format!(
-            "--time-scale must be a positive number, not {}",
-            args.time_scale
-        ));
+        return Outcome::UserError(
+            super::ProcessError::TimeScale {
+                time_scale: args.time_scale,
+            }
+            .into(),
+        );
     }
     let me = match super::hosts::my_host(args, &launch) {
         Ok(m) => m,
-        Err(e) => return Outcome::UserError(e),
+        Err(e) => return Outcome::UserError(e.into()),
     };
     if me.is_some() && args.record {
-        return Outcome::UserError(
-            "--record: recording a set spread over hosts is not supported (the recorder's streams would cross the link)".into(),
-        );
+        return Outcome::UserError(UserError::RecordOverHosts);
     }
     let Some(crlb) = crate::crlb::crlb(&s) else {
-        return Outcome::UserError(
-            "the Fisher information of this scenario is singular: the maneuver does not excite every parameter".into(),
-        );
+        return Outcome::UserError(UserError::SingularFisher);
     };
     match supervise(args, &s, &launch, me.as_deref()) {
         Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
@@ -139,7 +138,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
             }
         }
         Ok(Supervised::Interrupted) => Outcome::Interrupted,
-        Err(SupervisorError::User(e)) => Outcome::UserError(e),
+        Err(SupervisorError::User(e)) => Outcome::UserError(*e),
         Err(SupervisorError::Set(e)) => Outcome::SetFailed(e),
     }
 }
@@ -235,7 +234,7 @@ struct Janitor {
 }
 
 impl Janitor {
-    fn start(prefix: &str) -> Result<Self, String> {
+    fn start(prefix: &str) -> Result<Self, SetError> {
         let stop = Arc::new(AtomicBool::new(false));
         let (flag, prefix) = (Arc::clone(&stop), prefix.to_string());
         let thread = std::thread::Builder::new()
@@ -246,7 +245,7 @@ impl Janitor {
                     std::thread::park_timeout(Duration::from_millis(250));
                 }
             })
-            .map_err(|e| format!("cannot start the shared-memory janitor: {e}"))?;
+            .map_err(SetError::Janitor)?;
         Ok(Janitor {
             stop,
             thread: Some(thread),
@@ -266,19 +265,12 @@ impl Drop for Janitor {
 
 /// The refusal of a run on a prefix in use, naming its supervisor (when known) and
 /// its live nodes.
-fn another_run(prefix: &str, pid: Option<u32>, alive: &[String]) -> String {
-    let mut who: Vec<String> = pid
-        .map(|p| format!("supervisor pid {p}"))
-        .into_iter()
-        .collect();
-    who.push(match alive {
-        [] => "no live node yet".into(),
-        _ => format!("live nodes: {}", alive.join(", ")),
-    });
-    format!(
-        "another run is active on bus prefix {prefix:?} ({}); stop it or pass a different --bus-prefix",
-        who.join("; ")
-    )
+fn another_run(prefix: &str, pid: Option<u32>, alive: Vec<String>) -> SupervisorError {
+    SupervisorError::user(UserError::AnotherRun {
+        prefix: prefix.to_string(),
+        pid,
+        alive,
+    })
 }
 
 /// The run's hold on its bus prefix. Dropped last, when every process of the set has
@@ -309,11 +301,11 @@ fn supervise(
     launch: &LaunchDescription,
     me: Option<&str>,
 ) -> Result<Supervised, SupervisorError> {
-    let set_err = SupervisorError::Set;
+    let set_err = |e: BusError| SupervisorError::Set(e.into());
     let t_start = Instant::now();
     // Declared before every port and node of the run, so dropped after them.
     let _hold = claim(args)?;
-    let _janitor = Janitor::start(&args.bus_prefix).map_err(set_err)?;
+    let _janitor = Janitor::start(&args.bus_prefix).map_err(SupervisorError::Set)?;
     let ckpt = fresh_checkpoint(args)?;
     let node = bus::node("taiji-supervisor", &args.bus_prefix).map_err(set_err)?;
     let progress = bus::subscriber::<Progress>(&node, bus::SVC_PROGRESS).map_err(set_err)?;
@@ -340,13 +332,14 @@ fn supervise(
     let mut hosts = match me {
         Some(_) if !agent => Some(
             super::hosts::InCharge::start(args, launch, &node, &set.bin_dir)
-                .map_err(SupervisorError::User)?,
+                .map_err(|e| SupervisorError::user(e.into()))?,
         ),
         _ => None,
     };
     spawn_members(&mut set, launch.processes(args.record), launch, me, agent)?;
     let result = match me {
         Some(m) if agent => super::hosts::agent_watch(&node, &progress, &mut set, launch, m, args)
+            .map_err(SupervisorError::Set)
             .map(|stopped| {
                 stopped.map(|tick| EstimateMsg {
                     header: Header {
@@ -413,24 +406,24 @@ fn supervise(
 /// Take the bus prefix for this run: the output folder made, the prefix usable and
 /// not another run's, the shared memory of dead processes of an earlier run removed.
 fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
-    let user = SupervisorError::User;
-    let set_err = SupervisorError::Set;
+    let user = SupervisorError::user;
+    let set_err = |e: BusError| SupervisorError::Set(e.into());
     // An output folder that cannot be made (a path through a file) is the user's to fix,
     // before the campaign runs.
-    std::fs::create_dir_all(&args.out).map_err(|e| {
-        user(format!(
-            "--out {}: cannot create this folder ({e})",
-            args.out.display()
-        ))
+    std::fs::create_dir_all(&args.out).map_err(|source| {
+        user(UserError::OutFolder {
+            path: args.out.clone(),
+            source,
+        })
     })?;
     // A prefix iceoryx2 cannot use as a file name is the user's to fix.
-    bus::config(&args.bus_prefix).map_err(|e| user(format!("--bus-prefix: {e}")))?;
+    bus::config(&args.bus_prefix).map_err(|e| user(UserError::BusPrefix(e)))?;
     // One supervisor per prefix: the lock, not the live-node check below, decides.
     let lock = match bus::claim_prefix(&args.bus_prefix).map_err(set_err)? {
         bus::Claim::Won(lock) => lock,
         bus::Claim::Held { pid } => {
             let alive = bus::live_nodes(&args.bus_prefix);
-            return Err(user(another_run(&args.bus_prefix, pid, &alive)));
+            return Err(another_run(&args.bus_prefix, pid, alive));
         }
     };
     let hold = PrefixHold {
@@ -446,7 +439,7 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
     }
     // Live nodes without a supervisor: the set of a supervisor killed a moment ago.
     if !survey.alive.is_empty() {
-        return Err(user(another_run(&args.bus_prefix, None, &survey.alive)));
+        return Err(another_run(&args.bus_prefix, None, survey.alive));
     }
     Ok(hold)
 }
@@ -454,13 +447,21 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
 /// The estimator's checkpoint path in the run folder, with an earlier run's removed
 /// (a checkpoint only serves restarts within its own run).
 fn fresh_checkpoint(args: &SupervisorArgs) -> Result<PathBuf, SupervisorError> {
-    let user = SupervisorError::User;
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| user(format!("cannot create {}: {e}", args.out.display())))?;
+    let user = SupervisorError::user;
+    std::fs::create_dir_all(&args.out).map_err(|source| {
+        user(UserError::CreateDir {
+            path: args.out.clone(),
+            source,
+        })
+    })?;
     let ckpt = args.out.join(CHECKPOINT_FILE);
     if ckpt.exists() {
-        std::fs::remove_file(&ckpt)
-            .map_err(|e| user(format!("cannot remove old {}: {e}", ckpt.display())))?;
+        std::fs::remove_file(&ckpt).map_err(|source| {
+            user(UserError::RemoveCheckpoint {
+                path: ckpt.clone(),
+                source,
+            })
+        })?;
     }
     Ok(ckpt)
 }
@@ -472,10 +473,12 @@ fn settle_checkpoint<T>(
     ckpt: &std::path::Path,
 ) -> Result<T, SupervisorError> {
     match result {
-        Err(SupervisorError::Set(e)) if ckpt.exists() => Err(SupervisorError::Set(format!(
-            "{e} (the estimator's last crash-restart checkpoint is kept: {})",
-            ckpt.display()
-        ))),
+        Err(SupervisorError::Set(e)) if ckpt.exists() => {
+            Err(SupervisorError::Set(SetError::CheckpointKept {
+                error: Box::new(e),
+                checkpoint: ckpt.to_path_buf(),
+            }))
+        }
         r => {
             remove_checkpoint(ckpt);
             r
@@ -486,15 +489,13 @@ fn settle_checkpoint<T>(
 /// The set to start: its binaries, the arguments every member gets, and the files the
 /// members read from the run folder (the resolved scenario, the estimator's table).
 fn new_set(args: &SupervisorArgs, s: &Scenario) -> Result<Set, SupervisorError> {
-    let user = SupervisorError::User;
+    let user = SupervisorError::user;
     let bin_dir = match &args.bin_dir {
         Some(d) => d.clone(),
         None => std::env::current_exe()
             .ok()
             .and_then(|p| p.parent().map(|d| d.to_path_buf()))
-            .ok_or_else(|| {
-                user("cannot find the directory of the supervisor's executable".into())
-            })?,
+            .ok_or(user(UserError::NoBinDir))?,
     };
     let mut common: Vec<String> = vec![
         "--bus-prefix".into(),
@@ -507,16 +508,22 @@ fn new_set(args: &SupervisorArgs, s: &Scenario) -> Result<Set, SupervisorError> 
     // Every stage flies the same maneuver: the scenario as resolved here (its
     // maneuver planned when the file gave none), written into the run folder.
     let resolved = args.out.join(PLANNED_SCENARIO_FILE);
-    let text = toml::to_string(s).map_err(|e| user(format!("cannot write the scenario: {e}")))?;
-    std::fs::write(&resolved, text)
-        .map_err(|e| user(format!("cannot write {}: {e}", resolved.display())))?;
+    let text = toml::to_string(s).map_err(|e| user(UserError::ScenarioToml(e)))?;
+    std::fs::write(&resolved, text).map_err(|source| {
+        user(UserError::Write {
+            path: resolved.clone(),
+            source,
+        })
+    })?;
     let mut scenario_args: Vec<String> = vec!["--scenario".into(), resolved.display().to_string()];
     if let Some(seed) = args.seed {
         scenario_args.extend(["--seed".into(), seed.to_string()]);
     }
     // The estimator process is given its table, never the scenario (truths).
     let table = args.out.join(TABLE_FILE);
-    EstimatorTable::of(s).write(&table).map_err(user)?;
+    EstimatorTable::of(s)
+        .write(&table)
+        .map_err(|e| user(e.into()))?;
     let table_args = vec!["--table".into(), table.display().to_string()];
     if args.record {
         common.push("--record".into());
@@ -573,7 +580,7 @@ fn spawn_members<'a>(
             }),
             Err(e) => {
                 set.stop_all(Duration::from_secs_f64(launch.stop_timeout_s));
-                return Err(SupervisorError::User(e));
+                return Err(SupervisorError::user(e.into()));
             }
         }
     }
@@ -598,7 +605,7 @@ struct Ports<'a> {
     node: &'a iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
     progress: &'a bus::Sub<Progress>,
     estimates: &'a bus::Sub<EstimateMsg>,
-    send: &'a dyn Fn(u32, u64) -> Result<(), String>,
+    send: &'a dyn Fn(u32, u64) -> Result<(), BusError>,
 }
 
 /// What the supervisor in charge knows while it watches the set.
@@ -650,7 +657,7 @@ impl Watch {
             match set.reap("").map_err(set_err)? {
                 Reap::Running => {}
                 Reap::Interrupted => return Ok(None),
-                Reap::Stopped(why) => return Err(set_err(format!("{why}; stopping the set"))),
+                Reap::Stopped(ended) => return Err(set_err(SetError::Stopped(ended))),
             }
             if !self.started {
                 self.start_when_ready(ports, set)?;
@@ -674,8 +681,8 @@ impl Watch {
         set: &mut Set,
         mut hosts: Option<&mut super::hosts::InCharge>,
     ) -> Result<bool, SupervisorError> {
-        let set_err = SupervisorError::Set;
-        while let Some(p) = bus::receive(ports.progress).map_err(set_err)? {
+        let set_err = |e: SetError| SupervisorError::Set(e);
+        while let Some(p) = bus::receive(ports.progress).map_err(|e| set_err(e.into()))? {
             if p.process == PROC_ESTIMATOR {
                 set.bar.set(p.next_tick);
             }
@@ -689,10 +696,10 @@ impl Watch {
             }
         }
         let link_silent = match hosts {
-            Some(h) => h.poll().map_err(set_err)?,
+            Some(h) => h.poll().map_err(|e| set_err(e.into()))?,
             None => false,
         };
-        while let Some(e) = bus::receive(ports.estimates).map_err(set_err)? {
+        while let Some(e) = bus::receive(ports.estimates).map_err(|e| set_err(e.into()))? {
             if e.flags & EST_FINAL != 0 {
                 self.final_est = Some(e);
             }
@@ -704,21 +711,20 @@ impl Watch {
     fn start_when_ready(&mut self, ports: &Ports, set: &Set) -> Result<(), SupervisorError> {
         let set_err = SupervisorError::Set;
         if set.members.iter().all(|m| m.last.is_some()) {
-            (ports.send)(CMD_START, 0).map_err(set_err)?;
+            (ports.send)(CMD_START, 0).map_err(|e| set_err(e.into()))?;
             self.started = true;
             log::info!("all processes ready; campaign started");
         } else if self.t_ready.elapsed() > self.ready_timeout {
-            let missing: Vec<&str> = set
+            let missing: Vec<String> = set
                 .members
                 .iter()
                 .filter(|m| m.last.is_none())
-                .map(|m| m.spec.name.as_str())
+                .map(|m| m.spec.name.clone())
                 .collect();
-            return Err(set_err(format!(
-                "not ready after {:.0} s: {}",
-                self.ready_timeout_s,
-                missing.join(", ")
-            )));
+            return Err(set_err(SetError::NotReady {
+                timeout_s: self.ready_timeout_s,
+                missing,
+            }));
         }
         Ok(())
     }
@@ -768,29 +774,25 @@ impl Watch {
             self.ticks_seen = ticks;
             self.last_advance = Instant::now();
         } else if self.final_est.is_none() && self.last_advance.elapsed() > self.heartbeat {
-            let at: Vec<String> = set
+            let ticks: Vec<(String, u64)> = set
                 .members
                 .iter()
-                .filter_map(|m| {
-                    m.last
-                        .map(|p| format!("{} at tick {}", m.spec.name, p.next_tick))
-                })
+                .filter_map(|m| m.last.map(|p| (m.spec.name.clone(), p.next_tick)))
                 .collect();
-            return Err(set_err(format!(
-                "the set stalled: no tick advanced for {:.0} s ({}); stopping the set",
-                self.heartbeat_s,
-                at.join(", ")
-            )));
+            return Err(set_err(SetError::Stalled {
+                heartbeat_s: self.heartbeat_s,
+                ticks,
+            }));
         }
         if let Some(m) = set
             .members
             .iter()
             .find(|m| m.last_seen.elapsed() > self.heartbeat)
         {
-            return Err(set_err(format!(
-                "{} published no progress for {:.0} s (hung?); stopping the set",
-                m.spec.name, self.heartbeat_s
-            )));
+            return Err(set_err(SetError::Hung {
+                name: m.spec.name.clone(),
+                heartbeat_s: self.heartbeat_s,
+            }));
         }
         Ok(())
     }

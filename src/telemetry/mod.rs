@@ -74,13 +74,6 @@ pub enum TelemetryError {
     Format { path: PathBuf, what: String },
 }
 
-/// Bridge for callers still on `Result<_, String>` (the process layer).
-impl From<TelemetryError> for String {
-    fn from(e: TelemetryError) -> Self {
-        e.to_string()
-    }
-}
-
 /// Estimate rows are recorded at most this often [s] (and always the final one): the
 /// joint estimator solves every 60 s, the paper's filter updates every sample.
 pub const ESTIMATE_ROW_EVERY_S: f64 = 10.0;
