@@ -12,9 +12,17 @@ use crate::stage::Stage;
 use crate::timing::monotonic_ns;
 use std::time::Duration;
 
-/// Checkpoint every this many ticks (100 s at 10 Hz): at most this much is replayed
-/// after a restart. Must stay below `fee::RING − bus::WINDOW`.
-pub const CHECKPOINT_EVERY: u64 = 1000;
+/// Checkpoint every this long [s] of samples: at most this much is replayed after a
+/// restart.
+pub const CHECKPOINT_EVERY_S: f64 = 100.0;
+
+/// The checkpoint interval in ticks at sample rate `fs` [Hz]: `CHECKPOINT_EVERY_S` of
+/// samples (1000 ticks at 10 Hz), at most what the front end's ring keeps beyond the
+/// flow-control window (`fee::RING − 2 bus::WINDOW`: 102 s at 75 Hz, less above).
+pub fn checkpoint_every(fs: f64) -> u64 {
+    let most = super::fee::RING - 2 * crate::bus::WINDOW;
+    ((CHECKPOINT_EVERY_S * fs).round() as u64).clamp(1, most)
+}
 
 /// File name of the checkpoint in the run directory.
 pub const CHECKPOINT_FILE: &str = "estimator.ckpt";
@@ -135,6 +143,7 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, ProcessError> {
         n: table.n_samples,
         next,
         period,
+        checkpoint_every: checkpoint_every(table.config.fs),
         resync_ns,
         allocs_before: None,
         last_input: monotonic_ns(),
@@ -156,6 +165,8 @@ struct EstimatorService {
     next: u64,
     /// Real-time tick period [ns] (0: accelerated).
     period: u64,
+    /// Ticks between checkpoints (`checkpoint_every`).
+    checkpoint_every: u64,
     /// Ask for a resend after this long without a sample [ns] (0: never).
     resync_ns: u64,
     /// The thread's allocation count at the first sample: the loop runs without
@@ -261,7 +272,7 @@ impl Service for EstimatorService {
         self.next = self.est.next_tick();
         link.progress.next_tick = self.next;
         link.progress.samples_lost = e.rejected_by_cause[crate::msg::CAUSE_TICK_MISSING];
-        if advanced && self.next % CHECKPOINT_EVERY == 0 {
+        if advanced && self.next % self.checkpoint_every == 0 {
             self.ckpt.save(&self.est, self.next)?;
         }
         if self.next % driver::BEAT_TICKS == 0 {
@@ -288,5 +299,19 @@ impl Service for EstimatorService {
         }
         self.out.finish()?;
         Ok(link.beat()?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_checkpoint_interval_is_100_s_of_samples_within_the_ring() {
+        assert_eq!(checkpoint_every(10.0), 1000);
+        assert_eq!(checkpoint_every(1.0), 100);
+        assert_eq!(checkpoint_every(0.01), 1);
+        let most = super::super::fee::RING - 2 * crate::bus::WINDOW;
+        assert_eq!(checkpoint_every(1000.0), most);
     }
 }
