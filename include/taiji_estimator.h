@@ -4,16 +4,24 @@
  *        (no_std, panic = abort: nothing unwinds into C; link with -lm). Nothing is global
  *        and nothing is allocated: all state is the caller's memory.
  *
+ * PANICS No panic is reachable from any function below: tools/panic-proof links every
+ *        one of them with --gc-sections against a build whose panic handler names a
+ *        symbol that exists nowhere, and the link succeeds (a CI test; with --probe, a
+ *        deliberately reachable panic, the same link fails).
+ *
  * MEMORY The state: taiji_estimator_size() bytes (about 64 KB) aligned to
  *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
- *        alignment. Stack per call, measured by painting (docs/flight.md): update 6.7 KB;
- *        solve and finish 190 KB on a Cortex-M7, 243 KB on x86-64 with AVX2 (the
- *        Gauss-Newton Jacobian and its products are built on the stack: run them on a
- *        task with >= 256 KB, >= 320 KB on x86-64).
+ *        alignment. Stack per call, measured by painting (docs/flight.md): update 6.6 KB
+ *        (7.0 KB on a LEON3, 7.3 KB on x86-64); init and restore under 3 KB (they build
+ *        the state in place); solve and finish 183 KB on a Cortex-M7, 176 KB on a
+ *        LEON3, 243 KB on x86-64 with AVX2 (the Gauss-Newton Jacobian and its products
+ *        are built on the stack: run them on a task with >= 256 KB, >= 320 KB on x86-64).
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
- *        update 99 200 typical, 112 800 worst (the first sample; each includes the
- *        upset check and reseal, UPSETS below); solve 6.99 M worst; finish 20.8 M.
+ *        update 97 300 typical, 111 500 worst (the first sample; each includes the
+ *        upset check and reseal, UPSETS below); solve 6.81 M worst; finish 20.3 M. On a
+ *        LEON3 (--cpu leon3): update 147 400 typical, 166 700 worst; solve 15.3 M;
+ *        finish 45.7 M.
  *        After a gap, update bridges at most 8 missing ticks (about 7 500 instructions
  *        each): the worst update after a 5 999-tick gap is 159 440. Longer gaps are
  *        caught up over the next updates, 7 ticks gained a call; the samples that
