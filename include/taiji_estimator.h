@@ -460,6 +460,11 @@ uint32_t taiji_layout_version(void);
 // Bytes a checkpoint needs.
 size_t taiji_checkpoint_size(void);
 
+// Bytes of the scratch memory `solve` and `finish` take (8-aligned): the Gauss–Newton
+// Jacobian, the normal equations and one residual group's products. Its contents do
+// not matter before or after a call, so one buffer may serve every estimator of a task.
+size_t taiji_solve_work_size(void);
+
 // Version of this C interface (`TAIJI_ABI_VERSION` of the library's build).
 uint32_t taiji_abi_version(void);
 
@@ -495,11 +500,15 @@ int32_t taiji_estimator_update(uint8_t *mem,
                                uint32_t *flags);
 
 // One Gauss–Newton iteration on everything taken so far (warm-started; the host
-// schedules it, typically when `update` flags `TAIJI_SOLVE_DUE`).
+// schedules it, typically when `update` flags `TAIJI_SOLVE_DUE`). `work` is the
+// caller's scratch of `work_size` bytes (at least `taiji_solve_work_size()`, 8-aligned,
+// not overlapping the state): the Jacobian and the normal equations go there, not on
+// the stack.
 //
 // # Safety
-// `mem` must be the state passed to `taiji_estimator_init`, or null (refused).
-int32_t taiji_estimator_solve(uint8_t *mem);
+// `mem` must be the state passed to `taiji_estimator_init`, or null (refused); `work`
+// must point to `work_size` writable bytes, or be null (refused).
+int32_t taiji_estimator_solve(uint8_t *mem, uint8_t *work, size_t work_size);
 
 // The current estimate (β, k, r with σ, status word, rejection counts) into `out`.
 //
@@ -510,11 +519,16 @@ int32_t taiji_estimator_estimate(uint8_t *mem, struct TaijiEstimateMsg *out);
 // End of campaign: runs a due solve, iterates to convergence and writes the final
 // estimate (flagged `EST_FINAL`) into `out`. Terminal and idempotent: a second call
 // writes the same estimate again, and `update`, `solve` and `checkpoint` are refused
-// from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh.
+// from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh. `work` as
+// for `solve` (a repeated finish does not touch it).
 //
 // # Safety
-// Pointers must be valid for their types or null (refused).
-int32_t taiji_estimator_finish(uint8_t *mem, struct TaijiEstimateMsg *out);
+// Pointers must be valid for their types (`work` for `work_size` bytes) or null
+// (refused).
+int32_t taiji_estimator_finish(uint8_t *mem,
+                               uint8_t *work,
+                               size_t work_size,
+                               struct TaijiEstimateMsg *out);
 
 // Writes a checkpoint of the state into `buf` (`len` ≥ `taiji_checkpoint_size()`;
 // no alignment needed); `written` (may be null) receives its size.

@@ -67,6 +67,22 @@ fn memory() -> Vec<u64> {
     vec![0u64; taiji_estimator_size().div_ceil(8)]
 }
 
+std::thread_local! {
+    /// The solve's scratch (`taiji_solve_work_size()` bytes), one per thread: its
+    /// contents never matter between calls.
+    static WORK: std::cell::RefCell<Vec<u64>> =
+        std::cell::RefCell::new(vec![0u64; taiji_solve_work_size().div_ceil(8)]);
+}
+
+/// Runs `f` with the thread's scratch for `solve` and `finish` (pointer, bytes).
+fn with_work<R>(f: impl FnOnce(*mut u8, usize) -> R) -> R {
+    WORK.with(|w| {
+        let mut w = w.borrow_mut();
+        let bytes = w.len() * 8;
+        f(w.as_mut_ptr() as *mut u8, bytes)
+    })
+}
+
 fn init(mem: &mut [u64], cfg: &EstimatorConfig) -> i32 {
     // SAFETY: `mem` is 8-aligned and holds `taiji_estimator_size()` bytes.
     unsafe {
@@ -93,7 +109,7 @@ fn cycle(mem: &mut [u64], s: &SensorSample) -> i32 {
     }
     if flags & TAIJI_SOLVE_DUE != 0 {
         // SAFETY: as above.
-        let rc = unsafe { taiji_estimator_solve(p) };
+        let rc = with_work(|w, n| unsafe { taiji_estimator_solve(p, w, n) });
         if rc != TAIJI_OK && rc != TAIJI_ERR_SOLVE {
             return rc;
         }
@@ -134,7 +150,8 @@ fn restore(mem: &mut [u64], ck: &[u8], cfg: &EstimatorConfig) -> i32 {
 fn finish(mem: &mut [u64]) -> Result<EstimateMsg, i32> {
     let mut out = EstimateMsg::default();
     // SAFETY: an 8-aligned state buffer and an output.
-    let rc = unsafe { taiji_estimator_finish(mem.as_mut_ptr() as *mut u8, &mut out) };
+    let p = mem.as_mut_ptr() as *mut u8;
+    let rc = with_work(|w, n| unsafe { taiji_estimator_finish(p, w, n, &mut out) });
     if rc == TAIJI_OK {
         Ok(out)
     } else {

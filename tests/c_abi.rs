@@ -22,6 +22,18 @@ fn memory() -> Vec<u64> {
     vec![0u64; taiji_estimator_size() / 8 + 2]
 }
 
+/// `taiji_estimator_solve` with fresh scratch of the documented size.
+unsafe fn solve(p: *mut u8) -> i32 {
+    let mut w = vec![0u64; taiji_solve_work_size().div_ceil(8)];
+    unsafe { taiji_estimator_solve(p, w.as_mut_ptr() as *mut u8, w.len() * 8) }
+}
+
+/// `taiji_estimator_finish` with fresh scratch of the documented size.
+unsafe fn finish(p: *mut u8, out: *mut EstimateMsg) -> i32 {
+    let mut w = vec![0u64; taiji_solve_work_size().div_ceil(8)];
+    unsafe { taiji_estimator_finish(p, w.as_mut_ptr() as *mut u8, w.len() * 8, out) }
+}
+
 fn init(mem: &mut [u64]) -> *mut u8 {
     let p = mem.as_mut_ptr() as *mut u8;
     // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
@@ -116,9 +128,9 @@ fn null_pointers_get_an_error_code() {
             taiji_estimator_update(null, &s, null as _, null as _),
             TAIJI_ERR_NULL
         );
-        assert_eq!(taiji_estimator_solve(null), TAIJI_ERR_NULL);
+        assert_eq!(solve(null), TAIJI_ERR_NULL);
         assert_eq!(taiji_estimator_estimate(null, &mut out), TAIJI_ERR_NULL);
-        assert_eq!(taiji_estimator_finish(null, &mut out), TAIJI_ERR_NULL);
+        assert_eq!(finish(null, &mut out), TAIJI_ERR_NULL);
         assert_eq!(
             taiji_estimator_checkpoint(null, null, 0, null as _),
             TAIJI_ERR_NULL
@@ -136,10 +148,7 @@ fn null_pointers_get_an_error_code() {
             taiji_estimator_estimate(p, std::ptr::null_mut()),
             TAIJI_ERR_NULL
         );
-        assert_eq!(
-            taiji_estimator_finish(p, std::ptr::null_mut()),
-            TAIJI_ERR_NULL
-        );
+        assert_eq!(finish(p, std::ptr::null_mut()), TAIJI_ERR_NULL);
         assert_eq!(
             taiji_estimator_checkpoint(p, null, 1 << 20, null as _),
             TAIJI_ERR_NULL
@@ -199,7 +208,7 @@ fn memory_that_was_never_initialised_is_refused() {
         let mut out = EstimateMsg::default();
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
         unsafe {
-            assert_eq!(taiji_estimator_solve(p), TAIJI_ERR_STATE);
+            assert_eq!(solve(p), TAIJI_ERR_STATE);
             assert_eq!(taiji_estimator_estimate(p, &mut out), TAIJI_ERR_STATE);
         }
     }
@@ -241,7 +250,7 @@ fn a_wrong_table_is_refused_and_leaves_no_estimator() {
         assert_eq!(rc, TAIJI_ERR_CONFIG, "case {k}");
         assert_eq!(
             // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-            unsafe { taiji_estimator_solve(p) },
+            unsafe { solve(p) },
             TAIJI_ERR_STATE,
             "case {k}"
         );
@@ -284,13 +293,13 @@ fn garbage_samples_give_codes_and_a_finite_or_flagged_estimate() {
         assert_eq!(rc, TAIJI_OK);
         if flags & TAIJI_SOLVE_DUE != 0 {
             // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-            let rc = unsafe { taiji_estimator_solve(p) };
+            let rc = unsafe { solve(p) };
             assert!(rc == TAIJI_OK || rc == TAIJI_ERR_SOLVE);
         }
     }
     let mut out = EstimateMsg::default();
     // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-    assert_eq!(unsafe { taiji_estimator_finish(p, &mut out) }, TAIJI_OK);
+    assert_eq!(unsafe { finish(p, &mut out) }, TAIJI_OK);
     let finite = out
         .beta
         .iter()
@@ -354,7 +363,7 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
             "byte {i}: code {rc}"
         );
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed (or deliberately wrong, which is what is tested).
-        assert_eq!(unsafe { taiji_estimator_solve(q) }, TAIJI_ERR_STATE);
+        assert_eq!(unsafe { solve(q) }, TAIJI_ERR_STATE);
     }
 }
 
@@ -415,11 +424,7 @@ fn a_host_built_against_another_header_is_refused_at_init() {
             unsafe { taiji_estimator_init(p, n, &config(), abi[0] as u32, abi[1], abi[2], abi[3]) };
         assert_eq!(rc, TAIJI_ERR_VERSION, "{what}");
         // SAFETY: as above.
-        assert_eq!(
-            unsafe { taiji_estimator_solve(p) },
-            TAIJI_ERR_STATE,
-            "{what}"
-        );
+        assert_eq!(unsafe { solve(p) }, TAIJI_ERR_STATE, "{what}");
     }
 }
 
@@ -441,8 +446,8 @@ fn finish_is_terminal_and_idempotent() {
     );
     // SAFETY: an initialised state and valid outputs.
     unsafe {
-        assert_eq!(taiji_estimator_finish(p, &mut a), TAIJI_OK);
-        assert_eq!(taiji_estimator_finish(p, &mut b), TAIJI_OK);
+        assert_eq!(finish(p, &mut a), TAIJI_OK);
+        assert_eq!(finish(p, &mut b), TAIJI_OK);
         assert_eq!(taiji_estimator_estimate(p, &mut c), TAIJI_OK);
     }
     assert_eq!(a, b, "a second finish changed the estimate");
@@ -455,7 +460,7 @@ fn finish_is_terminal_and_idempotent() {
             taiji_estimator_update(p, &quiet(700), std::ptr::null_mut(), std::ptr::null_mut()),
             TAIJI_ERR_FINISHED
         );
-        assert_eq!(taiji_estimator_solve(p), TAIJI_ERR_FINISHED);
+        assert_eq!(solve(p), TAIJI_ERR_FINISHED);
         assert_eq!(
             taiji_estimator_checkpoint(p, buf.as_mut_ptr(), buf.len(), std::ptr::null_mut()),
             TAIJI_ERR_FINISHED
@@ -488,7 +493,7 @@ fn restore_is_checked_against_the_hosts_table() {
             taiji_estimator_restore(q, mem2.len() * 8, buf.as_ptr(), n, &other),
             TAIJI_ERR_CONFIG
         );
-        assert_eq!(taiji_estimator_solve(q), TAIJI_ERR_STATE);
+        assert_eq!(solve(q), TAIJI_ERR_STATE);
         assert_eq!(
             taiji_estimator_restore(q, mem2.len() * 8, buf.as_ptr(), n, &config()),
             TAIJI_OK
@@ -509,7 +514,7 @@ fn the_magic_word_over_zeros_is_no_state() {
     // SAFETY: valid memory that holds no initialised estimator.
     unsafe {
         assert_eq!(taiji_estimator_estimate(p, &mut out), TAIJI_ERR_STATE);
-        assert_eq!(taiji_estimator_finish(p, &mut out), TAIJI_ERR_STATE);
+        assert_eq!(finish(p, &mut out), TAIJI_ERR_STATE);
         assert_eq!(
             taiji_estimator_update(p, &quiet(0), std::ptr::null_mut(), std::ptr::null_mut()),
             TAIJI_ERR_STATE
@@ -545,8 +550,8 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
                 taiji_estimator_update(p, &quiet(50), std::ptr::null_mut(), std::ptr::null_mut()),
                 TAIJI_ERR_UPSET
             );
-            assert_eq!(taiji_estimator_solve(p), TAIJI_ERR_UPSET);
-            assert_eq!(taiji_estimator_finish(p, &mut out), TAIJI_ERR_UPSET);
+            assert_eq!(solve(p), TAIJI_ERR_UPSET);
+            assert_eq!(finish(p, &mut out), TAIJI_ERR_UPSET);
         }
         mem[w] ^= 1 << b;
         // SAFETY: as above.
@@ -556,4 +561,51 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
             "word {w} bit {b} flipped back"
         );
     }
+}
+
+/// The solve's scratch is the caller's: refused when null, too small or misaligned,
+/// and its contents do not matter (a campaign solved with 0xFF-filled scratch gives the
+/// bits of one solved with zeroed scratch).
+#[test]
+fn the_solve_work_memory_is_checked_and_its_contents_do_not_matter() {
+    let c = taiji::upset::Campaign::new(200.0, 3);
+    let n = taiji_solve_work_size();
+    assert!(n > 64 * 1024, "the Jacobian alone is 55 kB");
+    let mut out = [EstimateMsg::default(); 2];
+    for (fill, out) in [0u64, u64::MAX].into_iter().zip(out.iter_mut()) {
+        let mut mem = memory();
+        let p = init(&mut mem);
+        let mut w = vec![fill; n / 8 + 2];
+        let wp = w.as_mut_ptr() as *mut u8;
+        let mut flags = 0u32;
+        // SAFETY: valid state, samples and scratch, and deliberately wrong scratch,
+        // which the ABI checks before use.
+        unsafe {
+            assert_eq!(
+                taiji_estimator_solve(p, std::ptr::null_mut(), n),
+                TAIJI_ERR_NULL
+            );
+            assert_eq!(taiji_estimator_solve(p, wp, n - 1), TAIJI_ERR_SIZE);
+            assert_eq!(taiji_estimator_solve(p, wp.add(1), n), TAIJI_ERR_ALIGNMENT);
+            for s in &c.samples {
+                let rc = taiji_estimator_update(p, s, std::ptr::null_mut(), &mut flags);
+                assert_eq!(rc, TAIJI_OK);
+                if flags & TAIJI_SOLVE_DUE != 0 {
+                    assert_eq!(taiji_estimator_solve(p, wp, n), TAIJI_OK);
+                    w.iter_mut().for_each(|x| *x = fill);
+                }
+            }
+            assert_eq!(
+                taiji_estimator_finish(p, std::ptr::null_mut(), n, out),
+                TAIJI_ERR_NULL
+            );
+            assert_eq!(taiji_estimator_finish(p, wp, n, out), TAIJI_OK);
+        }
+        assert!(out.n_used > 1000, "the campaign was taken");
+    }
+    assert_eq!(
+        bytemuck::bytes_of(&out[0]),
+        bytemuck::bytes_of(&out[1]),
+        "the scratch's contents leaked into the result"
+    );
 }

@@ -23,6 +23,9 @@
 static uint64_t state_mem[STATE_WORDS];
 #define CKPT_BYTES (96u * 1024u)
 static uint8_t ckpt_buf[CKPT_BYTES];
+/* The solve's scratch (the Jacobian, the normal equations): static too, any contents. */
+#define WORK_WORDS (128u * 1024u / 8u)
+static uint64_t work_mem[WORK_WORDS];
 
 /* Stack painting: a region below the caller's frame is filled with a pattern before a
  * call; afterwards, the lowest byte that changed tells how deep the call went. */
@@ -130,9 +133,13 @@ int main(int argc, char **argv) {
     size_t stack_update = 0, stack_solve = 0, d, written = 0;
     int is;
 
-    if (taiji_estimator_size() > sizeof state_mem || taiji_estimator_align() > 8) {
-        fprintf(stderr, "c-host: the state needs %zu B aligned to %zu; this host has %zu B\n",
-                taiji_estimator_size(), taiji_estimator_align(), sizeof state_mem);
+    if (taiji_estimator_size() > sizeof state_mem || taiji_estimator_align() > 8 ||
+        taiji_solve_work_size() > sizeof work_mem) {
+        fprintf(stderr,
+                "c-host: the state needs %zu B aligned to %zu and the solve %zu B of scratch; "
+                "this host has %zu B and %zu B\n",
+                taiji_estimator_size(), taiji_estimator_align(), taiji_solve_work_size(),
+                sizeof state_mem, sizeof work_mem);
         return 2;
     }
     cfg = read_export(dir, "estimator_config.bin", sizeof *cfg, &n_cfg);
@@ -163,7 +170,7 @@ int main(int argc, char **argv) {
             int32_t rc;
             paint_stack();
             t0 = now_us();
-            rc = taiji_estimator_solve(mem);
+            rc = taiji_estimator_solve(mem, (uint8_t *)work_mem, sizeof work_mem);
             t0 = now_us() - t0;
             if ((d = painted_depth()) > stack_solve) stack_solve = d;
             if (t0 > t_solve_max) t_solve_max = t0;
@@ -176,7 +183,7 @@ int main(int argc, char **argv) {
     CHECK(taiji_estimator_checkpoint(mem, ckpt_buf, sizeof ckpt_buf, &written));
     memset(state_mem, 0, sizeof state_mem);
     CHECK(taiji_estimator_restore(mem, sizeof state_mem, ckpt_buf, written, cfg));
-    CHECK(taiji_estimator_finish(mem, &est));
+    CHECK(taiji_estimator_finish(mem, (uint8_t *)work_mem, sizeof work_mem, &est));
 
     printf("{\n  \"inertial_sensors\": [\n");
     for (is = 0; is < (int)cfg->n_is; is++) {

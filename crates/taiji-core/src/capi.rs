@@ -11,7 +11,7 @@
 //! this file by cbindgen (a test keeps it up to date).
 
 use crate::estimate::config::EstimatorConfig;
-use crate::estimate::joint::JointEstimator;
+use crate::estimate::joint::{JointEstimator, SolveWork};
 use crate::estimate::snapshot;
 use crate::msg::{EstimateMsg, SensorSample, EST_FINAL, LAYOUT_VERSION};
 use core::mem::{align_of, size_of};
@@ -142,6 +142,29 @@ pub extern "C" fn taiji_layout_version() -> u32 {
 #[no_mangle]
 pub extern "C" fn taiji_checkpoint_size() -> usize {
     snapshot::size()
+}
+
+/// Bytes of the scratch memory `solve` and `finish` take (8-aligned): the Gauss–Newton
+/// Jacobian, the normal equations and one residual group's products. Its contents do
+/// not matter before or after a call, so one buffer may serve every estimator of a task.
+#[no_mangle]
+pub extern "C" fn taiji_solve_work_size() -> usize {
+    size_of::<SolveWork>()
+}
+
+fn work_mut<'a>(work: *mut u8, size: usize) -> Result<&'a mut SolveWork, i32> {
+    if work.is_null() {
+        return Err(TAIJI_ERR_NULL);
+    }
+    if (work as usize) % align_of::<SolveWork>() != 0 {
+        return Err(TAIJI_ERR_ALIGNMENT);
+    }
+    if size < size_of::<SolveWork>() {
+        return Err(TAIJI_ERR_SIZE);
+    }
+    // SAFETY: non-null, aligned, at least size_of::<SolveWork>() bytes the caller owns
+    // (not the state's, by the contract); every bit pattern is a valid `SolveWork`.
+    Ok(unsafe { &mut *(work as *mut SolveWork) })
 }
 
 fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
@@ -293,14 +316,26 @@ pub unsafe extern "C" fn taiji_estimator_update(
 }
 
 /// One Gauss–Newton iteration on everything taken so far (warm-started; the host
-/// schedules it, typically when `update` flags `TAIJI_SOLVE_DUE`).
+/// schedules it, typically when `update` flags `TAIJI_SOLVE_DUE`). `work` is the
+/// caller's scratch of `work_size` bytes (at least `taiji_solve_work_size()`, 8-aligned,
+/// not overlapping the state): the Jacobian and the normal equations go there, not on
+/// the stack.
 ///
 /// # Safety
-/// `mem` must be the state passed to `taiji_estimator_init`, or null (refused).
+/// `mem` must be the state passed to `taiji_estimator_init`, or null (refused); `work`
+/// must point to `work_size` writable bytes, or be null (refused).
 #[no_mangle]
-pub unsafe extern "C" fn taiji_estimator_solve(mem: *mut u8) -> i32 {
+pub unsafe extern "C" fn taiji_estimator_solve(
+    mem: *mut u8,
+    work: *mut u8,
+    work_size: usize,
+) -> i32 {
+    let w = match work_mut(work, work_size) {
+        Ok(w) => w,
+        Err(e) => return e,
+    };
     mutate(mem, |st| {
-        if st.est.solve_now() {
+        if st.est.solve_now_with(w) {
             Ok(TAIJI_OK)
         } else {
             Err(TAIJI_ERR_SOLVE)
@@ -336,19 +371,27 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
 /// End of campaign: runs a due solve, iterates to convergence and writes the final
 /// estimate (flagged `EST_FINAL`) into `out`. Terminal and idempotent: a second call
 /// writes the same estimate again, and `update`, `solve` and `checkpoint` are refused
-/// from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh.
+/// from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh. `work` as
+/// for `solve` (a repeated finish does not touch it).
 ///
 /// # Safety
-/// Pointers must be valid for their types or null (refused).
+/// Pointers must be valid for their types (`work` for `work_size` bytes) or null
+/// (refused).
 #[no_mangle]
-pub unsafe extern "C" fn taiji_estimator_finish(mem: *mut u8, out: *mut EstimateMsg) -> i32 {
+pub unsafe extern "C" fn taiji_estimator_finish(
+    mem: *mut u8,
+    work: *mut u8,
+    work_size: usize,
+    out: *mut EstimateMsg,
+) -> i32 {
     code((|| {
         let st = live(mem)?;
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
         if st.finished == 0 {
-            let mut m = st.est.finish();
+            let w = work_mut(work, work_size)?;
+            let mut m = st.est.finish_with(w);
             m.flags |= EST_FINAL;
             st.final_msg = m;
             st.finished = 1;

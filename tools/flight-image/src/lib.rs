@@ -65,6 +65,9 @@ pub trait Input {
 /// The state's memory (static, as a flight host has it), with margin over its size.
 const STATE_WORDS: usize = 96 * 1024 / 8;
 static mut STATE: [u64; STATE_WORDS] = [0; STATE_WORDS];
+/// The solve's scratch (`taiji_solve_work_size()`, checked at start).
+const WORK_WORDS: usize = 128 * 1024 / 8;
+static mut WORK: [u64; WORK_WORDS] = [0; WORK_WORDS];
 const CKPT_BYTES: usize = 96 * 1024;
 static mut CKPT: [u8; CKPT_BYTES] = [0; CKPT_BYTES];
 /// Bytes of one sample in the export.
@@ -255,6 +258,7 @@ fn check<B: Board>(board: &mut B, rc: i32, what: &str) {
 /// The statics, taken once.
 struct Memory {
     state: &'static mut [u64; STATE_WORDS],
+    work: &'static mut [u64; WORK_WORDS],
     ckpt: &'static mut [u8; CKPT_BYTES],
     chunk: &'static mut [u8; CHUNK * SAMPLE_BYTES],
     cost: &'static mut [u32; MAX_UPDATES],
@@ -268,6 +272,7 @@ impl Memory {
         unsafe {
             Memory {
                 state: &mut *core::ptr::addr_of_mut!(STATE),
+                work: &mut *core::ptr::addr_of_mut!(WORK),
                 ckpt: &mut *core::ptr::addr_of_mut!(CKPT),
                 chunk: &mut *core::ptr::addr_of_mut!(CHUNK_BYTES),
                 cost: &mut *core::ptr::addr_of_mut!(UPDATE_COST),
@@ -279,6 +284,13 @@ impl Memory {
         (
             self.state.as_mut_ptr() as *mut u8,
             core::mem::size_of_val(self.state),
+        )
+    }
+
+    fn work(&mut self) -> (*mut u8, usize) {
+        (
+            self.work.as_mut_ptr() as *mut u8,
+            core::mem::size_of_val(self.work),
         )
     }
 }
@@ -307,6 +319,12 @@ fn init<B: Board>(board: &mut B, m: &mut Memory) -> (EstimatorConfig, B::Input, 
         fail(
             board,
             format_args!("the state needs {} B", taiji_estimator_size()),
+        );
+    }
+    if taiji_solve_work_size() > WORK_WORDS * 8 {
+        fail(
+            board,
+            format_args!("the solve needs {} B of scratch", taiji_solve_work_size()),
         );
     }
     let (mut cfg_file, n_cfg) = open_export(board, "estimator_config.bin", CFG_BYTES);
@@ -372,8 +390,9 @@ fn replay<B: Board>(board: &mut B, m: &mut Memory, samples: &mut B::Input, fig: 
             if flags & TAIJI_SOLVE_DUE != 0 {
                 let low = paint_stack(board);
                 let t0 = board.clock();
-                // SAFETY: an initialised state.
-                let rc = unsafe { taiji_estimator_solve(mem) };
+                let (work, work_size) = m.work();
+                // SAFETY: an initialised state and the scratch.
+                let rc = unsafe { taiji_estimator_solve(mem, work, work_size) };
                 fig.solve_max = fig.solve_max.max(board.ticks_since(t0));
                 fig.stack_solve = fig.stack_solve.max(painted_depth(low));
                 // A failed solve keeps the previous solution; the status word says so.
@@ -410,8 +429,9 @@ fn finish<B: Board>(
     let mut est = EstimateMsg::default();
     let low = paint_stack(board);
     let t0 = board.clock();
-    // SAFETY: a restored state and an output message.
-    let rc = unsafe { taiji_estimator_finish(mem, &mut est) };
+    let (work, work_size) = m.work();
+    // SAFETY: a restored state, the scratch and an output message.
+    let rc = unsafe { taiji_estimator_finish(mem, work, work_size, &mut est) };
     fig.finish = board.ticks_since(t0);
     fig.stack_finish = painted_depth(low);
     check(board, rc, "finish");

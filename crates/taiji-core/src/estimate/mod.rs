@@ -8,7 +8,7 @@ pub mod paper;
 pub mod snapshot;
 
 pub use config::EstimatorConfig;
-pub use joint::JointEstimator;
+pub use joint::{JointEstimator, SolveWork};
 
 /// Which estimator a run uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

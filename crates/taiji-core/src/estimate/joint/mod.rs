@@ -52,6 +52,7 @@ use gates::*;
 use layout::*;
 pub use layout::{NP, NS, P_BETA, P_R};
 use model::*;
+pub use solve::SolveWork;
 use solve::*;
 use whiten::*;
 
@@ -366,11 +367,17 @@ impl JointEstimator {
         true
     }
 
+    /// `solve_now` with its scratch on the stack (std hosts; a flight host passes its
+    /// own to `solve_now_with`).
+    pub fn solve_now(&mut self) -> bool {
+        self.solve_now_with(&mut SolveWork::zeroed())
+    }
+
     /// One Gauss–Newton iteration on everything taken so far, now (a host may solve at
     /// its own rate; `step` solves exactly when one is due). Returns whether the
     /// iteration succeeded (a failure keeps the previous solution and sets
     /// `ST_SOLVE_FAILED`).
-    pub fn solve_now(&mut self) -> bool {
+    pub fn solve_now_with(&mut self, w: &mut SolveWork) -> bool {
         let tick = if self.solve_due() {
             self.solve_due[1]
         } else {
@@ -380,18 +387,25 @@ impl JointEstimator {
         if self.started == 0 {
             return false;
         }
-        self.solve(SCHEDULED_ITERATIONS, true);
+        self.solve(SCHEDULED_ITERATIONS, true, w);
         self.solved_tick = tick;
         self.status & ST_SOLVE_FAILED == 0
     }
 
     /// Final solution: iterate to convergence, with the weak priors (as in the run).
     pub fn finish(&mut self) -> EstimateMsg {
-        self.solve_scheduled();
+        self.finish_with(&mut SolveWork::zeroed())
+    }
+
+    /// `finish` with the caller's scratch (`SolveWork`).
+    pub fn finish_with(&mut self, w: &mut SolveWork) -> EstimateMsg {
+        if self.solve_due() {
+            self.solve_now_with(w);
+        }
         self.tick_mask = 0;
         let last = self.next_tick.saturating_sub(1);
         if self.started != 0 {
-            if self.solve(FINISH_ITERATIONS, true) {
+            if self.solve(FINISH_ITERATIONS, true, w) {
                 self.status &= !ST_NOT_CONVERGED;
             } else {
                 self.status |= ST_NOT_CONVERGED;

@@ -4,7 +4,8 @@
 use super::*;
 
 /// Residual coefficients of every group for one parameter vector.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub(super) struct Coeffs {
     pub(super) lin: SMatrix<f64, 6, NS>,
     pub(super) star: [SVector<f64, 5>; 3],

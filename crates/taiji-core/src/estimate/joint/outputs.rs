@@ -13,17 +13,22 @@ impl JointEstimator {
     /// groups, with β's uncertainty reaching r through the SRP's turn). The
     /// Cramér–Rao bound when `p` is the truth and the statistics were accumulated from
     /// noise-free signals.
+    /// (Analysis, not flight: its scratch is on the stack.)
     pub fn fisher_sigma(&self, p: &Par) -> Option<Par> {
-        let n = self.normal_equations(p, false);
-        let (_, hinv) = Self::newton_step(&n.hm, &n.g)?;
-        Self::sandwich_var(&n, &hinv).map(|var| var.map(|v| v.max(0.0).sqrt()))
+        let mut w = SolveWork::zeroed();
+        self.normal_equations(p, false, &mut w);
+        Self::newton_step(&w.n.hm, &w.n.g, &mut w.hs, &mut w.hinv)?;
+        Self::sandwich_var(&w.n, &w.hinv).map(|var| var.map(|v| v.max(0.0).sqrt()))
     }
 
     /// Fit the nuisances (θ0, θ̇0, b', α') with β and r held at their values in `p`,
     /// without priors: the reference point of the Cramér–Rao bound.
     pub fn nuisance_fit(&self, mut p: Par) -> Par {
+        let mut w = SolveWork::zeroed();
         for _ in 0..NUISANCE_ITERATIONS {
-            let Normal { mut hm, mut g, .. } = self.normal_equations(&p, false);
+            self.normal_equations(&p, false, &mut w);
+            let SolveWork { n, hs, hinv, .. } = &mut w;
+            let Normal { hm, g, .. } = n;
             for k in P_BETA..P_TH0 {
                 for j in 0..NP {
                     hm[(k, j)] = 0.0;
@@ -32,7 +37,7 @@ impl JointEstimator {
                 hm[(k, k)] = 1.0;
                 g[k] = 0.0;
             }
-            let Some((delta, _)) = Self::newton_step(&hm, &g) else {
+            let Some(delta) = Self::newton_step(hm, g, hs, hinv) else {
                 break;
             };
             p += delta;

@@ -15,10 +15,52 @@ pub(super) struct Sums<'a> {
 
 /// Gauss–Newton normal equations at a parameter vector: H (the cut Jacobian's, priors
 /// as asked), g, and the cross term of the turn's β-derivatives.
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub(super) struct Normal {
     pub(super) hm: SMatrix<f64, NP, NP>,
     pub(super) g: Par,
     pub(super) cross: SMatrix<f64, NP, 6>,
+}
+
+/// One residual group's products (`add_group`): its Jacobian rows, their transposes,
+/// and a 30 × 30 product.
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub(super) struct GroupScratch {
+    d: SMatrix<f64, NS, NP>,
+    md: SMatrix<f64, NS, NP>,
+    t: SMatrix<f64, NP, NS>,
+    prod: SMatrix<f64, NP, NP>,
+    v: Par,
+}
+
+/// Scratch memory of a solve and of `finish` (about 110 kB): the Jacobian of every
+/// coefficient by each parameter, the normal equations, H⁻¹ and the products of one
+/// residual group. Nothing in it outlives a call, so it is neither sealed nor
+/// checkpointed: the C ABI takes it from the caller beside the state, and the solve's
+/// stack holds no matrix larger than one 30 × 30 (the Cholesky factor).
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub struct SolveWork {
+    /// The coefficients at the solution and at ± a step of one parameter.
+    pub(super) c0: Coeffs,
+    pub(super) cp: Coeffs,
+    pub(super) cm: Coeffs,
+    pub(super) dc: [Coeffs; NP],
+    pub(super) turn: [SMatrix<f64, 6, 6>; 6],
+    pub(super) n: Normal,
+    pub(super) hinv: SMatrix<f64, NP, NP>,
+    pub(super) hs: SMatrix<f64, NP, NP>,
+    pub(super) gram: Gram,
+    pub(super) group: GroupScratch,
+}
+
+impl SolveWork {
+    /// Zeroed scratch (its contents never matter between calls).
+    pub fn zeroed() -> Self {
+        <Self as bytemuck::Zeroable>::zeroed()
+    }
 }
 
 impl JointEstimator {
@@ -32,14 +74,15 @@ impl JointEstimator {
         weight: f64,
         lin: &Linearised,
         out: &mut Sums,
+        sc: &mut GroupScratch,
     ) {
         #[cfg(target_arch = "x86_64")]
         if crate::simd::has_avx2() {
             // SAFETY: the CPU has AVX2, checked just now.
-            unsafe { Self::add_group_avx2(row, m, weight, lin, out) };
+            unsafe { Self::add_group_avx2(row, m, weight, lin, out, sc) };
             return;
         }
-        Self::add_group_portable(row, m, weight, lin, out);
+        Self::add_group_portable(row, m, weight, lin, out, sc);
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -52,10 +95,13 @@ impl JointEstimator {
         weight: f64,
         lin: &Linearised,
         out: &mut Sums,
+        sc: &mut GroupScratch,
     ) {
-        Self::add_group_portable(row, m, weight, lin, out);
+        Self::add_group_portable(row, m, weight, lin, out, sc);
     }
 
+    /// The products go through `sc` (`mul_to`, the same gemm as `*`: the same bits),
+    /// so no 30 × 35 matrix is a temporary on the stack.
     #[inline(always)]
     pub(super) fn add_group_portable(
         row: &SVector<f64, 6>,
@@ -63,25 +109,37 @@ impl JointEstimator {
         weight: f64,
         lin: &Linearised,
         out: &mut Sums,
+        sc: &mut GroupScratch,
     ) {
         let (c0, dc) = (lin.c0, lin.dc);
         let c: Sig = c0.lin.transpose() * row;
         if c.iter().all(|v| *v == 0.0) {
             return;
         }
-        let d = SMatrix::<f64, NS, NP>::from_fn(|s, k| {
-            (0..6).map(|r| row[r] * dc[k].lin[(r, s)]).sum()
-        });
-        let md = m * d;
-        *out.hm += d.transpose() * md * weight;
-        *out.g += md.transpose() * c * weight;
+        for k in 0..NP {
+            for s in 0..NS {
+                sc.d[(s, k)] = (0..6).map(|r| row[r] * dc[k].lin[(r, s)]).sum();
+            }
+        }
+        // H += dᵀ (m d) w; g += (m d)ᵀ c w.
+        mul_into(m, &sc.d, &mut sc.md);
+        sc.d.transpose_to(&mut sc.t);
+        mul_into(&sc.t, &sc.md, &mut sc.prod);
+        for (h, x) in out.hm.iter_mut().zip(sc.prod.iter()) {
+            *h += x * weight;
+        }
+        sc.md.transpose_to(&mut sc.t);
+        mul_into(&sc.t, &c, &mut sc.v);
+        for (g, x) in out.g.iter_mut().zip(sc.v.iter()) {
+            *g += x * weight;
+        }
         // Jᵀ W Δ: Δ's rows are zero but on the turn's six signals.
-        for (col, &sc) in TURN_COLS.iter().enumerate() {
+        for (col, &s) in TURN_COLS.iter().enumerate() {
             for b in 0..6 {
                 let dd: f64 = (0..6).map(|r| row[r] * lin.turn[b][(r, col)]).sum();
                 if dd != 0.0 {
                     for i in 0..NP {
-                        out.cross[(i, b)] += md[(sc.min(NS - 1), i)] * dd * weight;
+                        out.cross[(i, b)] += sc.md[(s.min(NS - 1), i)] * dd * weight;
                     }
                 }
             }
@@ -93,23 +151,89 @@ impl JointEstimator {
     /// included (they only matter before every axis has been excited). Each group
     /// enters with its weight (1, or 1/(χ²/dof) when its noise proved larger than
     /// modelled).
-    pub(super) fn normal_equations(&self, p: &Par, priors: bool) -> Normal {
-        let c0 = self.coeffs(p);
-        let mut dc = [Coeffs {
-            lin: SMatrix::zeros(),
-            star: [SVector::zeros(); 3],
-            ang: [SVector::zeros(); 3],
-        }; NP];
-        let mut turn = [SMatrix::<f64, 6, 6>::zeros(); 6];
+    pub(super) fn normal_equations(&self, p: &Par, priors: bool, w: &mut SolveWork) {
+        let SolveWork {
+            c0,
+            cp,
+            cm,
+            dc,
+            turn,
+            n,
+            gram,
+            group,
+            ..
+        } = w;
+        *c0 = self.coeffs(p);
+        self.jacobian(p, dc, turn, [cp, cm]);
+        let c0 = &*c0;
+        n.hm = SMatrix::zeros();
+        n.g = Par::zeros();
+        n.cross = SMatrix::zeros();
+        let Normal { hm, g, cross } = n;
+        if priors {
+            for k in 0..NP {
+                let w = 1.0 / self.p_sigma[k].powi(2);
+                hm[(k, k)] += w;
+                g[k] += w * (p[k] - self.p_prior[k]);
+            }
+        } else {
+            // Parameters of an absent IS are not part of the problem.
+            for k in 0..NP {
+                if !self.param_used(k) {
+                    hm[(k, k)] += 1.0 / self.p_sigma[k].powi(2);
+                }
+            }
+        }
+        let gw = self.group_weight;
+        let lin = Linearised { c0, dc, turn };
+        let mut out = Sums { hm, g, cross };
+        let h = self.srp_direction(p);
+        for reg in 0..N_REG {
+            let Some(rows) = self.regime_rows(p, reg, &h, gram) else {
+                continue;
+            };
+            for t in 0..5 {
+                let row = rows.row(t).transpose();
+                Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
+            }
+        }
+        symmetric_into(&self.m_filt, gram);
+        Self::add_group(
+            &self.t_u,
+            gram,
+            gw[GROUP_COMMON_MODE],
+            &lin,
+            &mut out,
+            group,
+        );
+        let Sums { hm, g, .. } = out;
+        self.add_star_and_angular(c0, dc, hm, g, &mut group.prod);
+    }
+
+    /// The Jacobian of every coefficient by each parameter (central differences) into
+    /// `dc`, the turn's β-derivatives into `turn`. Out of line, as the other parts of
+    /// the normal equations: their frames then never add up on the solve's stack.
+    #[inline(never)]
+    fn jacobian(
+        &self,
+        p: &Par,
+        dc: &mut [Coeffs; NP],
+        turn: &mut [SMatrix<f64, 6, 6>; 6],
+        [cp, cm]: [&mut Coeffs; 2],
+    ) {
+        *turn = [SMatrix::<f64, 6, 6>::zeros(); 6];
         for (k, d) in dc.iter_mut().enumerate() {
             let hk = 1e-6 * self.p_sigma[k];
             let mut pp = *p;
             pp[k] += hk;
-            let cp = self.coeffs(&pp);
+            *cp = self.coeffs(&pp);
             pp[k] -= 2.0 * hk;
-            let cm = self.coeffs(&pp);
+            *cm = self.coeffs(&pp);
             let f = 0.5 / hk;
-            d.lin = (cp.lin - cm.lin) * f;
+            // (cp − cm) f, element by element, as the matrix expression computes it.
+            for ((x, a), b) in d.lin.iter_mut().zip(cp.lin.iter()).zip(cm.lin.iter()) {
+                *x = (a - b) * f;
+            }
             if (P_BETA..P_BETA + 6).contains(&k) {
                 // The SRP turns with the attitude β1 Φ1 + drift, but its β-dependence
                 // is no evidence about β: the star tracker measures β far better, and
@@ -135,62 +259,33 @@ impl JointEstimator {
                 d.ang[a] = (cp.ang[a] - cm.ang[a]) * f;
             }
         }
-        let mut hm = SMatrix::<f64, NP, NP>::zeros();
-        let mut g = Par::zeros();
-        if priors {
-            for k in 0..NP {
-                let w = 1.0 / self.p_sigma[k].powi(2);
-                hm[(k, k)] += w;
-                g[k] += w * (p[k] - self.p_prior[k]);
-            }
-        } else {
-            // Parameters of an absent IS are not part of the problem.
-            for k in 0..NP {
-                if !self.param_used(k) {
-                    hm[(k, k)] += 1.0 / self.p_sigma[k].powi(2);
-                }
-            }
-        }
+    }
+
+    /// The star-tracker and angular-consistency groups' terms into (H, g).
+    #[inline(never)]
+    fn add_star_and_angular(
+        &self,
+        c0: &Coeffs,
+        dc: &[Coeffs; NP],
+        hm: &mut SMatrix<f64, NP, NP>,
+        g: &mut Par,
+        prod: &mut SMatrix<f64, NP, NP>,
+    ) {
         let gw = self.group_weight;
-        let mut cross = SMatrix::<f64, NP, 6>::zeros();
-        // A closure, out of line: its matrix products (tens of kB) take the stack only
-        // while it runs (the solve's stack is a flight figure).
-        let lin = Linearised {
-            c0: &c0,
-            dc: &dc,
-            turn: &turn,
-        };
-        let mut add = |row: &SVector<f64, 6>, m: &Gram, grp: usize| {
-            let mut out = Sums {
-                hm: &mut hm,
-                g: &mut g,
-                cross: &mut cross,
-            };
-            Self::add_group(row, m, gw[grp], &lin, &mut out);
-        };
-        let h = self.srp_direction(p);
-        for reg in 0..N_REG {
-            let Some((rows, m)) = self.regime_rows(p, reg, &h) else {
-                continue;
-            };
-            for t in 0..5 {
-                add(&rows.row(t).transpose(), &m, GROUP_LINEAR);
-            }
-        }
-        add(&self.t_u, &symmetric(&self.m_filt), GROUP_COMMON_MODE);
         for a in 0..3 {
             let m = symmetric(&self.m_star[a]);
             let d = SMatrix::<f64, 5, NP>::from_fn(|s, k| dc[k].star[a][s]);
             let md = m * d;
-            hm += d.transpose() * md * gw[GROUP_STAR];
-            g += md.transpose() * c0.star[a] * gw[GROUP_STAR];
+            d.transpose().mul_to(&md, prod);
+            add_scaled(hm, prod, gw[GROUP_STAR]);
+            *g += md.transpose() * c0.star[a] * gw[GROUP_STAR];
             let m = symmetric(&self.m_ang[a]);
             let d = SMatrix::<f64, 2, NP>::from_fn(|s, k| dc[k].ang[a][s]);
             let md = m * d;
-            hm += d.transpose() * md * gw[GROUP_ANGULAR];
-            g += md.transpose() * c0.ang[a] * gw[GROUP_ANGULAR];
+            d.transpose().mul_to(&md, prod);
+            add_scaled(hm, prod, gw[GROUP_ANGULAR]);
+            *g += md.transpose() * c0.ang[a] * gw[GROUP_ANGULAR];
         }
-        Normal { hm, g, cross }
     }
 
     /// The SRP-free whitened rows (5 × 6) of regime `reg`'s linear residuals at `p`,
@@ -200,17 +295,16 @@ impl JointEstimator {
         p: &Par,
         reg: usize,
         h: &SVector<f64, 6>,
-    ) -> Option<(SMatrix<f64, 5, 6>, Gram)> {
+        gram: &mut Gram,
+    ) -> Option<SMatrix<f64, 5, 6>> {
         let (cnt, msq, wsq) = self.regime_stats(p, reg);
         if cnt < 1.0 {
             return None;
         }
         let r = self.white_cov(p, &msq, &wsq);
         let (linv, u, _) = Self::whitening(&r, h)?;
-        Some((
-            Self::complement_rows(&linv, &u),
-            symmetric(&self.m_raw[reg]),
-        ))
+        symmetric_into(&self.m_raw[reg.min(N_REG - 1)], gram);
+        Some(Self::complement_rows(&linv, &u))
     }
 
     /// Degrees of freedom of each group's χ² (residuals accumulated).
@@ -228,6 +322,7 @@ impl JointEstimator {
     /// Judge each group's χ²/dof: a group whose residuals are larger than its noise
     /// model allows is inconsistent; it is then weighted with its observed noise (so
     /// σ grows by √(χ²/dof)) instead of printing a tight σ the data do not support.
+    #[inline(never)]
     pub(super) fn judge_consistency(&mut self, cost: &[f64; N_GROUPS]) {
         let dof = self.group_dof();
         let mut inconsistent = false;
@@ -277,18 +372,39 @@ impl JointEstimator {
         !(second && self.n_is() < 2)
     }
 
-    /// Solve H δ = −g with Jacobi scaling; also returns H⁻¹.
+    /// Solve H δ = −g with Jacobi scaling; H⁻¹ into `hinv` (`hs`: scratch for the
+    /// scaled H and its Cholesky factor). The same operations as nalgebra's
+    /// `Cholesky::new`, `solve` and `inverse` (the same bits), in the caller's matrices:
+    /// no 30 × 30 matrix on the stack.
+    #[inline(never)]
     pub(super) fn newton_step(
         hm: &SMatrix<f64, NP, NP>,
         g: &Par,
-    ) -> Option<(Par, SMatrix<f64, NP, NP>)> {
+        hs: &mut SMatrix<f64, NP, NP>,
+        hinv: &mut SMatrix<f64, NP, NP>,
+    ) -> Option<Par> {
         let sc = Par::from_fn(|k, _| 1.0 / hm[(k, k)].max(1e-300).sqrt());
-        let hs = SMatrix::<f64, NP, NP>::from_fn(|i, j| hm[(i, j)] * sc[i] * sc[j]);
-        let ch = hs.cholesky()?;
-        let gs = g.component_mul(&sc);
-        let delta = -ch.solve(&gs).component_mul(&sc);
-        let inv = ch.inverse();
-        Some((delta, SMatrix::from_fn(|i, j| inv[(i, j)] * sc[i] * sc[j])))
+        for j in 0..NP {
+            for i in 0..NP {
+                hs[(i, j)] = hm[(i, j)] * sc[i] * sc[j];
+            }
+        }
+        if !cholesky_in_place(hs) {
+            return None;
+        }
+        let mut gs = g.component_mul(&sc);
+        hs.solve_lower_triangular_unchecked_mut(&mut gs);
+        hs.ad_solve_lower_triangular_unchecked_mut(&mut gs);
+        let delta = -gs.component_mul(&sc);
+        hinv.fill_with_identity();
+        hs.solve_lower_triangular_unchecked_mut(hinv);
+        hs.ad_solve_lower_triangular_unchecked_mut(hinv);
+        for j in 0..NP {
+            for i in 0..NP {
+                hinv[(i, j)] = hinv[(i, j)] * sc[i] * sc[j];
+            }
+        }
+        Some(delta)
     }
 
     /// Variance of the estimate [parameter units²]: the sandwich A⁻¹ H A⁻ᵀ. The
@@ -302,6 +418,7 @@ impl JointEstimator {
     /// selector of those columns), so with U = H⁻¹ X and W = U (I₆ + V U)⁻¹,
     /// A⁻¹ H A⁻ᵀ = K H⁻¹ Kᵀ with K = I − W V: only the diagonal is built, from H⁻¹
     /// (the step's own inverse) and 30 × 6 products.
+    #[inline(never)]
     pub(super) fn sandwich_var(n: &Normal, hinv: &SMatrix<f64, NP, NP>) -> Option<Par> {
         let u: SMatrix<f64, NP, 6> = hinv * n.cross;
         let vu = SMatrix::<f64, 6, 6>::from_fn(|b, c| u[(P_BETA + b, c)]);
@@ -323,12 +440,12 @@ impl JointEstimator {
     /// Gauss–Newton iterations from the current solution; true when converged. A
     /// failed step (singular normal equations, a non-finite step) keeps the previous
     /// solution and says so in the status word.
-    pub fn solve(&mut self, iterations: usize, priors: bool) -> bool {
+    pub fn solve(&mut self, iterations: usize, priors: bool, w: &mut SolveWork) -> bool {
         for _ in 0..iterations {
-            let n = self.normal_equations(&self.p, priors);
-            let step = Self::newton_step(&n.hm, &n.g)
-                .filter(|(d, _)| d.iter().all(|x| x.is_finite()))
-                .and_then(|(d, hinv)| Some((d, Self::sandwich_var(&n, &hinv)?)));
+            self.normal_equations(&self.p, priors, w);
+            let step = Self::newton_step(&w.n.hm, &w.n.g, &mut w.hs, &mut w.hinv)
+                .filter(|d| d.iter().all(|x| x.is_finite()))
+                .and_then(|d| Some((d, Self::sandwich_var(&w.n, &w.hinv)?)));
             let Some((delta, var)) = step else {
                 self.status |= ST_SOLVE_FAILED;
                 return false;
@@ -336,7 +453,7 @@ impl JointEstimator {
             self.p += delta;
             self.sigma = var.map(|v| v.max(0.0).sqrt());
             self.status &= !(ST_SOLVE_FAILED | ST_NO_SOLUTION);
-            let cost = self.group_costs(&self.p);
+            let cost = self.group_costs(&self.p, &mut w.gram);
             self.judge_consistency(&cost);
             self.refresh_gate();
             let converged = (0..NP).all(|k| delta[k].abs() < 1e-4 * self.sigma[k].max(1e-300));
@@ -348,7 +465,8 @@ impl JointEstimator {
     }
 
     /// Each group's χ² at `p`, with the rows `normal_equations` uses.
-    pub(super) fn group_costs(&self, p: &Par) -> [f64; N_GROUPS] {
+    #[inline(never)]
+    pub(super) fn group_costs(&self, p: &Par, gram: &mut Gram) -> [f64; N_GROUPS] {
         let c0 = self.coeffs(p);
         let mut cost = [0.0; N_GROUPS];
         let lin = |row: &SVector<f64, 6>, m: &Gram| {
@@ -357,14 +475,15 @@ impl JointEstimator {
         };
         let h = self.srp_direction(p);
         for reg in 0..N_REG {
-            let Some((rows, m)) = self.regime_rows(p, reg, &h) else {
+            let Some(rows) = self.regime_rows(p, reg, &h, gram) else {
                 continue;
             };
             for t in 0..5 {
-                cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), &m);
+                cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), gram);
             }
         }
-        cost[GROUP_COMMON_MODE] = lin(&self.t_u, &symmetric(&self.m_filt));
+        symmetric_into(&self.m_filt, gram);
+        cost[GROUP_COMMON_MODE] = lin(&self.t_u, gram);
         for a in 0..3 {
             cost[GROUP_STAR] += c0.star[a].dot(&(symmetric(&self.m_star[a]) * c0.star[a]));
             cost[GROUP_ANGULAR] += c0.ang[a].dot(&(symmetric(&self.m_ang[a]) * c0.ang[a]));
@@ -374,6 +493,7 @@ impl JointEstimator {
 
     /// The linear input test follows the new solution: its residual rows change, and
     /// its tracks' levels move with them (at the last accepted sample).
+    #[inline(never)]
     pub(super) fn refresh_gate(&mut self) {
         let new = self.coeffs(&self.p).lin;
         let raw = (new - self.gate_c) * self.gate_s;
@@ -386,9 +506,108 @@ impl JointEstimator {
     }
 }
 
+/// `out = a b`: nalgebra's gemm, as `a * b` computes it (the same bits), out of line:
+/// as a function's `&mut` parameter the output provably aliases neither factor, so the
+/// inner loops keep their registers (inlined, with the three in one struct, a Cortex-M7
+/// solve took 61 % more instructions). On x86-64 it is inlined into the AVX2 path
+/// instead (out of line it would be compiled without AVX2: 47 % more there).
+#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[cfg_attr(not(target_arch = "x86_64"), inline(never))]
+fn mul_into<const R: usize, const K: usize, const C: usize>(
+    a: &SMatrix<f64, R, K>,
+    b: &SMatrix<f64, K, C>,
+    out: &mut SMatrix<f64, R, C>,
+) {
+    a.mul_to(b, out);
+}
+
+/// The Cholesky factor L of `a` in its lower triangle (the upper one is left as it
+/// was), nalgebra's `Cholesky::new` step for step: the same bits, in place. False when
+/// `a` is not positive definite (a zero, negative or NaN pivot), as `new` gives `None`.
+fn cholesky_in_place(a: &mut SMatrix<f64, NP, NP>) -> bool {
+    for j in 0..NP {
+        for k in 0..j {
+            // axpy: y = (factor x) 1 + 1 y, with factor = −L[j, k].
+            let factor = -a[(j, k)];
+            for r in j..NP {
+                a[(r, j)] += factor * a[(r, k)];
+            }
+        }
+        let diag = a[(j, j)];
+        // `try_sqrt`: None below zero and for NaN (and a zero pivot is refused first).
+        if diag == 0.0 || diag.is_nan() || diag < 0.0 {
+            return false;
+        }
+        let denom = libm::sqrt(diag);
+        a[(j, j)] = denom;
+        for r in j + 1..NP {
+            a[(r, j)] /= denom;
+        }
+    }
+    true
+}
+
+/// `symmetric(m)` written into `out` (no 35 × 35 temporary).
+fn symmetric_into(m: &Gram, out: &mut Gram) {
+    for j in 0..NS {
+        for i in 0..NS {
+            out[(i, j)] = if i <= j { m[(i, j)] } else { m[(j, i)] };
+        }
+    }
+}
+
+/// `h += x w`, element by element (as `h += x * w` would, without its temporary).
+fn add_scaled(h: &mut SMatrix<f64, NP, NP>, x: &SMatrix<f64, NP, NP>, w: f64) {
+    for (h, x) in h.iter_mut().zip(x.iter()) {
+        *h += x * w;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The in-place factor and its solves give nalgebra's `Cholesky` bits, and refuse
+    /// what it refuses.
+    #[test]
+    fn the_in_place_cholesky_is_nalgebras_bit_for_bit() {
+        let n = normal(1.0);
+        let mut a = n.hm;
+        assert!(cholesky_in_place(&mut a));
+        let ch = n.hm.cholesky().unwrap();
+        let l = ch.l();
+        for j in 0..NP {
+            for i in j..NP {
+                assert_eq!(a[(i, j)].to_bits(), l[(i, j)].to_bits(), "L[{i},{j}]");
+            }
+        }
+        let mut x = n.g;
+        a.solve_lower_triangular_unchecked_mut(&mut x);
+        a.ad_solve_lower_triangular_unchecked_mut(&mut x);
+        let y = ch.solve(&n.g);
+        assert!(x
+            .iter()
+            .zip(y.iter())
+            .all(|(p, q)| p.to_bits() == q.to_bits()));
+        let mut bad = n.hm;
+        bad[(4, 4)] = -1.0;
+        assert_eq!(
+            cholesky_in_place(&mut bad.clone()),
+            bad.cholesky().is_some()
+        );
+        bad[(4, 4)] = f64::NAN;
+        assert_eq!(
+            cholesky_in_place(&mut bad.clone()),
+            bad.cholesky().is_some()
+        );
+    }
+
+    /// `newton_step` with its own scratch: (δ, H⁻¹).
+    fn step(hm: &SMatrix<f64, NP, NP>, g: &Par) -> Option<(Par, SMatrix<f64, NP, NP>)> {
+        let (mut hs, mut hinv) = (SMatrix::zeros(), SMatrix::zeros());
+        let d = JointEstimator::newton_step(hm, g, &mut hs, &mut hinv)?;
+        Some((d, hinv))
+    }
 
     /// A symmetric positive-definite H of widely spread scales (as the parameters'
     /// units make it) and a cross term on the β columns.
@@ -410,7 +629,7 @@ mod tests {
     #[test]
     fn without_the_turn_cross_term_the_sandwich_is_the_inverse_hessian() {
         let n = normal(0.0);
-        let (_, hinv) = JointEstimator::newton_step(&n.hm, &n.g).unwrap();
+        let (_, hinv) = step(&n.hm, &n.g).unwrap();
         let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
         let inv = n.hm.try_inverse().unwrap();
         for k in 0..NP {
@@ -421,7 +640,7 @@ mod tests {
     #[test]
     fn the_sandwich_is_a_inverse_h_a_inverse_transposed() {
         let n = normal(3.0);
-        let (_, hinv) = JointEstimator::newton_step(&n.hm, &n.g).unwrap();
+        let (_, hinv) = step(&n.hm, &n.g).unwrap();
         let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
         let mut a = n.hm;
         for c in 0..6 {
@@ -454,7 +673,7 @@ mod tests {
         let p0 = Par::from_fn(|k, _| 0.3 * scale[k]);
         let h = j.transpose() * j;
         let g = -(j.transpose() * (y - j * p0));
-        let (delta, hinv) = JointEstimator::newton_step(&h, &g).unwrap();
+        let (delta, hinv) = step(&h, &g).unwrap();
         let p1 = p0 + delta;
         for k in 0..NP {
             assert!(
@@ -472,6 +691,6 @@ mod tests {
         let mut sing = h;
         sing.set_column(3, &Par::zeros());
         sing.set_row(3, &Par::zeros().transpose());
-        assert!(JointEstimator::newton_step(&sing, &g).is_none());
+        assert!(step(&sing, &g).is_none());
     }
 }
