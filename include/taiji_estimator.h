@@ -9,19 +9,22 @@
  *        symbol that exists nowhere, and the link succeeds (a CI test; with --probe, a
  *        deliberately reachable panic, the same link fails).
  *
- * MEMORY The state: taiji_estimator_size() bytes (about 64 KB) aligned to
+ * MEMORY The state: taiji_estimator_size() bytes (64 192) aligned to
  *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
- *        alignment. Stack per call, measured by painting (docs/flight.md): update 6.6 KB
- *        (7.0 KB on a LEON3, 7.3 KB on x86-64); init and restore under 3 KB (they build
- *        the state in place); solve and finish 183 KB on a Cortex-M7, 176 KB on a
- *        LEON3, 243 KB on x86-64 with AVX2 (the Gauss-Newton Jacobian and its products
- *        are built on the stack: run them on a task with >= 256 KB, >= 320 KB on x86-64).
+ *        alignment. solve and finish also take scratch: taiji_solve_work_size() bytes
+ *        (128 432), 8-aligned, not overlapping the state; its contents do not matter
+ *        before or after a call, so one buffer serves every estimator of a task. In all
+ *        192 624 bytes, fixed at start-up. Stack per call, measured by painting
+ *        (docs/flight.md): update 6.6 KB (7.0 KB on a LEON3, 7.3 KB on x86-64); init
+ *        and restore under 3 KB (they build the state in place); solve and finish
+ *        11.5 / 12.0 KB on a Cortex-M7, 11.4 / 11.9 KB on a LEON3, 11.6 KB on x86-64.
+ *        A 16 KB task stack holds every call.
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
  *        update 97 300 typical, 111 500 worst (the first sample; each includes the
- *        upset check and reseal, UPSETS below); solve 6.81 M worst; finish 20.3 M. On a
- *        LEON3 (--cpu leon3): update 147 400 typical, 166 700 worst; solve 15.3 M;
- *        finish 45.7 M.
+ *        upset check and reseal, UPSETS below); solve 6.92 M worst; finish 20.6 M. On a
+ *        LEON3 (--cpu leon3): update 147 400 typical, 166 600 worst; solve 10.1 M;
+ *        finish 30.1 M.
  *        After a gap, update bridges at most 8 missing ticks (about 7 500 instructions
  *        each): the worst update after a 5 999-tick gap is 159 440. Longer gaps are
  *        caught up over the next updates, 7 ticks gained a call; the samples that
