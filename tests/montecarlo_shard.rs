@@ -2,6 +2,7 @@
 //! give the single-machine run's table and montecarlo.json byte for byte; a missing, a
 //! duplicated, a malformed or a foreign result is an error naming it, never counted.
 
+mod tmpdir;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -15,11 +16,8 @@ fn calib() -> Command {
     c
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("taiji-shard-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> tmpdir::TmpDir {
+    tmpdir::TmpDir::new(&format!("shard-{name}"))
 }
 
 /// A short planned campaign (2000 s: ~0.1 s a seed).
@@ -56,11 +54,19 @@ fn shard(i: u32, extra: &[&str], out: &Path) -> Output {
         .unwrap()
 }
 
-/// The four shards' result files, run once for every test.
+/// The four shards' result files, run once for every test; removed when the test
+/// process exits (a static is never dropped).
 fn shards() -> &'static Path {
     static D: OnceLock<PathBuf> = OnceLock::new();
+    extern "C" fn remove_shards() {
+        if let Some(d) = D.get() {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
     D.get_or_init(|| {
-        let d = tmp("shards");
+        let d = tmp("shards").keep();
+        // SAFETY: registers a plain function, called once by `exit` after the tests.
+        unsafe { libc::atexit(remove_shards) };
         for i in 0..4 {
             let out = ok(&shard(i, &[], &d));
             assert!(
@@ -73,7 +79,7 @@ fn shards() -> &'static Path {
 }
 
 /// A folder holding copies of the shards' files for `seeds`.
-fn copy(name: &str, seeds: &[u64]) -> PathBuf {
+fn copy(name: &str, seeds: &[u64]) -> tmpdir::TmpDir {
     let d = tmp(name);
     for s in seeds {
         let f = format!("run-{s}.json");

@@ -197,4 +197,3 @@ pub(super) fn estimate_columns(ni: usize) -> Vec<Column> {
         Column::new(l::EST_CHI2, F64, Src::Chi2, &[crate::msg::N_GROUPS]),
     ]
 }
-

@@ -9,8 +9,8 @@
 //! at most the buffered chunk, and h5py reads a recording while it grows. Memory is
 //! one chunk, whatever the campaign's length.
 
-use super::h5::{self, Kind, Msg, Value};
 use super::columns::{estimate_columns, sample_columns, Column};
+use super::h5::{self, Kind, Msg, Value};
 use super::layout as l;
 use super::{Meta, RowGate, Telemetry, TelemetryError};
 use crate::faults::FaultRecord;
