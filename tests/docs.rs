@@ -277,7 +277,7 @@ fn sig2(x: f64) -> String {
 /// through the library calls `plan --min-duration` and `crlb` make, so a change of the
 /// model, planner or defaults fails this test until the docs say the new number.
 fn computed_numbers() -> std::collections::BTreeMap<&'static str, String> {
-    let s = Scenario::default();
+    let s = Scenario::load_or_default(None).unwrap();
     let shortest = taiji::plan::min_duration(&s, 3.0).unwrap();
     let (planned, info) = taiji::plan::resolve(s).unwrap();
     let info = info.expect("the default scenario is planned");
