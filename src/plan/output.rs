@@ -274,8 +274,13 @@ mod tests {
     /// fractions of a schedule are drawn in three line styles.
     #[test]
     fn the_chosen_marker_is_inside_the_axes_and_each_torque_has_its_own_style() {
-        let s = Scenario::default();
-        let p = crate::plan::min_duration(&s, 3.0).unwrap();
+        let s = Scenario::load_or_default(None).unwrap();
+        let opts = crate::plan::PlanOptions {
+            duration_s: Some(5000.0),
+            amplitude_sweep: true,
+            exact: true,
+        };
+        let p = crate::plan::plan(&s, &opts).unwrap();
         let f = figure(&p);
         let panel = &f.panels[0];
         let ((x0, x1), _) = crate::plots::render::panel_ranges(panel);
