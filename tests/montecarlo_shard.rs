@@ -24,7 +24,7 @@ fn tmp(name: &str) -> tmpdir::TmpDir {
 fn scenario() -> PathBuf {
     static S: OnceLock<PathBuf> = OnceLock::new();
     S.get_or_init(|| {
-        let f = tmp("scenario").join("short.toml");
+        let f = remove_at_exit(tmp("scenario")).join("short.toml");
         std::fs::write(&f, "name = \"short\"\nduration_s = 2000.0\n").unwrap();
         f
     })
@@ -54,19 +54,34 @@ fn shard(i: u32, extra: &[&str], out: &Path) -> Output {
         .unwrap()
 }
 
-/// The four shards' result files, run once for every test; removed when the test
-/// process exits (a static is never dropped).
-fn shards() -> &'static Path {
-    static D: OnceLock<PathBuf> = OnceLock::new();
-    extern "C" fn remove_shards() {
-        if let Some(d) = D.get() {
+/// A folder shared by the tests through a static (never dropped), removed when the
+/// test process exits.
+fn remove_at_exit(d: tmpdir::TmpDir) -> PathBuf {
+    static SHARED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+    static REGISTER: std::sync::Once = std::sync::Once::new();
+    extern "C" fn remove_shared() {
+        let dirs = SHARED.lock().unwrap_or_else(|e| e.into_inner());
+        for d in dirs.iter() {
             let _ = std::fs::remove_dir_all(d);
         }
     }
+    // SAFETY: registers a plain function, called once by `exit` after the tests.
+    REGISTER.call_once(|| unsafe {
+        libc::atexit(remove_shared);
+    });
+    let d = d.keep();
+    SHARED
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(d.clone());
+    d
+}
+
+/// The four shards' result files, run once for every test.
+fn shards() -> &'static Path {
+    static D: OnceLock<PathBuf> = OnceLock::new();
     D.get_or_init(|| {
-        let d = tmp("shards").keep();
-        // SAFETY: registers a plain function, called once by `exit` after the tests.
-        unsafe { libc::atexit(remove_shards) };
+        let d = remove_at_exit(tmp("shards"));
         for i in 0..4 {
             let out = ok(&shard(i, &[], &d));
             assert!(
