@@ -266,10 +266,27 @@ mod tests {
     use crate::estimate::Method;
     use crate::scenario::Scenario;
 
-    fn dir(name: &str) -> PathBuf {
+    /// A test's folder, removed when the test ends (pass or fail) so runs of the suite
+    /// do not pile folders up in /tmp.
+    struct Dir(PathBuf);
+
+    impl std::ops::Deref for Dir {
+        type Target = Path;
+        fn deref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl Drop for Dir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    fn dir(name: &str) -> Dir {
         let d = std::env::temp_dir().join(format!("taiji-ckpt-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&d).unwrap();
-        d
+        Dir(d)
     }
 
     #[test]
@@ -280,7 +297,8 @@ mod tests {
         };
         for method in [Method::Joint, Method::Paper] {
             let mut st = Stages::new(&s, 3, method);
-            let path = dir(method.name()).join("est.ckpt");
+            let d = dir(method.name());
+            let path = d.join("est.ckpt");
             let mut ck = Checkpointer::new(&path, &st.estimator).unwrap();
             let samples: Vec<_> = (0..s.n_samples())
                 .map(|t| {

@@ -386,11 +386,7 @@ impl MonteCarlo {
             self.runs_meeting_requirements, self.runs, self.runs_verified, self.runs, self.worst_normalized
         );
         if let Some(f) = &self.faults {
-            let _ = writeln!(
-                o,
-                "Faults injected / detected over all runs: {}",
-                crate::report::fault_line(f)
-            );
+            let _ = writeln!(o, "Faults over all runs: {}", crate::report::fault_line(f));
         }
         o
     }

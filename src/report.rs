@@ -324,7 +324,7 @@ impl Report {
             }
         );
         if let Some(f) = &self.faults {
-            let _ = writeln!(o, "Faults injected / detected: {}", fault_line(f));
+            let _ = writeln!(o, "Faults: {}", fault_line(f));
         }
         let _ = writeln!(
             o,
@@ -392,7 +392,9 @@ pub struct Row {
     pub z: f64,
 }
 
-/// "upset 11/11, star_jump 10/10, …" from a report's `faults`.
+/// "upset 9 injected, 6 detected, 3 missed; star_jump …" from a report's `faults`: each
+/// count named as in report.json (`injected`, `detected`, `missed`), so the line
+/// cannot be read backwards as a bare "6/9" under an "injected / detected" label was.
 pub fn fault_line(f: &serde_json::Value) -> String {
     let Some(kinds) = f["by_kind"].as_object() else {
         return "none".into();
@@ -400,21 +402,37 @@ pub fn fault_line(f: &serde_json::Value) -> String {
     let list: Vec<String> = kinds
         .iter()
         .map(|(k, v)| {
-            let within = v["undetected_within_5_sigma"].as_u64().unwrap_or(0);
+            let n = |key: &str| v[key].as_u64().unwrap_or(0);
+            let within = n("undetected_within_5_sigma");
             format!(
-                "{k} {}/{} (missed {}{})",
-                v["detected"].as_u64().unwrap_or(0),
-                v["injected"].as_u64().unwrap_or(0),
-                v["missed"].as_u64().unwrap_or(0),
+                "{k} {} injected, {} detected, {} missed{}",
+                n("injected"),
+                n("detected"),
+                n("missed"),
                 if within > 0 {
-                    format!("; {within} harmless, within 5σ of noise")
+                    format!(" ({within} harmless, within 5σ of noise)")
                 } else {
                     String::new()
                 }
             )
         })
         .collect();
-    list.join(", ")
+    list.join("; ")
+}
+
+#[cfg(test)]
+mod fault_line_tests {
+    /// The console line says which count is which, matching report.json's keys.
+    #[test]
+    fn each_count_is_named_as_in_report_json() {
+        let f = serde_json::json!({"by_kind": {"upset": {
+            "injected": 9, "detected": 6, "missed": 3, "undetected_within_5_sigma": 2
+        }}});
+        assert_eq!(
+            super::fault_line(&f),
+            "upset 9 injected, 6 detected, 3 missed (2 harmless, within 5σ of noise)"
+        );
+    }
 }
 
 /// A report that could not be written.

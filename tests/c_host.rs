@@ -4,6 +4,7 @@
 //! Rust standard library.
 
 mod hosts;
+mod tmpdir;
 
 use hosts::{assert_same_bits, json, record_and_replay, root, tmp, BIN};
 use std::process::Command;
@@ -50,5 +51,4 @@ fn the_c_host_reproduces_replay_bit_for_bit_and_links_no_rust_std() {
         "Rust std symbols in the C host: {std_syms:?}"
     );
     assert!(syms.contains("taiji_estimator_update"));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,5 +1,6 @@
 //! The CLI: a user mistake gets a one-line error and exit code 2, never a panic trace.
 
+mod tmpdir;
 use std::process::Command;
 
 fn calib() -> Command {
@@ -8,8 +9,7 @@ fn calib() -> Command {
 
 #[test]
 fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
-    let dir = std::env::temp_dir().join(format!("taiji-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tmpdir::TmpDir::new("cli");
     let f = dir.join("bad.toml");
     std::fs::write(&f, "duration_s = -1.0\n").unwrap();
     let out = calib()
@@ -35,7 +35,7 @@ fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
 
 #[test]
 fn run_writes_the_documented_report() {
-    let dir = std::env::temp_dir().join(format!("taiji-cli-run-{}", std::process::id()));
+    let dir = tmpdir::TmpDir::new("cli-run");
     let out = calib()
         .args(["run", "--seed", "3", "--out"])
         .arg(&dir)
@@ -110,8 +110,7 @@ fn run_help_describes_every_option() {
 
 #[test]
 fn an_out_folder_through_a_file_is_refused_before_the_campaign_runs() {
-    let dir = std::env::temp_dir().join(format!("taiji-cli-outfile-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tmpdir::TmpDir::new("cli-outfile");
     let file = dir.join("plain-file");
     std::fs::write(&file, "x").unwrap();
     for out in [file.clone(), file.join("below")] {
@@ -125,4 +124,80 @@ fn an_out_folder_through_a_file_is_refused_before_the_campaign_runs() {
         );
         assert!(o.stdout.is_empty());
     }
+}
+
+/// A user error leaves no folder behind: the inputs are checked before `--out` is
+/// made (a missing scenario, a recording that is no HDF5 file, a refused plan).
+#[test]
+fn a_user_error_creates_no_output_folder() {
+    let dir = tmpdir::TmpDir::new("cli-noout");
+    let bad = dir.join("bad.h5");
+    std::fs::write(&bad, "not hdf5").unwrap();
+    let out = dir.join("X");
+    let nosuch = dir.join("nosuch.toml");
+    let cases: [Vec<&std::ffi::OsStr>; 5] = [
+        vec!["run".as_ref(), "--scenario".as_ref(), nosuch.as_ref()],
+        vec!["replay".as_ref(), "--telemetry".as_ref(), bad.as_ref()],
+        vec!["export".as_ref(), "--telemetry".as_ref(), bad.as_ref()],
+        vec!["plan".as_ref(), "--scenario".as_ref(), nosuch.as_ref()],
+        vec![
+            "montecarlo".as_ref(),
+            "--scenario".as_ref(),
+            nosuch.as_ref(),
+        ],
+    ];
+    for args in cases {
+        let o = calib().args(&args).arg("--out").arg(&out).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(!out.exists(), "{args:?} created {}: {err}", out.display());
+    }
+}
+
+/// `crlb` prints the planned frequency to a readable precision (it printed
+/// 0.0006000240009600384 Hz), and the planner's warning comes once (it came twice,
+/// through the log and again as `warning:`).
+#[test]
+fn crlb_prints_readable_numbers_and_the_planners_warning_once() {
+    let o = calib().arg("crlb").output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("maneuver 0.6000 mHz"), "{text}");
+    assert!(!text.contains("0.00060002"), "{text}");
+    let dir = tmpdir::TmpDir::new("cli-warn");
+    let short = dir.join("short.toml");
+    std::fs::write(&short, "name = \"short\"\nduration_s = 300.0\n").unwrap();
+    let o = calib()
+        .args(["crlb", "--scenario"])
+        .arg(&short)
+        .env("TAIJI_PLAN_CACHE", "off")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.matches("flying the best maneuver").count(), 1, "{err}");
+}
+
+/// `tools/launch --help` prints at once, before any build, and names every way to
+/// launch (it ran cargo first and left out --two-hosts and --host).
+#[test]
+fn launch_help_is_immediate_and_lists_every_mode() {
+    let t0 = std::time::Instant::now();
+    let o = Command::new(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/launch"))
+        .arg("--help")
+        .env("CARGO", "/nonexistent/cargo-must-not-run")
+        .env("PATH", "/usr/bin:/bin")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for w in [
+        "--two-hosts",
+        "--host NAME",
+        "--graph",
+        "--scenario",
+        "--out",
+    ] {
+        assert!(text.contains(w), "{w}: {text}");
+    }
+    assert!(t0.elapsed().as_secs() < 10, "took {:?}", t0.elapsed());
 }

@@ -1,6 +1,7 @@
 //! The repository explains itself: no file points outside it, every key a run writes
 //! and every scenario key is documented in `docs/`, and every relative link resolves.
 
+mod tmpdir;
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -114,7 +115,7 @@ fn all_keys(v: &Value, out: &mut BTreeSet<String>) {
 
 #[test]
 fn every_key_of_a_default_runs_report_is_documented() {
-    let dir = std::env::temp_dir().join(format!("taiji-docs-{}", std::process::id()));
+    let dir = tmpdir::TmpDir::new("docs");
     let out = Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
         .args(["run", "--out"])
         .arg(&dir)
@@ -126,7 +127,6 @@ fn every_key_of_a_default_runs_report_is_documented() {
         String::from_utf8_lossy(&out.stderr)
     );
     let text = std::fs::read_to_string(dir.join("report.json")).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
     let v: Value = serde_json::from_str(&text).unwrap();
     let doc = read("docs/report.md");
     let mut keys = BTreeSet::new();
@@ -264,4 +264,105 @@ fn every_relative_link_of_the_readme_and_docs_resolves() {
         }
     }
     assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+/// Two significant digits, as the docs quote bounds (0.85, 0.017).
+fn sig2(x: f64) -> String {
+    let decimals = (1 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// The numbers the docs quote that a command computes deterministically, by anchor
+/// name: `<!--n:NAME-->value<!--/n-->` in a .md file must read `value`. Computed here
+/// through the library calls `plan --min-duration` and `crlb` make, so a change of the
+/// model, planner or defaults fails this test until the docs say the new number.
+fn computed_numbers() -> std::collections::BTreeMap<&'static str, String> {
+    let s = Scenario::load_or_default(None).unwrap();
+    let shortest = taiji::plan::min_duration(&s, 3.0).unwrap();
+    let (planned, info) = taiji::plan::resolve(s).unwrap();
+    let info = info.expect("the default scenario is planned");
+    let c = taiji::crlb::crlb(&planned).unwrap();
+    let mut beta = Vec::new();
+    let mut r_um = [0.0f64; 3];
+    for (i, is) in planned.inertial_sensor.iter().enumerate() {
+        for a in 0..3 {
+            beta.push(c.beta[i][a] / is.beta[a]);
+            r_um[a] = r_um[a].max(c.com_offset_m[i][a] * 1e6);
+        }
+    }
+    let (lo, hi) = beta
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(l, h), b| (l.min(*b), h.max(*b)));
+    let r: Vec<String> = r_um.iter().map(|x| sig2(*x)).collect();
+    [
+        ("min-duration", format!("{} s", shortest.duration_s)),
+        (
+            "min-duration-slow",
+            format!("{:.2} mHz", shortest.chosen.maneuver.frequency_hz * 1e3),
+        ),
+        ("crlb-beta", format!("{:.1}–{:.1}×10⁻⁶", lo * 1e6, hi * 1e6)),
+        ("crlb-r", format!("{} µm", r.join(" / "))),
+        ("crlb-worst", sig2(info.worst_ratio)),
+    ]
+    .into_iter()
+    .collect()
+}
+
+#[test]
+fn every_computed_number_in_the_docs_is_what_its_command_prints_now() {
+    let want = computed_numbers();
+    let mut seen: BTreeSet<String> = BTreeSet::new();
+    let mut stale = Vec::new();
+    let docs = repository_files()
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "md"));
+    for path in docs {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let rel = path.strip_prefix(root()).unwrap().display().to_string();
+        for (at, _) in text.match_indices("<!--n:") {
+            let rest = &text[at + 6..];
+            let (name, rest) = rest.split_once("-->").expect("an unclosed anchor");
+            let (value, _) = rest
+                .split_once("<!--/n-->")
+                .unwrap_or_else(|| panic!("{rel}: anchor {name} without <!--/n-->"));
+            let Some(w) = want.get(name) else {
+                panic!("{rel}: anchor {name:?} names no computed number (tests/docs.rs)");
+            };
+            seen.insert(name.to_string());
+            if value != w {
+                stale.push(format!(
+                    "{rel}: {name} says {value:?}, the command gives {w:?}"
+                ));
+            }
+        }
+    }
+    assert!(
+        stale.is_empty(),
+        "stale numbers in the docs:\n{}",
+        stale.join("\n")
+    );
+    let unused: Vec<_> = want.keys().filter(|k| !seen.contains(**k)).collect();
+    assert!(unused.is_empty(), "computed but quoted nowhere: {unused:?}");
+}
+
+/// Every file a run writes into its folder has a row in docs/report.md's table of files
+/// (`scenario.toml` was missing): the names as the code spells them.
+#[test]
+fn every_file_of_a_run_folder_is_in_the_table_of_report_md() {
+    let text = read("docs/report.md");
+    for f in [
+        "report.json",
+        "report.md",
+        "report.html",
+        "telemetry.h5",
+        "plots/",
+        taiji::process::supervisor::PLANNED_SCENARIO_FILE,
+        "estimator_table.json",
+        "montecarlo.json",
+    ] {
+        assert!(
+            text.contains(&format!("| `{f}` |")),
+            "docs/report.md: no row for {f}"
+        );
+    }
 }

@@ -7,6 +7,7 @@
 //! (tools/test installs them).
 
 mod hosts;
+mod tmpdir;
 
 use hosts::{assert_same_bits, json, record_and_replay, root, tmp, BIN};
 use std::path::Path;
@@ -74,7 +75,6 @@ fn the_emulated_cortex_m7_reproduces_replay_bit_for_bit() {
         "cortex-m7",
         30000,
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Big-endian, 32-bit, register windows, its own FPU: the same bits. A shorter
@@ -89,7 +89,6 @@ fn the_emulated_leon3_reproduces_replay_bit_for_bit() {
         "leon3",
         10000,
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! a model that does not fit the data says so; and no sample content, header or tick
 //! order makes the estimator panic or print a non-finite number.
 
+mod tmpdir;
 use taiji::campaign;
 use taiji::estimate::{Estimator, EstimatorConfig, Method};
 use taiji::msg::*;
@@ -171,9 +172,7 @@ fn a_campaign_longer_than_the_verified_limit_is_refused_naming_duration_s() {
 
 #[test]
 fn a_recording_corrupted_with_h5py_replays_within_the_requirements_with_honest_sigma() {
-    let dir = std::env::temp_dir().join(format!("taiji-int-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tmpdir::TmpDir::new("int");
     let calib = env!("CARGO_BIN_EXE_taiji-calib");
     let run = |args: &[&str]| {
         let o = std::process::Command::new(calib)

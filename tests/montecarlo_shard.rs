@@ -2,6 +2,7 @@
 //! give the single-machine run's table and montecarlo.json byte for byte; a missing, a
 //! duplicated, a malformed or a foreign result is an error naming it, never counted.
 
+mod tmpdir;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -15,18 +16,15 @@ fn calib() -> Command {
     c
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("taiji-shard-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> tmpdir::TmpDir {
+    tmpdir::TmpDir::new(&format!("shard-{name}"))
 }
 
 /// A short planned campaign (2000 s: ~0.1 s a seed).
 fn scenario() -> PathBuf {
     static S: OnceLock<PathBuf> = OnceLock::new();
     S.get_or_init(|| {
-        let f = tmp("scenario").join("short.toml");
+        let f = remove_at_exit(tmp("scenario")).join("short.toml");
         std::fs::write(&f, "name = \"short\"\nduration_s = 2000.0\n").unwrap();
         f
     })
@@ -56,11 +54,34 @@ fn shard(i: u32, extra: &[&str], out: &Path) -> Output {
         .unwrap()
 }
 
+/// A folder shared by the tests through a static (never dropped), removed when the
+/// test process exits.
+fn remove_at_exit(d: tmpdir::TmpDir) -> PathBuf {
+    static SHARED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+    static REGISTER: std::sync::Once = std::sync::Once::new();
+    extern "C" fn remove_shared() {
+        let dirs = SHARED.lock().unwrap_or_else(|e| e.into_inner());
+        for d in dirs.iter() {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
+    // SAFETY: registers a plain function, called once by `exit` after the tests.
+    REGISTER.call_once(|| unsafe {
+        libc::atexit(remove_shared);
+    });
+    let d = d.keep();
+    SHARED
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(d.clone());
+    d
+}
+
 /// The four shards' result files, run once for every test.
 fn shards() -> &'static Path {
     static D: OnceLock<PathBuf> = OnceLock::new();
     D.get_or_init(|| {
-        let d = tmp("shards");
+        let d = remove_at_exit(tmp("shards"));
         for i in 0..4 {
             let out = ok(&shard(i, &[], &d));
             assert!(
@@ -73,7 +94,7 @@ fn shards() -> &'static Path {
 }
 
 /// A folder holding copies of the shards' files for `seeds`.
-fn copy(name: &str, seeds: &[u64]) -> PathBuf {
+fn copy(name: &str, seeds: &[u64]) -> tmpdir::TmpDir {
     let d = tmp(name);
     for s in seeds {
         let f = format!("run-{s}.json");

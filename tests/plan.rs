@@ -1,6 +1,7 @@
 //! The maneuver planner: it plans any window a scenario leaves open, its constraints
 //! hold, an impossible request names what binds it, and its bound predicts reality.
 
+mod tmpdir;
 use nalgebra::{Matrix3, Vector3};
 use taiji::plan::{self, PlanOptions};
 use taiji::scenario::maneuver::{torque_boost, Timeline};
@@ -170,7 +171,8 @@ fn the_shortest_window_meets_every_requirement_with_the_margin() {
 
 #[test]
 fn the_plan_command_writes_the_maneuver_and_refuses_an_impossible_window() {
-    let dir = std::env::temp_dir().join(format!("taiji-plan-{}", std::process::id()));
+    let tmp = tmpdir::TmpDir::new("plan");
+    let dir = tmp.join("out");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
         .args(["plan", "--duration", "5000", "--out"])
         .arg(&dir)
@@ -204,14 +206,13 @@ fn the_plan_command_writes_the_maneuver_and_refuses_an_impossible_window() {
         err.contains("duration_s") && !err.contains("panicked"),
         "{err}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
+    // A refused plan leaves no empty output folder behind.
+    assert!(!dir.exists(), "{} was created", dir.display());
 }
 
 #[test]
 fn a_second_run_of_a_scenario_reuses_its_plan_from_the_cache() {
-    let dir = std::env::temp_dir().join(format!("taiji-plan-cache-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tmpdir::TmpDir::new("plan-cache");
     let sc = dir.join("s.toml");
     std::fs::write(&sc, "name = \"cache\"\nduration_s = 3000.0\n").unwrap();
     let crlb = |cache: &str| {
@@ -250,5 +251,4 @@ fn a_second_run_of_a_scenario_reuses_its_plan_from_the_cache() {
     let (fourth, log4) = crlb("off");
     assert!(!log4.contains("from the plan cache"));
     assert_eq!(first, fourth);
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -3,6 +3,7 @@
 //! curves; report.md links them and report.html inlines them. Every panel's axes hold
 //! all its data, and the styles keep overlapping curves apart.
 
+mod tmpdir;
 use std::process::Command;
 use taiji::estimate::Method;
 use taiji::plots::render::{panel_ranges, BandStyle, BLACK_INDEX, FIGURE_WIDTH};
@@ -11,9 +12,7 @@ use taiji::scenario::Scenario;
 
 #[test]
 fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
-    let dir = std::env::temp_dir().join(format!("taiji-plots-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tmpdir::TmpDir::new("plots");
     let sc = dir.join("short.toml");
     std::fs::write(&sc, "name = \"short\"\nduration_s = 3000.0\n").unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_taiji-calib"))

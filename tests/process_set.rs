@@ -7,6 +7,7 @@
 //! real-time test measures the set alone rather than four sets sharing two cores.
 
 mod common;
+mod tmpdir;
 
 use common::{estimates, in_process, report};
 use serde_json::Value;
@@ -24,11 +25,8 @@ fn serial() -> std::sync::MutexGuard<'static, ()> {
     SERIAL.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("taiji-ps-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> tmpdir::TmpDir {
+    tmpdir::TmpDir::new(&format!("ps-{name}"))
 }
 
 fn prefix(name: &str) -> String {
@@ -613,7 +611,7 @@ fn injected_faults_are_the_same_in_the_process_set_and_a_killed_estimator_change
 
 /// Outside clients on the bus (the official iceoryx2 Python bindings, as a user's tool
 /// would use them): one attaches mid-run, follows the live estimates and detaches;
-/// another attaches and never reads. The estimator loop allocates nothing, no sample
+/// another attaches and never reads; a third, started before the set, waits for it. The estimator loop allocates nothing, no sample
 /// is lost, and the estimates are those of the in-process run.
 #[test]
 fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
@@ -633,9 +631,6 @@ fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
     );
     let out = dir.join("out");
     let pre = prefix("py");
-    let child = supervisor(&sc, &out, &pre, &["--realtime", "--time-scale", "100"])
-        .spawn()
-        .unwrap();
     let client = |extra: &[&str]| {
         Command::new("python3")
             .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/python/follow_estimates.py"))
@@ -646,6 +641,12 @@ fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
             .spawn()
             .unwrap()
     };
+    // Started before the set: it waits for the service instead of failing at once.
+    let early = client(&["--count", "5"]);
+    std::thread::sleep(Duration::from_millis(500));
+    let child = supervisor(&sc, &out, &pre, &["--realtime", "--time-scale", "100"])
+        .spawn()
+        .unwrap();
     std::thread::sleep(Duration::from_millis(1000));
     let stalled = client(&["--never-read", "3"]);
     std::thread::sleep(Duration::from_millis(500));
@@ -658,6 +659,13 @@ fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
         String::from_utf8_lossy(&f.stderr)
     );
     assert!(text.contains("100 estimates"), "{text}");
+    let e = early.wait_with_output().unwrap();
+    let (eo, ee) = (
+        String::from_utf8_lossy(&e.stdout),
+        String::from_utf8_lossy(&e.stderr),
+    );
+    assert!(e.status.success() && eo.contains("5 estimates"), "{eo}{ee}");
+    assert!(ee.contains("waiting for a run"), "{ee}");
     let s = stalled.wait_with_output().unwrap();
     assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
     let o = finish(child);
@@ -671,5 +679,30 @@ fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
     assert_eq!(r["estimator_loop_allocations"], 0);
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(estimates(&r), in_process(&sc, 5));
-    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A follower started where no run comes gives up after --timeout with a line saying
+/// so, and leaves nothing of its prefix in /dev/shm (it waits without a node, since a
+/// node makes a management object iceoryx2 never removes).
+#[test]
+fn a_follower_without_a_run_times_out_and_leaves_no_shared_memory() {
+    let pre = prefix("pynone");
+    let o = Command::new("python3")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/python/follow_estimates.py"))
+        .args(["--bus-prefix", &pre, "--timeout", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("no run on prefix") && err.contains("--timeout"),
+        "{err}"
+    );
+    let left: Vec<String> = std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(&pre))
+        .collect();
+    assert!(left.is_empty(), "left in /dev/shm: {left:?}");
 }

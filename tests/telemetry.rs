@@ -3,18 +3,16 @@
 //! an independent numpy/h5py simulation wrote, and rejects bad files with a clear error.
 //! Needs python3 with numpy and h5py (`.ci/run` installs them).
 
-use std::path::{Path, PathBuf};
+mod tmpdir;
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn calib() -> Command {
     Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("taiji-tel-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> tmpdir::TmpDir {
+    tmpdir::TmpDir::new(&format!("tel-{name}"))
 }
 
 fn tool(script: &str) -> Command {

@@ -14,6 +14,7 @@
 //! test says why it is skipped and passes.
 
 mod common;
+mod tmpdir;
 
 use common::{estimates, in_process, report};
 use std::path::{Path, PathBuf};
@@ -141,11 +142,8 @@ impl Drop for Hosts {
     }
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("taiji-2h-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> tmpdir::TmpDir {
+    tmpdir::TmpDir::new(&format!("2h-{name}"))
 }
 
 fn write_scenario(dir: &Path, text: &str) -> PathBuf {

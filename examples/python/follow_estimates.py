@@ -7,7 +7,9 @@ official iceoryx2 bindings (the version matching the crate: pip install iceoryx2
 Attaches to the `taiji/estimate` service of a run (started with tools/launch or
 taiji-supervisor on the same bus prefix) at any moment, and prints one line per
 estimate received: tick, status and IS1's β and r with σ. With --count it stops after
-N estimates; it stops by itself at the campaign's final estimate.
+N estimates; it stops by itself at the campaign's final estimate. Started before the
+run, it waits for the service (up to --timeout seconds, then exits 1 saying so);
+a follower that found no run leaves nothing in /dev/shm.
 
 The ctypes layouts below mirror `include/taiji_estimator.h` (TaijiHeader,
 TaijiEstimateMsg); the type names carry the layout version, so a client of another
@@ -15,6 +17,9 @@ layout is refused by iceoryx2 when it opens the service instead of misreading by
 """
 import argparse
 import ctypes
+import gc
+import os
+import re
 import sys
 import time
 
@@ -78,7 +83,12 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--bus-prefix", default="taiji_")
     ap.add_argument("--count", type=int, default=0, help="stop after N estimates (0: until the final one)")
-    ap.add_argument("--timeout", type=float, default=60.0, help="give up after S seconds without data")
+    ap.add_argument(
+        "--timeout",
+        type=float,
+        default=60.0,
+        help="give up after S seconds without a run (waiting for it to start) or without data",
+    )
     ap.add_argument("--quiet", action="store_true", help="print only the summary line")
     ap.add_argument(
         "--never-read",
@@ -92,10 +102,58 @@ def main() -> int:
     iox.set_log_level_from_env_or(iox.LogLevel.Error)
     config = iox.config.default()
     config.global_cfg.prefix = iox.FileName.new(args.bus_prefix)
+    name = iox.ServiceName.new(SERVICE)
+    # Wait for the run without a node: `does_exist` only reads the service directory,
+    # while a node would create the prefix's management object in /dev/shm, which
+    # iceoryx2 never removes (the supervisor does, at the end of a run).
+    deadline = time.monotonic() + args.timeout
+    announced = False
+    while not iox.Service.does_exist(name, config, iox.MessagingPattern.PublishSubscribe, iox.ServiceType.Ipc):
+        if time.monotonic() > deadline:
+            print(
+                f"follow_estimates: no run on prefix {args.bus_prefix!r} after {args.timeout:g} s "
+                f"({SERVICE} does not exist; start one with tools/launch, or raise --timeout)",
+                file=sys.stderr,
+            )
+            return 1
+        if not announced:
+            print(f"follow_estimates: waiting for a run on prefix {args.bus_prefix!r}", file=sys.stderr, flush=True)
+            announced = True
+        time.sleep(0.1)
     node = iox.NodeBuilder.new().config(config).create(iox.ServiceType.Ipc)
     try:
+        return follow(args, node, name)
+    finally:
+        # Ports and service hold the node: release them all before looking for others.
+        del node
+        gc.collect()
+        release_global_mgmt(config, args.bus_prefix)
+
+
+def release_global_mgmt(config, prefix: str) -> None:
+    """Remove the prefix's management object when no node of it is left (the run ended
+    while this follower was still attached, so the supervisor had to leave it); the same
+    rule as the supervisor's `bus::release`."""
+    try:
+        if iox.Node.list(iox.ServiceType.Ipc, config):
+            return
+    except Exception:
+        return
+    suffix = config.global_cfg.node.global_mgmt_suffix.to_string()
+    pattern = re.compile(re.escape(prefix) + r"[0-9a-fA-F]{40}_node\..*" + re.escape(suffix) + "$")
+    for entry in os.listdir("/dev/shm"):
+        if pattern.match(entry):
+            try:
+                os.remove(os.path.join("/dev/shm", entry))
+            except OSError:
+                pass
+
+
+def follow(args, node, name) -> int:
+    """Open the run's estimate service and print what arrives."""
+    try:
         service = (
-            node.service_builder(iox.ServiceName.new(SERVICE))
+            node.service_builder(name)
             .publish_subscribe(EstimateMsg)
             .max_publishers(MAX_PUBLISHERS)
             .max_subscribers(MAX_SUBSCRIBERS)

@@ -255,13 +255,51 @@ fn main() -> ExitCode {
     }
 }
 
-/// Create the output folder now, so that a path through an existing file is refused
-/// before the campaign runs rather than after.
+/// Refuse an `--out` where no folder can be made (a path through a file) before any
+/// work, so a campaign is not run for nothing, but without creating it: a user error
+/// found later (a bad scenario, a bad recording) must leave no empty folder behind.
+fn check_out(out: &std::path::Path) -> Result<(), CliError> {
+    let refuse = |source| CliError::OutDir {
+        path: out.to_path_buf(),
+        source,
+    };
+    // The nearest existing ancestor decides (an empty one is the working folder).
+    for a in out.ancestors().filter(|a| !a.as_os_str().is_empty()) {
+        match std::fs::metadata(a) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) => {
+                let why = format!("{} is not a folder", a.display());
+                return Err(refuse(std::io::Error::other(why)));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(refuse(e)),
+        }
+    }
+    Ok(())
+}
+
+/// Create the output folder, once the inputs are known good and something is about to
+/// be written there.
 fn out_dir(out: &std::path::Path) -> Result<(), CliError> {
     std::fs::create_dir_all(out).map_err(|source| CliError::OutDir {
         path: out.to_path_buf(),
         source,
     })
+}
+
+/// Run `f`, which creates `out`; when it fails and `out` did not exist before, remove
+/// what it made: a recording found bad while being read (replay, export) leaves
+/// neither an empty folder nor a half-written export.
+fn or_remove_new(
+    out: &std::path::Path,
+    f: impl FnOnce() -> Result<ExitCode, CliError>,
+) -> Result<ExitCode, CliError> {
+    let existed = out.exists();
+    let r = f();
+    if r.is_err() && !existed {
+        let _ = std::fs::remove_dir_all(out);
+    }
+    r
 }
 
 /// Load the scenario and plan its maneuver when it has none (printing the choice).
@@ -291,6 +329,7 @@ fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, CliError> {
 /// Write report.json, .md and .html, print the table; exit 0 when the requirements
 /// are met and the estimator verified its result, else 1.
 fn finish(out: &std::path::Path, report: &Report, figures: bool) -> Result<ExitCode, CliError> {
+    out_dir(out)?;
     taiji::report::write(out, report)?;
     taiji::report_doc::write(report, out, figures)?;
     print!("{}", report.table());
@@ -323,14 +362,14 @@ fn run(cli: Cli) -> Result<ExitCode, CliError> {
             telemetry,
             out,
             method,
-        } => replay(&telemetry, &out, method),
-        Cmd::Export { telemetry, out } => export(&telemetry, &out),
+        } => or_remove_new(&out, || replay(&telemetry, &out, method)),
+        Cmd::Export { telemetry, out } => or_remove_new(&out, || export(&telemetry, &out)),
         Cmd::Montecarlo {
             merge: Some(MonteCarloCmd::Merge { dirs, out }),
             ..
         } => {
             if let Some(out) = &out {
-                out_dir(out)?;
+                check_out(out)?;
             }
             montecarlo_out(&montecarlo::shard::merge(&dirs)?, out)
         }
@@ -362,7 +401,7 @@ fn run_campaign(
     record: bool,
     plots: bool,
 ) -> Result<ExitCode, CliError> {
-    out_dir(out)?;
+    check_out(out)?;
     let (s, plan) = load_planned(scenario)?;
     let seed = seed.unwrap_or(s.seed);
     let t0 = std::time::Instant::now();
@@ -374,6 +413,8 @@ fn run_campaign(
     let bar = Bar::new(1000, "campaign");
     let tick = |f: f64| bar.set((f * 1000.0) as u64);
     let (estimate, tel, faults) = if record || plots {
+        // The recording streams to the folder as the campaign runs.
+        out_dir(out)?;
         recorded_campaign(&s, seed, method, out, record, plots, tick)?
     } else {
         let res = taiji::campaign::run(&s, seed, method, tick);
@@ -454,7 +495,7 @@ fn replay(
     method: Option<MethodArg>,
 ) -> Result<ExitCode, CliError> {
     let t0 = std::time::Instant::now();
-    out_dir(out)?;
+    check_out(out)?;
     let rec = taiji::telemetry::read::open(telemetry)?;
     let method: Method = match (method, rec.method.as_deref()) {
         (Some(m), _) => m.into(),
@@ -485,8 +526,9 @@ fn replay(
 
 /// `export`: a recording as the C library's inputs.
 fn export(telemetry: &std::path::Path, out: &std::path::Path) -> Result<ExitCode, CliError> {
-    out_dir(out)?;
+    check_out(out)?;
     let rec = taiji::telemetry::read::open(telemetry)?;
+    out_dir(out)?;
     let n = taiji::export::write(&rec, out)?;
     println!(
         "exported {n} samples and the estimator table to {}",
@@ -506,11 +548,12 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<ExitCode, CliError> {
         shard,
     } = args;
     if let Some(out) = &out {
-        out_dir(out)?;
+        check_out(out)?;
     }
     let (s, _) = load_planned(scenario.as_deref())?;
     let first = seed.unwrap_or(s.seed);
     if let (Some(shard), Some(dir)) = (shard, &out) {
+        out_dir(dir)?;
         let build = montecarlo::shard::build_id()?;
         let m = method.into();
         let done = montecarlo::shard::run_shard(&s, first, runs, m, shard, &build, dir)?;
@@ -529,9 +572,20 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<ExitCode, CliError> {
 fn print_crlb(scenario: Option<&std::path::Path>) -> Result<ExitCode, CliError> {
     let (s, _) = load_planned(scenario)?;
     let c = taiji::crlb::crlb(&s).ok_or(CliError::Singular)?;
+    // Planned values are raw floats (0.0006000240009600384 Hz): printed to the
+    // precision a reader compares them at.
+    let torque: Vec<String> = s
+        .maneuver
+        .torque_amplitude_nm
+        .iter()
+        .map(|t| format!("{t:.3e}"))
+        .collect();
     println!(
-        "Cramér–Rao bound (1σ) for scenario {:?}: {} s, maneuver {} Hz, torque {:?} N m",
-        s.name, s.duration_s, s.maneuver.frequency_hz, s.maneuver.torque_amplitude_nm
+        "Cramér–Rao bound (1σ) for scenario {:?}: {} s, maneuver {:.4} mHz, torque [{}] N m",
+        s.name,
+        s.duration_s,
+        s.maneuver.frequency_hz * 1e3,
+        torque.join(", ")
     );
     for (i, is) in s.inertial_sensor.iter().enumerate() {
         let rel: Vec<String> = (0..3)
@@ -563,7 +617,7 @@ fn plan(
             return Err(CliError::Duration { duration: d });
         }
     }
-    out_dir(out)?;
+    check_out(out)?;
     let s = Scenario::load_or_default(scenario)?;
     let plan = match min_duration_margin {
         Some(margin) => taiji::plan::min_duration(&s, margin),
@@ -579,6 +633,7 @@ fn plan(
     if let Some(why) = &plan.shortfall {
         return Err(CliError::Shortfall { why: why.clone() });
     }
+    out_dir(out)?;
     taiji::plan::write(&s, &plan, out, top, min_duration_margin)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -777,10 +777,11 @@ pub fn resolve(s: Scenario) -> Result<(Scenario, Option<PlanInfo>), PlanError> {
     Ok((out, Some(info)))
 }
 
+/// Once, through `log` (every binary shows warnings by default; `RUST_LOG` can silence
+/// it): a second `eprintln!` printed the same line twice.
 fn warn_shortfall(info: &PlanInfo) {
     if let Some(why) = &info.shortfall {
         log::warn!("flying the best maneuver found, but {why}");
-        eprintln!("warning: flying the best maneuver found, but {why}");
     }
 }
 

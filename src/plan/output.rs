@@ -171,21 +171,25 @@ fn figure(p: &Plan) -> Figure {
                 }
             );
             let mut s = Series::line(label, xy, color).width(2);
-            // Half the torque dashed, a quarter dashed and thin.
+            // Half the torque dashed, a quarter dotted: width alone (it was dashed and
+            // thin) looked the same in the legend.
             if frac == 0.5 {
                 s = s.dashed();
             } else if frac < 0.5 {
-                s = s.dashed().width(1);
+                s = s.dotted();
             }
             panel.series.push(s);
         }
         color += 1;
     }
     if lo.is_finite() {
+        // The requirement line reaches a fifth beyond the candidates on either side: the
+        // x axis spans the data, and the chosen marker, often the first or last
+        // frequency, would otherwise sit on the axis, half clipped.
         panel.series.push(
             Series::line(
                 "requirement",
-                vec![(lo, 1.0), (hi, 1.0)],
+                vec![(lo / 1.2, 1.0), (hi * 1.2, 1.0)],
                 render::BLACK_INDEX,
             )
             .dashed(),
@@ -260,4 +264,40 @@ pub fn write(
         dir.join("plan_bound.png").display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The chosen marker lies inside the x axis, not on it, and the three torque
+    /// fractions of a schedule are drawn in three line styles.
+    #[test]
+    fn the_chosen_marker_is_inside_the_axes_and_each_torque_has_its_own_style() {
+        let s = Scenario::load_or_default(None).unwrap();
+        let opts = crate::plan::PlanOptions {
+            duration_s: Some(5000.0),
+            amplitude_sweep: true,
+            exact: true,
+        };
+        let p = crate::plan::plan(&s, &opts).unwrap();
+        let f = figure(&p);
+        let panel = &f.panels[0];
+        let ((x0, x1), _) = crate::plots::render::panel_ranges(panel);
+        let fc = p.chosen.maneuver.frequency_hz;
+        assert!(
+            x0 < fc / 1.1 && fc * 1.1 < x1,
+            "{fc} on the axis [{x0}, {x1}]"
+        );
+        let style = |frac: &str| {
+            let s = panel
+                .series
+                .iter()
+                .find(|s| s.label.ends_with(&format!("{frac} torque")))
+                .unwrap_or_else(|| panic!("no {frac} series"));
+            (s.dashed, s.dotted)
+        };
+        let styles = [style("largest"), style("0.5×"), style("0.25×")];
+        assert_eq!(styles, [(false, false), (true, false), (false, true)]);
+    }
 }

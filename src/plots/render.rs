@@ -72,6 +72,9 @@ pub struct Series {
     pub band_style: BandStyle,
     /// Dashed (truth, model and commanded lines).
     pub dashed: bool,
+    /// Dotted: a third line style beside solid and dashed, for a third variant of one
+    /// colour (the plan figure's torque fractions), which width alone did not tell apart.
+    pub dotted: bool,
     /// Line width [px].
     pub width: u32,
     /// Index into the palette, or [`BLACK_INDEX`].
@@ -86,6 +89,7 @@ impl Series {
             band: None,
             band_style: BandStyle::Fill,
             dashed: false,
+            dotted: false,
             width: 1,
             color,
         }
@@ -94,6 +98,12 @@ impl Series {
     pub fn dashed(mut self) -> Self {
         self.dashed = true;
         self.width = self.width.max(2);
+        self
+    }
+
+    pub fn dotted(mut self) -> Self {
+        self.dotted = true;
+        self.dashed = false;
         self
     }
 
@@ -456,7 +466,11 @@ fn legend_sample<DB: DrawingBackend>(
         }
     }
     let style = c.stroke_width(s.width.max(2));
-    if s.dashed {
+    if s.dotted {
+        for a in (0..SAMPLE).step_by(6) {
+            area.draw(&PathElement::new(vec![(x + a, y), (x + a + 2, y)], style))?;
+        }
+    } else if s.dashed {
         for (a, b) in [(0, 8), (12, 20), (24, SAMPLE)] {
             area.draw(&PathElement::new(vec![(x + a, y), (x + b, y)], style))?;
         }
@@ -578,7 +592,11 @@ fn draw_panel<DB: DrawingBackend>(
             for s in &p.series {
                 let style = colour(s.color).stroke_width(s.width);
                 let pts = s.xy.iter().copied().filter(visible);
-                if s.dashed {
+                if s.dotted {
+                    chart
+                        .draw_series(DashedLineSeries::new(pts, 2, 4, style))
+                        .map_err(e)?;
+                } else if s.dashed {
                     chart
                         .draw_series(DashedLineSeries::new(pts, 7, 5, style))
                         .map_err(e)?;

@@ -10,12 +10,9 @@ pub fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A fresh temporary folder for one test.
-pub fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("taiji-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh temporary folder for one test, removed when it ends.
+pub fn tmp(name: &str) -> crate::tmpdir::TmpDir {
+    crate::tmpdir::TmpDir::new(name)
 }
 
 pub fn json(bytes: &[u8]) -> serde_json::Value {
