@@ -604,6 +604,7 @@ pub fn release(prefix: &str) -> Result<Released, BusError> {
         global_mgmt: 0,
     };
     let cfg = config(prefix)?;
+    remove_empty_node_dirs(&cfg);
     let mut left = 0usize;
     Node::<ipc::Service>::list(&cfg, |_| {
         left += 1;
@@ -624,6 +625,24 @@ pub fn release(prefix: &str) -> Result<Released, BusError> {
         }
     }
     Ok(released)
+}
+
+/// Removes the empty folders under iceoryx2's node directory. iceoryx2 0.9.3 removes a
+/// released node's files, then its folder only if nothing else is in it at that moment
+/// (a port still being dropped, a cleanup running beside it), so empty folders pile up.
+/// A live node's folder always holds its files, and removing a folder that is not
+/// empty fails, so only leftovers go (any prefix's: the folders are named by node id).
+fn remove_empty_node_dirs(cfg: &Config) {
+    let root = std::path::PathBuf::from(cfg.global.root_path().to_string());
+    let nodes = root.join(cfg.global.node.directory.to_string());
+    let Ok(dir) = std::fs::read_dir(&nodes) else {
+        return;
+    };
+    for entry in dir.flatten() {
+        if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            let _ = std::fs::remove_dir(entry.path());
+        }
+    }
 }
 
 /// Wake-up event of a stage: its upstream notifies it after publishing data, its

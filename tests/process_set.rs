@@ -477,7 +477,10 @@ fn of_two_supervisors_started_together_on_one_prefix_one_runs_the_other_is_refus
             "trial {trial}: {both}"
         );
         assert!(outs[won].join("report.json").exists());
-        assert!(!outs[1 - won].join("report.json").exists());
+        assert!(
+            !outs[1 - won].exists(),
+            "trial {trial}: the refused run made its folder"
+        );
         let left = left_on_the_bus(&pfx, &[]);
         assert!(left.is_empty(), "trial {trial}: {left:?}");
     }
@@ -705,4 +708,51 @@ fn a_follower_without_a_run_times_out_and_leaves_no_shared_memory() {
         .filter(|n| n.starts_with(&pre))
         .collect();
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
+}
+
+/// A second run into a folder a running one writes to is refused (exit 2, naming the
+/// folder and the holder's pid), whatever its bus prefix; the running one's files stay
+/// its own.
+#[test]
+fn a_second_run_into_a_busy_out_folder_is_refused_and_changes_nothing() {
+    let _serial = serial();
+    let dir = tmp("busy");
+    let sc = write_scenario(&dir, SHORT);
+    let other = dir.join("other.toml");
+    std::fs::write(&other, SHORT.replace("seed = 11", "seed = 99")).unwrap();
+    let out = dir.join("out");
+    let first = supervisor(
+        &sc,
+        &out,
+        &prefix("o1"),
+        &["--realtime", "--time-scale", "1000"],
+    )
+    .spawn()
+    .unwrap();
+    let lock = out.join(".taiji-run.lock");
+    let t0 = std::time::Instant::now();
+    while !lock.exists() && t0.elapsed() < std::time::Duration::from_secs(30) {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(lock.exists(), "the first run never took its folder");
+    let scenario_before = std::fs::read(out.join("scenario.toml")).ok();
+    let second = supervisor(&other, &out, &prefix("o2"), &[])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert_eq!(second.status.code(), Some(2), "{err}");
+    assert!(err.contains("in use by another run"), "{err}");
+    assert!(err.contains(&format!("pid {}", first.id())), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+    let first = finish(first);
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    assert!(out.join("report.json").exists());
+    if let Some(before) = scenario_before {
+        assert_eq!(std::fs::read(out.join("scenario.toml")).unwrap(), before);
+    }
+    assert!(!lock.exists(), "the lock file outlived its run");
 }

@@ -13,6 +13,7 @@
 //! `header.origin_ns` = that time and `header.due_ns` = how long it held it, so the
 //! round trip is measured on one clock (hosts share none): hop ≈ round trip / 2.
 
+pub use super::set::HostError;
 use super::set::{Reap, Set, SetError, SupervisorArgs};
 use crate::bus::{self, BusError};
 use crate::launch::LaunchDescription;
@@ -40,46 +41,6 @@ const ACK_QUIET: Duration = Duration::from_millis(300);
 /// its first N stop commands, as if the link broke as they crossed, so tests can show
 /// that the stop is repeated until the other hosts acknowledge it.
 pub const FAULT_DROP_STOPS: &str = "TAIJI_FAULT_DROP_STOPS";
-
-/// What went wrong with the hosts of a set, their tunnel or the link between them.
-#[derive(Debug, thiserror::Error)]
-pub enum HostError {
-    #[error(transparent)]
-    Bus(#[from] BusError),
-    #[error(transparent)]
-    FaultVar(#[from] super::FaultVarError),
-    #[error("--host {host}: no such [[host]] in the launch description")]
-    NoSuchHost { host: String },
-    #[error("--host {host}: the launch description names no hosts (add [[host]] tables, see tools/two_hosts.toml)")]
-    NoHosts { host: String },
-    #[error("--host {host}: the launch description's hosts are {}", hosts.join(", "))]
-    UnknownHost { host: String, hosts: Vec<String> },
-    #[error(
-        "cannot start the tunnel {} ({source}); build it with `cargo build --release --manifest-path tools/tunnel/Cargo.toml` and pass --tunnel-bin",
-        exe.display()
-    )]
-    TunnelSpawn {
-        exe: std::path::PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("cannot watch the tunnel: {0}")]
-    TunnelWatch(#[source] std::io::Error),
-    /// The supervisor in charge heard nothing from host `host` for the link timeout.
-    #[error("link {me} <-> {host} lost: no heartbeat crossed it for {timeout_s:.0} s (link_timeout_s); stopping the set")]
-    LinkLost {
-        me: String,
-        host: String,
-        timeout_s: f64,
-    },
-    /// An agent heard nothing from the supervisor in charge (`boss`) for `quiet_s`.
-    #[error("link {me} <-> {boss} lost: no heartbeat of the supervisor in charge crossed it for {quiet_s:.0} s; stopping host {me}'s processes")]
-    BossLost {
-        me: String,
-        boss: String,
-        quiet_s: f64,
-    },
-}
 
 /// Services whose users run on more than one host: only these cross the link (the
 /// truth, for one, never reaches the flight computer).

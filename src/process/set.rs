@@ -3,7 +3,6 @@
 //! its policy. The supervisor (one host) and the hosts module (a set over hosts) both
 //! drive it.
 
-use super::hosts::HostError;
 use super::ProcessError;
 use crate::bus::{self, BusError};
 use crate::launch::{ProcessSpec, Restart};
@@ -288,6 +287,46 @@ impl SupervisorError {
     }
 }
 
+/// What went wrong with the hosts of a set, their tunnel or the link between them.
+#[derive(Debug, thiserror::Error)]
+pub enum HostError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    #[error(transparent)]
+    FaultVar(#[from] super::FaultVarError),
+    #[error("--host {host}: no such [[host]] in the launch description")]
+    NoSuchHost { host: String },
+    #[error("--host {host}: the launch description names no hosts (add [[host]] tables, see tools/two_hosts.toml)")]
+    NoHosts { host: String },
+    #[error("--host {host}: the launch description's hosts are {}", hosts.join(", "))]
+    UnknownHost { host: String, hosts: Vec<String> },
+    #[error(
+        "cannot start the tunnel {} ({source}); build it with `cargo build --release --manifest-path tools/tunnel/Cargo.toml` and pass --tunnel-bin",
+        exe.display()
+    )]
+    TunnelSpawn {
+        exe: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot watch the tunnel: {0}")]
+    TunnelWatch(#[source] std::io::Error),
+    /// The supervisor in charge heard nothing from host `host` for the link timeout.
+    #[error("link {me} <-> {host} lost: no heartbeat crossed it for {timeout_s:.0} s (link_timeout_s); stopping the set")]
+    LinkLost {
+        me: String,
+        host: String,
+        timeout_s: f64,
+    },
+    /// An agent heard nothing from the supervisor in charge (`boss`) for `quiet_s`.
+    #[error("link {me} <-> {boss} lost: no heartbeat of the supervisor in charge crossed it for {quiet_s:.0} s; stopping host {me}'s processes")]
+    BossLost {
+        me: String,
+        boss: String,
+        quiet_s: f64,
+    },
+}
+
 /// A supervised run refused: bad arguments, scenario, launch description or folders,
 /// or a prefix in use (exit 2).
 #[derive(Debug, thiserror::Error)]
@@ -330,6 +369,13 @@ pub enum UserError {
         pid: Option<u32>,
         alive: Vec<String>,
     },
+    /// Another run writes into this `--out` (its supervisor holds the folder's lock).
+    #[error(
+        "--out {}: in use by another run (supervisor pid {}); wait for it or pass another --out",
+        path.display(),
+        pid.map_or_else(|| "unknown".to_string(), |p| p.to_string())
+    )]
+    OutBusy { path: PathBuf, pid: Option<u32> },
     #[error("cannot create {}: {source}", path.display())]
     CreateDir {
         path: PathBuf,
@@ -418,7 +464,6 @@ pub enum SetError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::process::hosts::HostError;
     use std::os::unix::process::ExitStatusExt;
 
     /// The typed errors print what the `format!` strings they replaced printed.

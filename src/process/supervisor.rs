@@ -279,6 +279,71 @@ fn another_run(prefix: &str, pid: Option<u32>, alive: Vec<String>) -> Supervisor
 struct PrefixHold {
     prefix: String,
     _lock: bus::PrefixLock,
+    /// The run's hold on its `--out` folder (dropped with the prefix's).
+    _out: Option<OutLock>,
+}
+
+/// The lock file a running supervisor holds in its `--out` folder: a second run into
+/// the same folder (on any bus prefix) is refused instead of mixing its files in.
+const OUT_LOCK_FILE: &str = ".taiji-run.lock";
+
+/// An exclusive `flock` on `OUT/.taiji-run.lock`, holding this supervisor's pid; the
+/// file is removed when the run ends.
+struct OutLock {
+    path: PathBuf,
+    _file: std::fs::File,
+}
+
+impl OutLock {
+    fn take(out: &std::path::Path) -> Result<OutLock, SupervisorError> {
+        use std::io::{Read, Seek, Write};
+        use std::os::fd::AsRawFd;
+        let path = out.join(OUT_LOCK_FILE);
+        let io = |source| {
+            SupervisorError::user(UserError::CreateDir {
+                path: path.clone(),
+                source,
+            })
+        };
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io)?;
+        loop {
+            // SAFETY: flock on a descriptor this function owns.
+            if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0 {
+                break;
+            }
+            let e = std::io::Error::last_os_error();
+            match e.raw_os_error() {
+                Some(libc::EINTR) => continue,
+                Some(libc::EWOULDBLOCK) => {
+                    let mut text = String::new();
+                    let _ = file.read_to_string(&mut text);
+                    return Err(SupervisorError::user(UserError::OutBusy {
+                        path: out.to_path_buf(),
+                        pid: text.trim().parse().ok(),
+                    }));
+                }
+                _ => return Err(io(e)),
+            }
+        }
+        file.set_len(0).map_err(io)?;
+        file.rewind().map_err(io)?;
+        write!(file, "{}", std::process::id()).map_err(io)?;
+        Ok(OutLock { path, _file: file })
+    }
+}
+
+impl Drop for OutLock {
+    fn drop(&mut self) {
+        // Removed while still locked (the descriptor closes after this): a run that
+        // opened it meanwhile finds it held, then the next one creates it anew.
+        let _ = std::fs::remove_file(&self.path);
+    }
 }
 
 impl Drop for PrefixHold {
@@ -409,8 +474,8 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
     let user = SupervisorError::user;
     let set_err = |e: BusError| SupervisorError::Set(e.into());
     // An output folder that cannot be made (a path through a file) is the user's to fix,
-    // before the campaign runs.
-    std::fs::create_dir_all(&args.out).map_err(|source| {
+    // before the campaign runs; nothing is created before the prefix is won.
+    out_makeable(&args.out).map_err(|source| {
         user(UserError::OutFolder {
             path: args.out.clone(),
             source,
@@ -426,9 +491,10 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
             return Err(another_run(&args.bus_prefix, pid, alive));
         }
     };
-    let hold = PrefixHold {
+    let mut hold = PrefixHold {
         prefix: args.bus_prefix.clone(),
         _lock: lock,
+        _out: None,
     };
     let survey = bus::cleanup_stale(&args.bus_prefix).map_err(set_err)?;
     if survey.removed_dead > 0 {
@@ -441,7 +507,37 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
     if !survey.alive.is_empty() {
         return Err(another_run(&args.bus_prefix, None, survey.alive));
     }
+    // Only now the folder: a refused run creates none.
+    std::fs::create_dir_all(&args.out).map_err(|source| {
+        user(UserError::OutFolder {
+            path: args.out.clone(),
+            source,
+        })
+    })?;
+    hold._out = Some(OutLock::take(&args.out)?);
     Ok(hold)
+}
+
+/// Can `out` be made (or is it a folder already)? Its nearest existing ancestor must be
+/// a folder; nothing is created.
+fn out_makeable(out: &std::path::Path) -> std::io::Result<()> {
+    let mut p = out;
+    loop {
+        match std::fs::metadata(p) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) => {
+                return Err(std::io::Error::other(format!(
+                    "{} is not a folder",
+                    p.display()
+                )))
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => match p.parent() {
+                Some(q) if !q.as_os_str().is_empty() => p = q,
+                _ => return Ok(()),
+            },
+            Err(e) => return Err(e),
+        }
+    }
 }
 
 /// The estimator's checkpoint path in the run folder, with an earlier run's removed
