@@ -18,7 +18,10 @@ fn main() -> std::process::ExitCode {
                 return std::process::ExitCode::from(2);
             }
             print!("{}", report.table());
-            println!("Report: {}", args.out.join("report.json").display());
+            println!(
+                "Report: {}",
+                report_dir(&args).join("report.json").display()
+            );
             if args.record {
                 println!(
                     "Telemetry: {}",
@@ -53,11 +56,19 @@ fn write_reports(
     args: &SupervisorArgs,
     report: &taiji::report::Report,
 ) -> Result<(), ReportsError> {
-    taiji::report::write(&args.out, report)?;
-    if args.plots {
+    let dir = report_dir(args);
+    taiji::report::write(dir, report)?;
+    // The figures live beside the recording; report.html links them only from there.
+    let plots = args.plots && dir == args.out;
+    if plots {
         let path = args.out.join(taiji::process::recorder::TELEMETRY_FILE);
         let (tel, s) = taiji::telemetry::read::full(&path)?;
         taiji::plots::write_all(&tel, &s, &args.out)?;
     }
-    Ok(taiji::report_doc::write(report, &args.out, args.plots)?)
+    Ok(taiji::report_doc::write(report, dir, plots)?)
+}
+
+/// Where the reports go: `--report-dir`, else `--out`.
+fn report_dir(args: &SupervisorArgs) -> &std::path::Path {
+    args.report_dir.as_deref().unwrap_or(&args.out)
 }

@@ -254,7 +254,10 @@ fn two_host_lock_step_is_bit_identical_and_names_every_host() {
     let dir = tmp("lockstep");
     let sc = write_scenario(&dir, SHORT);
     let flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
-    let sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &[]);
+    // The report above the hosts' folders, as `tools/launch --two-hosts --out DIR`
+    // writes DIR/report.json.
+    let top = dir.to_str().unwrap();
+    let sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &["--report-dir", top]);
     let so = sim.wait_with_output().unwrap();
     let fo = flight.wait_with_output().unwrap();
     assert!(so.status.success(), "sim: {}", text(&so));
@@ -264,7 +267,9 @@ fn two_host_lock_step_is_bit_identical_and_names_every_host() {
         "{}",
         text(&fo)
     );
-    let r = report(&dir.join("sim"));
+    assert!(!dir.join("sim/report.json").exists());
+    assert!(dir.join("report.html").exists());
+    let r = report(&dir);
     assert_eq!(r["hosts"]["processes"]["taiji-estimator"], "flight");
     for p in [
         "taiji-fee",

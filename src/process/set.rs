@@ -34,6 +34,10 @@ pub struct SupervisorArgs {
     /// Output directory: report.json (and, while the set runs, the estimator's checkpoint).
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
+    /// Write report.json, report.md and report.html here instead of --out (a set over
+    /// hosts: the folder above the hosts' own, as `tools/launch --two-hosts` passes).
+    #[arg(long)]
+    pub report_dir: Option<PathBuf>,
     /// Pace the set at the sample rate divided by --time-scale.
     #[arg(long)]
     pub realtime: bool,
