@@ -15,10 +15,10 @@
  *        (128 432), 8-aligned, not overlapping the state; its contents do not matter
  *        before or after a call, so one buffer serves every estimator of a task. In all
  *        192 624 bytes, fixed at start-up. Stack per call, measured by painting
- *        (docs/flight.md): update 6.6 KB (7.0 KB on a LEON3, 7.3 KB on x86-64); init
- *        and restore under 3 KB (they build the state in place); solve and finish
- *        11.5 / 12.0 KB on a Cortex-M7, 11.4 / 11.9 KB on a LEON3, 11.6 KB on x86-64.
- *        A 16 KB task stack holds every call.
+ *        (docs/flight.md, every call): update 6.6 KB (7.0 KB on a LEON3, 7.3 KB on
+ *        x86-64); init 3.3 KB and restore 1.2 KB (they build the state in place);
+ *        checkpoint 0.3 KB; solve and finish 11.5 / 12.0 KB on a Cortex-M7, 11.4 / 11.9
+ *        KB on a LEON3, 11.6 / 12.1 KB on x86-64. A 16 KB task stack holds every call.
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
  *        update 97 300 typical, 111 500 worst (the first sample; each includes the

@@ -63,6 +63,11 @@ fn replays_bit_for_bit(dir: &Path, toml: &str, cpu: &str, cpu_name: &str, update
     for call in ["update", "solve", "finish"] {
         assert!(fl["stack_bytes"][call].as_u64().unwrap() > 256, "{fl}");
     }
+    // Every call within a 16 KB stack (the solve's work is the caller's scratch).
+    for call in ["init", "update", "solve", "checkpoint", "restore", "finish"] {
+        let depth = fl["stack_bytes"][call].as_u64().unwrap();
+        assert!(depth <= 16 * 1024, "{call}: {fl}");
+    }
 }
 
 #[test]

@@ -131,6 +131,7 @@ int main(int argc, char **argv) {
     double *t_update, t_solve_max = 0.0, t_max = 0.0;
     uint64_t max_at = 0;
     size_t stack_update = 0, stack_solve = 0, d, written = 0;
+    size_t stack_init, stack_ckpt, stack_restore, stack_finish;
     int is;
 
     if (taiji_estimator_size() > sizeof state_mem || taiji_estimator_align() > 8 ||
@@ -151,7 +152,9 @@ int main(int argc, char **argv) {
     t_update = malloc((size_t)(n ? n : 1) * sizeof *t_update);
     if (!t_update) return 2;
 
+    paint_stack();
     CHECK(taiji_estimator_init(mem, sizeof state_mem, cfg, TAIJI_ABI_ARGS));
+    stack_init = painted_depth();
     for (i = 0; i < n; i++) {
         uint64_t rejected = 0;
         uint32_t flags = 0;
@@ -180,10 +183,16 @@ int main(int argc, char **argv) {
         }
     }
     /* A checkpoint round trip: the final estimate comes from the restored state. */
+    paint_stack();
     CHECK(taiji_estimator_checkpoint(mem, ckpt_buf, sizeof ckpt_buf, &written));
+    stack_ckpt = painted_depth();
     memset(state_mem, 0, sizeof state_mem);
+    paint_stack();
     CHECK(taiji_estimator_restore(mem, sizeof state_mem, ckpt_buf, written, cfg));
+    stack_restore = painted_depth();
+    paint_stack();
     CHECK(taiji_estimator_finish(mem, (uint8_t *)work_mem, sizeof work_mem, &est));
+    stack_finish = painted_depth();
 
     printf("{\n  \"inertial_sensors\": [\n");
     for (is = 0; is < (int)cfg->n_is; is++) {
@@ -207,8 +216,10 @@ int main(int argc, char **argv) {
     printf("    \"solve_us_max\": %.1f,\n", t_solve_max);
     printf("    \"state_bytes\": %zu,\n    \"checkpoint_bytes\": %zu,\n", taiji_estimator_size(),
            written);
-    printf("    \"stack_bytes\": {\"update\": %zu, \"solve\": %zu}\n  }\n}\n", stack_update,
-           stack_solve);
+    printf("    \"solve_work_bytes\": %zu,\n", taiji_solve_work_size());
+    printf("    \"stack_bytes\": {\"init\": %zu, \"update\": %zu, \"solve\": %zu, "
+           "\"checkpoint\": %zu, \"restore\": %zu, \"finish\": %zu}\n  }\n}\n",
+           stack_init, stack_update, stack_solve, stack_ckpt, stack_restore, stack_finish);
     free(t_update);
     free(samples);
     free(cfg);

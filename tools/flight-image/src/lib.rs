@@ -305,14 +305,17 @@ struct Figures {
     finish: u32,
     ticks_per_instr: f64,
     checkpoint_bytes: usize,
+    stack_init: usize,
     stack_update: usize,
     stack_solve: usize,
+    stack_checkpoint: usize,
+    stack_restore: usize,
     stack_finish: usize,
 }
 
 /// Reads the table and initialises the estimator in `m.state`; returns the table and
 /// the samples' file and count.
-fn init<B: Board>(board: &mut B, m: &mut Memory) -> (EstimatorConfig, B::Input, u64) {
+fn init<B: Board>(board: &mut B, m: &mut Memory) -> (EstimatorConfig, B::Input, u64, usize) {
     const CFG_BYTES: usize = core::mem::size_of::<EstimatorConfig>();
     let (mem, mem_size) = m.mem();
     if taiji_estimator_size() > mem_size || taiji_estimator_align() > 8 {
@@ -346,6 +349,7 @@ fn init<B: Board>(board: &mut B, m: &mut Memory) -> (EstimatorConfig, B::Input, 
             format_args!("{n} samples; this image holds the costs of {MAX_UPDATES}"),
         );
     }
+    let low = paint_stack(board);
     // SAFETY: `mem` is static memory of `mem_size` bytes, 8-aligned; `cfg` a valid table.
     let rc = unsafe {
         taiji_estimator_init(
@@ -358,8 +362,9 @@ fn init<B: Board>(board: &mut B, m: &mut Memory) -> (EstimatorConfig, B::Input, 
             core::mem::size_of::<EstimateMsg>(),
         )
     };
+    let stack = painted_depth(low);
     check(board, rc, "init");
-    (cfg, samples, n)
+    (cfg, samples, n, stack)
 }
 
 /// One `update` per sample of `samples`, the solve whenever it is due; every update's
@@ -417,14 +422,18 @@ fn finish<B: Board>(
 ) -> EstimateMsg {
     let (mem, mem_size) = m.mem();
     let mut written = 0usize;
+    let low = paint_stack(board);
     // SAFETY: an initialised state and a buffer of CKPT_BYTES.
     let rc =
         unsafe { taiji_estimator_checkpoint(mem, m.ckpt.as_mut_ptr(), CKPT_BYTES, &mut written) };
+    fig.stack_checkpoint = painted_depth(low);
     check(board, rc, "checkpoint");
     fig.checkpoint_bytes = written;
     m.state.iter_mut().for_each(|w| *w = 0);
+    let low = paint_stack(board);
     // SAFETY: as above; `written` bytes of the checkpoint.
     let rc = unsafe { taiji_estimator_restore(mem, mem_size, m.ckpt.as_ptr(), written, cfg) };
+    fig.stack_restore = painted_depth(low);
     check(board, rc, "restore");
     let mut est = EstimateMsg::default();
     let low = paint_stack(board);
@@ -520,8 +529,14 @@ fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figure
     );
     let _ = writeln!(
         out,
-        "    \"stack_bytes\": {{\"update\": {}, \"solve\": {}, \"finish\": {}}}\n  }}\n}}",
-        fig.stack_update, fig.stack_solve, fig.stack_finish
+        "    \"solve_work_bytes\": {},\n    \"stack_bytes\": {{\"init\": {}, \"update\": {}, \"solve\": {}, \"checkpoint\": {}, \"restore\": {}, \"finish\": {}}}\n  }}\n}}",
+        taiji_solve_work_size(),
+        fig.stack_init,
+        fig.stack_update,
+        fig.stack_solve,
+        fig.stack_checkpoint,
+        fig.stack_restore,
+        fig.stack_finish
     );
 }
 
@@ -534,10 +549,11 @@ pub unsafe fn run<B: Board>(board: &mut B) -> ! {
     let ticks_per_instr = calibrate(board);
     // SAFETY: `run` is called once.
     let mut m = unsafe { Memory::take() };
-    let (cfg, mut samples, n) = init(board, &mut m);
+    let (cfg, mut samples, n, stack_init) = init(board, &mut m);
     let mut fig = Figures {
         n,
         ticks_per_instr,
+        stack_init,
         ..Figures::default()
     };
     replay(board, &mut m, &mut samples, &mut fig);
