@@ -125,6 +125,10 @@
 // used; restore the last checkpoint (or init) to go on.
 #define TAIJI_ERR_UPSET 10
 
+// The scratch passed to `solve` or `finish` overlaps the state: it would overwrite
+// it. Nothing is done; pass memory of its own.
+#define TAIJI_ERR_OVERLAP 11
+
 // Version of this C interface: the functions' signatures and every layout they pass
 // (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
 // value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
@@ -505,8 +509,8 @@ int32_t taiji_estimator_update(uint8_t *mem,
 // One Gauss–Newton iteration on everything taken so far (warm-started; the host
 // schedules it, typically when `update` flags `TAIJI_SOLVE_DUE`). `work` is the
 // caller's scratch of `work_size` bytes (at least `taiji_solve_work_size()`, 8-aligned,
-// not overlapping the state): the Jacobian and the normal equations go there, not on
-// the stack.
+// apart from the state: else `TAIJI_ERR_OVERLAP`): the Jacobian and the normal
+// equations go there, not on the stack.
 //
 // # Safety
 // `mem` must be the state passed to `taiji_estimator_init`, or null (refused); `work`

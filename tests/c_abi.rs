@@ -587,6 +587,13 @@ fn the_solve_work_memory_is_checked_and_its_contents_do_not_matter() {
             );
             assert_eq!(taiji_estimator_solve(p, wp, n - 1), TAIJI_ERR_SIZE);
             assert_eq!(taiji_estimator_solve(p, wp.add(1), n), TAIJI_ERR_ALIGNMENT);
+            // The state itself as scratch would overwrite it: refused, the state intact.
+            let size = taiji_estimator_size();
+            assert_eq!(taiji_estimator_solve(p, p, size.max(n)), TAIJI_ERR_OVERLAP);
+            assert_eq!(
+                taiji_estimator_solve(p, p.add(size - 8), n),
+                TAIJI_ERR_OVERLAP
+            );
             for s in &c.samples {
                 let rc = taiji_estimator_update(p, s, std::ptr::null_mut(), &mut flags);
                 assert_eq!(rc, TAIJI_OK);

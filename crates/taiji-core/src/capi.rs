@@ -45,6 +45,10 @@ pub const TAIJI_ERR_FINISHED: i32 = 9;
 /// used; restore the last checkpoint (or init) to go on.
 pub const TAIJI_ERR_UPSET: i32 = 10;
 
+/// The scratch passed to `solve` or `finish` overlaps the state: it would overwrite
+/// it. Nothing is done; pass memory of its own.
+pub const TAIJI_ERR_OVERLAP: i32 = 11;
+
 /// Version of this C interface: the functions' signatures and every layout they pass
 /// (bumped with `LAYOUT_VERSION` and whenever a signature changes). A host passes the
 /// value of its header to `taiji_estimator_init` (`TAIJI_ABI_ARGS`), which refuses
@@ -152,9 +156,19 @@ pub extern "C" fn taiji_solve_work_size() -> usize {
     size_of::<SolveWork>()
 }
 
-fn work_mut<'a>(work: *mut u8, size: usize) -> Result<&'a mut SolveWork, i32> {
+/// The scratch for the state at `mem`: checked for null, alignment, size, and that it
+/// lies apart from the state.
+fn work_mut<'a>(mem: *mut u8, work: *mut u8, size: usize) -> Result<&'a mut SolveWork, i32> {
     if work.is_null() {
         return Err(TAIJI_ERR_NULL);
+    }
+    let (s0, w0) = (mem as usize, work as usize);
+    let (s1, w1) = (
+        s0.saturating_add(size_of::<State>()),
+        w0.saturating_add(size_of::<SolveWork>()),
+    );
+    if s0 < w1 && w0 < s1 {
+        return Err(TAIJI_ERR_OVERLAP);
     }
     if (work as usize) % align_of::<SolveWork>() != 0 {
         return Err(TAIJI_ERR_ALIGNMENT);
@@ -318,8 +332,8 @@ pub unsafe extern "C" fn taiji_estimator_update(
 /// One Gauss–Newton iteration on everything taken so far (warm-started; the host
 /// schedules it, typically when `update` flags `TAIJI_SOLVE_DUE`). `work` is the
 /// caller's scratch of `work_size` bytes (at least `taiji_solve_work_size()`, 8-aligned,
-/// not overlapping the state): the Jacobian and the normal equations go there, not on
-/// the stack.
+/// apart from the state: else `TAIJI_ERR_OVERLAP`): the Jacobian and the normal
+/// equations go there, not on the stack.
 ///
 /// # Safety
 /// `mem` must be the state passed to `taiji_estimator_init`, or null (refused); `work`
@@ -330,7 +344,7 @@ pub unsafe extern "C" fn taiji_estimator_solve(
     work: *mut u8,
     work_size: usize,
 ) -> i32 {
-    let w = match work_mut(work, work_size) {
+    let w = match work_mut(mem, work, work_size) {
         Ok(w) => w,
         Err(e) => return e,
     };
@@ -390,7 +404,7 @@ pub unsafe extern "C" fn taiji_estimator_finish(
             return Err(TAIJI_ERR_NULL);
         }
         if st.finished == 0 {
-            let w = work_mut(work, work_size)?;
+            let w = work_mut(mem, work, work_size)?;
             let mut m = st.est.finish_with(w);
             m.flags |= EST_FINAL;
             st.final_msg = m;
