@@ -470,27 +470,29 @@ fn cleanup_dead_nodes(prefix: &str) -> Result<BusSurvey, BusError> {
     Ok(survey)
 }
 
-/// Who may run a process set on a bus prefix. Two supervisors started together both
-/// found no live node and both ran, overflowing every service; the lock makes the
-/// check and the start one step.
+/// Who may run a process set on a bus prefix (or write into a run folder). Two
+/// supervisors started together both found no live node and both ran, overflowing
+/// every service; the lock makes the check and the start one step.
 pub enum Claim {
-    /// This supervisor has the prefix until the lock is dropped.
-    Won(PrefixLock),
+    /// This supervisor has it until the lock is dropped.
+    Won(PidLock),
     /// Another supervisor holds it (its pid, once it has written it).
     Held { pid: Option<u32> },
 }
 
-/// Exclusive right to a bus prefix: an flock(2) on `<iceoryx2 root>/<prefix>supervisor.lock`.
-/// The kernel releases it when its holder dies, however it dies, so a crashed run never
-/// blocks the next (a PID file would). Dropping it unlinks the file, then releases.
+/// An exclusive flock(2) on a file holding its owner's pid: for a bus prefix,
+/// `<iceoryx2 root>/<prefix>supervisor.lock` (`claim_prefix`); for a run folder, its
+/// lock file (the supervisor). The kernel releases it when its holder dies, however it
+/// dies, so a crashed run never blocks the next (a PID file alone would). Dropping it
+/// unlinks the file, then releases.
 #[derive(Debug)]
-pub struct PrefixLock {
+pub struct PidLock {
     path: std::path::PathBuf,
     /// Holds the lock; closed after the file is unlinked (field drop follows `drop`).
     _file: std::fs::File,
 }
 
-impl Drop for PrefixLock {
+impl Drop for PidLock {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.path);
     }
@@ -505,9 +507,6 @@ pub fn lock_path(prefix: &str) -> Result<std::path::PathBuf, BusError> {
 
 /// Take the prefix without waiting, or say who has it.
 pub fn claim_prefix(prefix: &str) -> Result<Claim, BusError> {
-    use std::io::{Read, Write};
-    use std::os::fd::AsRawFd;
-    use std::os::unix::fs::MetadataExt;
     let path = lock_path(prefix)?;
     if let Some(dir) = path.parent() {
         // With the permissions iceoryx2 gives the directories it makes there.
@@ -522,6 +521,15 @@ pub fn claim_prefix(prefix: &str) -> Result<Claim, BusError> {
                 source,
             })?;
     }
+    lock_pid_file(path)
+}
+
+/// Take the lock on the pid file at `path` (created if missing; its folder must exist)
+/// without waiting, or say who holds it.
+pub fn lock_pid_file(path: std::path::PathBuf) -> Result<Claim, BusError> {
+    use std::io::{Read, Write};
+    use std::os::fd::AsRawFd;
+    use std::os::unix::fs::MetadataExt;
     loop {
         let mut file = std::fs::OpenOptions::new()
             .read(true)
@@ -562,10 +570,10 @@ pub fn claim_prefix(prefix: &str) -> Result<Claim, BusError> {
         if !matches!((ours, there), (Ok(a), Ok(b)) if a == b) {
             continue;
         }
-        // Only for the message of a refused supervisor: who holds the prefix.
+        // Only for the message of a refused supervisor: who holds it.
         let _ = file.set_len(0);
         let _ = write!(file, "{}", std::process::id());
-        return Ok(Claim::Won(PrefixLock { path, _file: file }));
+        return Ok(Claim::Won(PidLock { path, _file: file }));
     }
 }
 

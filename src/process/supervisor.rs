@@ -278,72 +278,9 @@ fn another_run(prefix: &str, pid: Option<u32>, alive: Vec<String>) -> Supervisor
 /// (`bus::release`: dead nodes, then the prefix's global object), then frees the prefix.
 struct PrefixHold {
     prefix: String,
-    _lock: bus::PrefixLock,
+    _lock: bus::PidLock,
     /// The run's hold on its `--out` folder (dropped with the prefix's).
-    _out: Option<OutLock>,
-}
-
-/// The lock file a running supervisor holds in its `--out` folder: a second run into
-/// the same folder (on any bus prefix) is refused instead of mixing its files in.
-const OUT_LOCK_FILE: &str = ".taiji-run.lock";
-
-/// An exclusive `flock` on `OUT/.taiji-run.lock`, holding this supervisor's pid; the
-/// file is removed when the run ends.
-struct OutLock {
-    path: PathBuf,
-    _file: std::fs::File,
-}
-
-impl OutLock {
-    fn take(out: &std::path::Path) -> Result<OutLock, SupervisorError> {
-        use std::io::{Read, Seek, Write};
-        use std::os::fd::AsRawFd;
-        let path = out.join(OUT_LOCK_FILE);
-        let io = |source| {
-            SupervisorError::user(UserError::CreateDir {
-                path: path.clone(),
-                source,
-            })
-        };
-        let mut file = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .open(&path)
-            .map_err(io)?;
-        loop {
-            // SAFETY: flock on a descriptor this function owns.
-            if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0 {
-                break;
-            }
-            let e = std::io::Error::last_os_error();
-            match e.raw_os_error() {
-                Some(libc::EINTR) => continue,
-                Some(libc::EWOULDBLOCK) => {
-                    let mut text = String::new();
-                    let _ = file.read_to_string(&mut text);
-                    return Err(SupervisorError::user(UserError::OutBusy {
-                        path: out.to_path_buf(),
-                        pid: text.trim().parse().ok(),
-                    }));
-                }
-                _ => return Err(io(e)),
-            }
-        }
-        file.set_len(0).map_err(io)?;
-        file.rewind().map_err(io)?;
-        write!(file, "{}", std::process::id()).map_err(io)?;
-        Ok(OutLock { path, _file: file })
-    }
-}
-
-impl Drop for OutLock {
-    fn drop(&mut self) {
-        // Removed while still locked (the descriptor closes after this): a run that
-        // opened it meanwhile finds it held, then the next one creates it anew.
-        let _ = std::fs::remove_file(&self.path);
-    }
+    _out: Option<bus::PidLock>,
 }
 
 impl Drop for PrefixHold {
@@ -357,6 +294,26 @@ impl Drop for PrefixHold {
             ),
             Err(e) => log::warn!("bus prefix {:?}: {e}", self.prefix),
         }
+    }
+}
+
+/// The lock file a running supervisor holds in its `--out` folder (`bus::PidLock`): a
+/// second run into the same folder (on any bus prefix) is refused instead of mixing its
+/// files in. Removed when the run ends.
+const OUT_LOCK_FILE: &str = ".taiji-run.lock";
+
+/// Take `out`'s lock, or say which run holds it.
+fn lock_out(out: &std::path::Path) -> Result<bus::PidLock, SupervisorError> {
+    match bus::lock_pid_file(out.join(OUT_LOCK_FILE)) {
+        Ok(bus::Claim::Won(lock)) => Ok(lock),
+        Ok(bus::Claim::Held { pid }) => Err(SupervisorError::user(UserError::OutBusy {
+            path: out.to_path_buf(),
+            pid,
+        })),
+        Err(BusError::Io { path, source, .. }) => {
+            Err(SupervisorError::user(UserError::CreateDir { path, source }))
+        }
+        Err(e) => Err(SupervisorError::Set(e.into())),
     }
 }
 
@@ -514,7 +471,7 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
             source,
         })
     })?;
-    hold._out = Some(OutLock::take(&args.out)?);
+    hold._out = Some(lock_out(&args.out)?);
     Ok(hold)
 }
 
