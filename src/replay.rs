@@ -35,7 +35,7 @@ pub fn run_with_rows(
     let mut est = Estimator::new(method, s.estimator_config(&s.priors()));
     let mut gate = RowGate::default();
     let fs = s.sample_rate_hz;
-    let n = rec.n;
+    let n = rec.expected;
     let mut score = (!rec.faults.is_empty()).then(|| {
         let mut sc = crate::faults::FaultScore::new(s);
         for r in rec
@@ -62,7 +62,7 @@ pub fn run_with_rows(
             row(&e);
         }
         if i % 10_000 == 0 {
-            progress(i as f64 / n as f64);
+            progress((i as f64 / n as f64).min(1.0));
         }
     }
     let estimate = est.finish();

@@ -73,6 +73,17 @@ enum Cmd {
         /// Estimator (default: the recording's `method` attribute, else joint).
         #[arg(long, value_enum)]
         method: Option<MethodArg>,
+        /// Follow a recording still being written: at the end of its rows, wait for
+        /// more, until the campaign's last sample or FOLLOW_IDLE_S without a new row.
+        #[arg(long)]
+        follow: bool,
+        /// With --follow: seconds without a new row after which the recording is
+        /// taken as ended.
+        #[arg(long, default_value_t = 30.0, value_name = "S")]
+        follow_idle_s: f64,
+        /// Exit non-zero (2) on a truncated recording instead of replaying its rows.
+        #[arg(long)]
+        complete: bool,
     },
     /// Write a recording as the C library's inputs: DIR/estimator_config.bin (the
     /// estimator's table) and DIR/sensor_samples.bin (the samples replay feeds), each
@@ -189,6 +200,9 @@ enum CliError {
         taiji::scenario::MAX_DURATION_S
     )]
     Duration { duration: f64 },
+    /// A truncated recording where `--complete` asked for a whole one.
+    #[error("{what}")]
+    Truncated { what: String },
     /// The recording's `method` attribute names no estimator.
     #[error("{}: attribute `method`: {source}", path.display())]
     MethodAttribute {
@@ -362,7 +376,17 @@ fn run(cli: Cli) -> Result<ExitCode, CliError> {
             telemetry,
             out,
             method,
-        } => or_remove_new(&out, || replay(&telemetry, &out, method)),
+            follow,
+            follow_idle_s,
+            complete,
+        } => {
+            let how = ReplayHow {
+                method,
+                follow: follow.then(|| std::time::Duration::from_secs_f64(follow_idle_s.max(0.0))),
+                complete,
+            };
+            or_remove_new(&out, || replay(&telemetry, &out, how))
+        }
         Cmd::Export { telemetry, out } => or_remove_new(&out, || export(&telemetry, &out)),
         Cmd::Montecarlo {
             merge: Some(MonteCarloCmd::Merge { dirs, out }),
@@ -488,16 +512,51 @@ fn recorded_campaign(
     Ok((res.estimate, tel, res.faults))
 }
 
+/// How `replay` reads its recording.
+struct ReplayHow {
+    method: Option<MethodArg>,
+    /// Follow a growing file, waiting this long for each new row.
+    follow: Option<std::time::Duration>,
+    /// A truncated recording is an error.
+    complete: bool,
+}
+
+/// A truncated recording said plainly; an error where the user asked for a whole one.
+fn truncated(
+    path: &std::path::Path,
+    t: taiji::telemetry::read::Truncation,
+    complete: bool,
+) -> Result<(), CliError> {
+    let what = format!(
+        "{}: a truncated recording: {} of {} samples, the last at tick {} (its writer stopped before the end)",
+        path.display(),
+        t.rows,
+        t.expected,
+        t.last_tick
+    );
+    if complete {
+        return Err(CliError::Truncated {
+            what: format!("{what}; --complete asks for a whole one"),
+        });
+    }
+    eprintln!("warning: {what}; replaying those samples");
+    Ok(())
+}
+
 /// `replay`: the estimator on a recording's sensor channels.
 fn replay(
     telemetry: &std::path::Path,
     out: &std::path::Path,
-    method: Option<MethodArg>,
+    how: ReplayHow,
 ) -> Result<ExitCode, CliError> {
     let t0 = std::time::Instant::now();
     check_out(out)?;
-    let rec = taiji::telemetry::read::open(telemetry)?;
-    let method: Method = match (method, rec.method.as_deref()) {
+    let mut rec = taiji::telemetry::read::open(telemetry)?;
+    rec.follow = how.follow;
+    if let (Some(t), None) = (rec.truncation(), how.follow) {
+        truncated(telemetry, t, how.complete)?;
+    }
+    let method: Method = match (how.method, rec.method.as_deref()) {
         (Some(m), _) => m.into(),
         (None, Some(name)) => {
             taiji::process::parse_method(name).map_err(|source| CliError::MethodAttribute {
@@ -507,18 +566,29 @@ fn replay(
         }
         (None, None) => Method::Joint,
     };
-    let crlb = crlb_of(&rec.scenario)?;
     let bar = Bar::new(1000, "replay");
     let res = taiji::replay::run(&rec, method, |f| bar.set((f * 1000.0) as u64))?;
     bar.finish();
-    let mut report = Report::new(
-        &rec.scenario,
-        rec.seed,
-        "replay",
-        method.name(),
-        &res.estimate,
-        &crlb,
-    );
+    // The bound and the requirements of the samples replayed: a truncated recording's
+    // campaign ends at its last row.
+    let mut s = rec.scenario.clone();
+    if let Some(t) = rec.truncation() {
+        if how.follow.is_some() {
+            truncated(telemetry, t, how.complete)?;
+        }
+        s.duration_s = t.rows as f64 / s.sample_rate_hz;
+    }
+    let crlb = match (taiji::crlb::crlb(&s), rec.truncation()) {
+        (Some(b), _) => b,
+        // Too short a piece of the campaign to bound every parameter: no bound.
+        (None, Some(_)) => taiji::crlb::Crlb {
+            beta: [[f64::INFINITY; 3]; 2],
+            k: [[f64::INFINITY; 3]; 2],
+            com_offset_m: [[f64::INFINITY; 3]; 2],
+        },
+        (None, None) => return Err(CliError::Unexcited),
+    };
+    let mut report = Report::new(&s, rec.seed, "replay", method.name(), &res.estimate, &crlb);
     report.faults = res.faults.map(|f| f.summary());
     report.wall_time_s = Some(t0.elapsed().as_secs_f64());
     finish(out, &report, false)
@@ -528,6 +598,9 @@ fn replay(
 fn export(telemetry: &std::path::Path, out: &std::path::Path) -> Result<ExitCode, CliError> {
     check_out(out)?;
     let rec = taiji::telemetry::read::open(telemetry)?;
+    if let Some(t) = rec.truncation() {
+        truncated(telemetry, t, false)?;
+    }
     out_dir(out)?;
     let n = taiji::export::write(&rec, out)?;
     println!(

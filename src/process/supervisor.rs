@@ -611,7 +611,7 @@ fn spawn_members<'a>(
 ) -> Result<(), SupervisorError> {
     for spec in specs {
         let host = launch.host_of(spec).to_string();
-        let local = me.map_or(true, |m| m == host);
+        let local = me.is_none_or(|m| m == host);
         if agent && !local {
             continue;
         }

@@ -1,10 +1,17 @@
 //! The datasets of `telemetry.h5` as the writer fills them: one column per dataset,
-//! where its values come from in the messages, its place in the file, and its rows
-//! published and buffered (`write.rs` lays the columns out and streams them).
+//! where its values come from in the messages, its rows written and buffered, and its
+//! handle in the file (`write.rs` creates the datasets and streams the rows).
 
-use super::h5::{self, Kind, Msg};
 use super::layout as l;
 use crate::msg::{EstimateMsg, SensorSample, TruthState};
+
+/// Element type of a dataset: little-endian IEEE double, unsigned 64- or 8-bit integer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Kind {
+    F64,
+    U64,
+    U8,
+}
 
 /// Where a column's values come from.
 #[derive(Debug, Clone, Copy)]
@@ -38,61 +45,96 @@ pub(super) enum Src {
     Chi2,
 }
 
-/// One dataset: its place in the file, its published rows and its buffered ones.
+/// Rows not yet written, in the dataset's element type.
+pub(super) enum Buf {
+    F64(Vec<f64>),
+    U64(Vec<u64>),
+    U8(Vec<u8>),
+}
+
+impl Buf {
+    fn len(&self) -> usize {
+        match self {
+            Buf::F64(v) => v.len(),
+            Buf::U64(v) => v.len(),
+            Buf::U8(v) => v.len(),
+        }
+    }
+
+    pub(super) fn clear(&mut self) {
+        match self {
+            Buf::F64(v) => v.clear(),
+            Buf::U64(v) => v.clear(),
+            Buf::U8(v) => v.clear(),
+        }
+    }
+}
+
+/// One dataset: its rows in the file and its buffered ones.
 pub(super) struct Column {
     pub(super) path: &'static str,
     pub(super) kind: Kind,
     pub(super) src: Src,
     /// Dimensions after the first.
-    pub(super) row_shape: Vec<u64>,
-    pub(super) row_bytes: u64,
-    pub(super) attrs: Vec<Msg>,
-    pub(super) header_at: u64,
-    pub(super) data_at: u64,
-    pub(super) capacity: u64,
-    /// Rows in the file (its header says so).
+    pub(super) row_shape: Vec<usize>,
+    /// Elements per row.
+    pub(super) row_len: usize,
+    /// Rows in the file.
     pub(super) rows: u64,
-    /// Rows not yet written, little-endian.
-    pub(super) buf: Vec<u8>,
+    /// Rows not yet written.
+    pub(super) buf: Buf,
+    /// The dataset, once the file has it.
+    pub(super) ds: Option<hdf5::Dataset>,
 }
 
 impl Column {
     pub(super) fn new(path: &'static str, kind: Kind, src: Src, row_shape: &[usize]) -> Self {
-        let row_shape: Vec<u64> = row_shape.iter().map(|&n| n as u64).collect();
         Column {
             path,
             kind,
             src,
-            row_bytes: row_shape.iter().product::<u64>() * kind.size() as u64,
-            row_shape,
-            attrs: Vec::new(),
-            header_at: 0,
-            data_at: 0,
-            capacity: 0,
+            row_len: row_shape.iter().product(),
+            row_shape: row_shape.to_vec(),
             rows: 0,
-            buf: Vec::new(),
+            buf: match kind {
+                Kind::F64 => Buf::F64(Vec::new()),
+                Kind::U64 => Buf::U64(Vec::new()),
+                Kind::U8 => Buf::U8(Vec::new()),
+            },
+            ds: None,
         }
     }
 
-    pub(super) fn header(&self) -> Vec<u8> {
-        let mut dims = vec![self.rows];
-        dims.extend(&self.row_shape);
-        h5::object_header(&h5::dataset(self.kind, &dims, self.data_at, &self.attrs))
+    /// Buffered rows.
+    pub(super) fn pending(&self) -> u64 {
+        (self.buf.len() / self.row_len.max(1)) as u64
     }
 
-    pub(super) fn pending(&self) -> u64 {
-        self.buf.len() as u64 / self.row_bytes
+    /// Room for `rows` buffered rows, so that recording does not allocate per row.
+    pub(super) fn reserve(&mut self, rows: usize) {
+        let n = rows * self.row_len;
+        match &mut self.buf {
+            Buf::F64(v) => v.reserve(n),
+            Buf::U64(v) => v.reserve(n),
+            Buf::U8(v) => v.reserve(n),
+        }
     }
 
     pub(super) fn f64s(&mut self, v: &[f64]) {
-        for x in v {
-            self.buf.extend_from_slice(&x.to_le_bytes());
+        if let Buf::F64(b) = &mut self.buf {
+            b.extend_from_slice(v);
         }
     }
 
     pub(super) fn u64s(&mut self, v: &[u64]) {
-        for x in v {
-            self.buf.extend_from_slice(&x.to_le_bytes());
+        if let Buf::U64(b) = &mut self.buf {
+            b.extend_from_slice(v);
+        }
+    }
+
+    fn byte(&mut self, x: u8) {
+        if let Buf::U8(b) = &mut self.buf {
+            b.push(x);
         }
     }
 
@@ -112,13 +154,13 @@ impl Column {
             }
             Src::SrpAcc => self.f64s(&t.a_srp_b),
             Src::StarQ => self.f64s(&s.star.q_bn),
-            Src::StarValid => self.buf.push(s.star.valid),
+            Src::StarValid => self.byte(s.star.valid),
             Src::Volts(i) => {
                 for v in &s.is[i].volts {
                     self.f64s(v);
                 }
             }
-            Src::Flags(i) => self.buf.push(s.is[i].flags),
+            Src::Flags(i) => self.byte(s.is[i].flags),
             _ => unreachable!("{} is not a sample column", self.path),
         }
     }
@@ -140,9 +182,7 @@ impl Column {
             Src::RSigma => per_is(self, &e.r_sigma),
             Src::NUsed => self.u64s(&[e.n_used]),
             Src::NRejected => self.u64s(&[e.n_rejected]),
-            Src::Final => self
-                .buf
-                .push(u8::from(e.flags & crate::msg::EST_FINAL != 0)),
+            Src::Final => self.byte(u8::from(e.flags & crate::msg::EST_FINAL != 0)),
             Src::Status => self.u64s(&[e.status]),
             Src::ByCause => self.u64s(&e.rejected_by_cause),
             Src::Chi2 => self.f64s(&e.chi2_per_dof),

@@ -1,16 +1,15 @@
-//! Telemetry: every stream of a run, recorded to `telemetry.h5` (HDF5, written in pure
-//! Rust) with SI units as attributes, and read back for replay. The layout is in
+//! Telemetry: every stream of a run, recorded to `telemetry.h5` (HDF5, written and read
+//! by the HDF Group's libhdf5) with SI units as attributes, and read back for replay. The layout is in
 //! [`layout`]; the README shows it as a table. Recordings stream to disk a chunk at a
 //! time ([`Writer`]) and replay reads them a chunk at a time ([`read::Recording`]), so
 //! memory does not grow with the campaign.
 
 mod columns;
-mod h5;
 pub mod layout;
 pub mod read;
 mod write;
 
-pub use write::{Writer, CHUNK_ROWS};
+pub use write::{Compression, CompressionParseError, Writer, CHUNK_ROWS};
 
 use crate::msg::{EstimateMsg, SensorSample, TruthState, EST_FINAL};
 use std::path::PathBuf;
@@ -39,6 +38,13 @@ pub enum TelemetryError {
         truth_rows: usize,
         sensor_rows: usize,
     },
+    /// libhdf5 refused an operation of the writer.
+    #[error("cannot write {}: {source}", path.display())]
+    Hdf5Write {
+        path: PathBuf,
+        #[source]
+        source: hdf5::Error,
+    },
     /// The HDF5 reader gave up on the file (it panicked).
     #[error("{}: corrupt HDF5 file", path.display())]
     Corrupt { path: PathBuf },
@@ -49,14 +55,11 @@ pub enum TelemetryError {
     NotHdf5 {
         path: PathBuf,
         #[source]
-        source: hdf5_pure::Error,
+        source: hdf5::Error,
     },
-    #[error("{}: truncated HDF5 file: it declares {needed} bytes but has {size}", path.display())]
-    Truncated {
-        path: PathBuf,
-        needed: u64,
-        size: u64,
-    },
+    /// The file is shorter than its superblock says (libhdf5's words in `detail`).
+    #[error("{}: truncated HDF5 file ({detail})", path.display())]
+    Truncated { path: PathBuf, detail: String },
     /// A dataset of the layout is absent.
     #[error("{}: missing dataset /{dataset}", path.display())]
     MissingDataset { path: PathBuf, dataset: String },

@@ -7,8 +7,9 @@ use super::layout as l;
 use super::{Telemetry, TelemetryError};
 use crate::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
 use crate::scenario::Scenario;
-use hdf5_pure::{AttrValue, File};
-use std::collections::HashMap;
+use hdf5::types::{VarLenAscii, VarLenUnicode};
+use hdf5::File;
+use ndarray::IxDyn;
 use std::path::{Path, PathBuf};
 
 /// What a replay needs from a recording. The samples stay on disk: [`Recording::samples`]
@@ -23,34 +24,59 @@ pub struct Recording {
     pub method: Option<String>,
     /// Faults injected into the recording (`/faults/*`, from a `[faults]` run).
     pub faults: Vec<crate::faults::FaultRecord>,
-    /// Number of samples.
+    /// Number of samples in the file (fewer than the scenario's in a truncated one).
     pub n: u64,
+    /// Number of samples of the scenario.
+    pub expected: u64,
     /// Rows per window read.
     pub chunk_rows: u64,
+    /// Follow a recording still being written (`replay --follow`): at the end of its
+    /// rows, wait for more until the scenario's last sample, or until none came for
+    /// this long.
+    pub follow: Option<std::time::Duration>,
+    /// Rows handed out so far (a followed recording grows past `n`).
+    seen: std::cell::Cell<u64>,
     has_tick: bool,
     r: Reader,
 }
 
-fn text_attr(v: &AttrValue) -> Option<String> {
-    match v {
-        AttrValue::VarLenString(s)
-        | AttrValue::String(s)
-        | AttrValue::AsciiString(s)
-        | AttrValue::VarLenAsciiString(s) => Some(s.clone()),
-        _ => None,
-    }
+/// A recording whose writer stopped before the end of its campaign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Truncation {
+    /// Samples in the file.
+    pub rows: u64,
+    /// Samples of the scenario.
+    pub expected: u64,
+    /// Tick of the last sample in the file.
+    pub last_tick: u64,
 }
 
-fn num_attr(v: &AttrValue) -> Option<f64> {
-    match *v {
-        AttrValue::F64(x) => Some(x),
-        AttrValue::F32(x) => Some(x as f64),
-        AttrValue::I64(x) => Some(x as f64),
-        AttrValue::U64(x) => Some(x as f64),
-        AttrValue::I32(x) => Some(x as f64),
-        AttrValue::U32(x) => Some(x as f64),
-        _ => None,
+/// The text of a string attribute, whichever string type its writer chose.
+fn text_attr(a: &hdf5::Attribute) -> Option<String> {
+    if let Ok(v) = a.read_scalar::<VarLenUnicode>() {
+        return Some(v.as_str().to_string());
     }
+    a.read_scalar::<VarLenAscii>()
+        .ok()
+        .map(|v| v.as_str().to_string())
+}
+
+fn num_attr(a: &hdf5::Attribute) -> Option<f64> {
+    a.read_scalar::<f64>().ok()
+}
+
+/// Rows `[start, end)` of a dataset whose rows have shape `row`: every element of
+/// each.
+pub(super) fn rows_selection(start: usize, end: usize, row: &[usize]) -> hdf5::Selection {
+    let whole = |start, end| hdf5::SliceOrIndex::SliceTo {
+        start,
+        step: 1,
+        end,
+        block: 1,
+    };
+    let mut dims = vec![whole(start, end)];
+    dims.extend(row.iter().map(|&n| whole(0, n)));
+    hdf5::Selection::new(hdf5::Hyperslab::from(dims))
 }
 
 struct Reader {
@@ -77,12 +103,19 @@ impl Reader {
         self.file.dataset(path).is_ok()
     }
 
+    /// Root attribute `name`, if the file has one.
+    fn attr(&self, name: &str) -> Option<hdf5::Attribute> {
+        self.file.attr(name).ok()
+    }
+
+    fn dataset(&self, path: &str) -> Result<hdf5::Dataset, TelemetryError> {
+        self.file.dataset(path).map_err(|_| self.missing(path))
+    }
+
     /// Dataset `path`, which must exist with exactly `shape`.
-    fn shaped(&self, path: &str, shape: &[u64]) -> Result<hdf5_pure::Dataset, TelemetryError> {
-        let d = self.file.dataset(path).map_err(|_| self.missing(path))?;
-        let got = d
-            .shape()
-            .map_err(|e| self.err(format!("/{path}: unreadable shape ({e})")))?;
+    fn shaped(&self, path: &str, shape: &[u64]) -> Result<hdf5::Dataset, TelemetryError> {
+        let d = self.dataset(path)?;
+        let got: Vec<u64> = d.shape().iter().map(|&x| x as u64).collect();
         if got != shape {
             return Err(TelemetryError::Shape {
                 path: self.origin.clone(),
@@ -95,40 +128,87 @@ impl Reader {
         Ok(d)
     }
 
+    /// Dataset `path` with `n` rows of `row` shape, or at least `n` rows where the
+    /// recording is `truncated` (its datasets were extended one after another).
+    fn shaped_rows(
+        &self,
+        path: &str,
+        n: u64,
+        row: &[u64],
+        truncated: bool,
+    ) -> Result<hdf5::Dataset, TelemetryError> {
+        let mut need = vec![n];
+        need.extend(row);
+        if !truncated {
+            return self.shaped(path, &need);
+        }
+        let d = self.dataset(path)?;
+        let got: Vec<u64> = d.shape().iter().map(|&x| x as u64).collect();
+        if got.len() != need.len() || got[0] < n || got[1..] != need[1..] {
+            return Err(TelemetryError::Shape {
+                path: self.origin.clone(),
+                dataset: path.into(),
+                got,
+                need,
+                layout: l::channel(path).shape.to_string(),
+            });
+        }
+        Ok(d)
+    }
+
     fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, TelemetryError> {
         self.shaped(path, shape)?
-            .read_f64()
+            .read_raw::<f64>()
             .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
     }
 
     fn ints(&self, path: &str, n: u64) -> Result<Vec<u64>, TelemetryError> {
         self.shaped(path, &[n])?
-            .read_u64()
+            .read_raw::<u64>()
             .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
     }
 
-    /// Rows `[start, start + count)` of `d` (dataset `path`), as floats.
+    /// Rows `[start, start + count)` of `d` (dataset `path`), as `T`, clipped to its
+    /// rows.
+    fn rows<T: hdf5::H5Type>(
+        &self,
+        d: &hdf5::Dataset,
+        path: &str,
+        start: u64,
+        count: u64,
+    ) -> Result<Vec<T>, TelemetryError> {
+        let n = d.shape().first().copied().unwrap_or(0) as u64;
+        let end = (start + count).min(n);
+        if end <= start {
+            return Ok(Vec::new());
+        }
+        let row: Vec<usize> = d.shape().iter().skip(1).copied().collect();
+        let a = d
+            .read_slice::<T, _, IxDyn>(rows_selection(start as usize, end as usize, &row))
+            .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))?;
+        Ok(a.into_raw_vec_and_offset().0)
+    }
+
+    /// Rows of `d` as floats.
     fn f64_rows(
         &self,
-        d: &hdf5_pure::Dataset,
+        d: &hdf5::Dataset,
         path: &str,
         start: u64,
         count: u64,
     ) -> Result<Vec<f64>, TelemetryError> {
-        d.read_f64_rows(start, count)
-            .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
+        self.rows(d, path, start, count)
     }
 
-    /// Rows `[start, start + count)` of `d` (dataset `path`), as integers.
+    /// Rows of `d` as integers.
     fn int_rows(
         &self,
-        d: &hdf5_pure::Dataset,
+        d: &hdf5::Dataset,
         path: &str,
         start: u64,
         count: u64,
     ) -> Result<Vec<u64>, TelemetryError> {
-        d.read_u64_rows(start, count)
-            .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
+        self.rows(d, path, start, count)
     }
 }
 
@@ -142,13 +222,16 @@ pub fn open(path: &Path) -> Result<Recording, TelemetryError> {
         method: c.method,
         faults: c.faults,
         n: c.n,
+        expected: c.expected,
         chunk_rows: super::CHUNK_ROWS as u64,
+        follow: None,
+        seen: std::cell::Cell::new(0),
         has_tick: c.has_tick,
         r,
     })
 }
 
-/// Run `f` on the file; a panic inside the HDF5 reader is reported as corruption.
+/// Run `f` on the file; a panic inside the HDF5 binding is reported as corruption.
 fn guarded<T>(
     r: &Reader,
     f: impl FnOnce(&Reader) -> Result<T, TelemetryError>,
@@ -160,36 +243,47 @@ fn guarded<T>(
     })?
 }
 
-/// Open the file (its superblock and length checked; data is read on demand).
+/// Open the file with libhdf5, which checks its superblock and length (data is read
+/// on demand). A file still open for writing, or whose writer died, opens as an SWMR
+/// reader sees it: every row flushed so far.
 fn load(path: &Path) -> Result<Reader, TelemetryError> {
     std::fs::metadata(path).map_err(|source| TelemetryError::Read {
         path: path.to_path_buf(),
         source,
     })?;
-    // The HDF5 reader is defensive, but a malformed file must never take the process
-    // down with a panic trace: treat a panic as "corrupt".
-    let file = std::panic::catch_unwind(|| File::open_streaming(path))
-        .map_err(|_| TelemetryError::Corrupt {
-            path: path.to_path_buf(),
-        })?
-        .map_err(|source| TelemetryError::NotHdf5 {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    // Contiguous data past the end of a truncated file would read as fill values.
-    let sb = file.superblock();
-    let needed = sb.base_address.get().saturating_add(sb.eof_address);
-    if needed > file.file_size() {
-        return Err(TelemetryError::Truncated {
-            path: path.to_path_buf(),
-            needed,
-            size: file.file_size(),
-        });
-    }
+    let open = |mode| {
+        std::panic::catch_unwind(|| File::open_as(path, mode)).map_err(|_| {
+            TelemetryError::Corrupt {
+                path: path.to_path_buf(),
+            }
+        })
+    };
+    let file = match open(hdf5::file::OpenMode::Read)? {
+        Ok(f) => f,
+        Err(first) => match open(hdf5::file::OpenMode::ReadSWMR)? {
+            Ok(f) => f,
+            Err(_) => return Err(not_hdf5(path, first)),
+        },
+    };
     Ok(Reader {
         file,
         origin: path.to_path_buf(),
     })
+}
+
+/// libhdf5 refused to open `path`: truncated, or not HDF5 at all.
+fn not_hdf5(path: &Path, source: hdf5::Error) -> TelemetryError {
+    let text = source.to_string();
+    match text.contains("truncated") {
+        true => TelemetryError::Truncated {
+            path: path.to_path_buf(),
+            detail: text,
+        },
+        false => TelemetryError::NotHdf5 {
+            path: path.to_path_buf(),
+            source,
+        },
+    }
 }
 
 /// A recording's metadata, checked.
@@ -199,17 +293,18 @@ struct Checked {
     method: Option<String>,
     faults: Vec<crate::faults::FaultRecord>,
     n: u64,
+    expected: u64,
     has_tick: bool,
 }
 
 /// Check that `/time` (and `/tick`, if present) hold `n` finite, strictly increasing
 /// values, reading them a window at a time.
-fn check_increasing(r: &Reader, n: u64) -> Result<bool, TelemetryError> {
+fn check_increasing(r: &Reader, n: u64, truncated: bool) -> Result<bool, TelemetryError> {
     let rows = super::CHUNK_ROWS as u64;
-    let time = r.shaped(l::TIME, &[n])?;
+    let time = r.shaped_rows(l::TIME, n, &[], truncated)?;
     let mut prev: Option<f64> = None;
     for start in (0..n).step_by(rows as usize) {
-        let t = r.f64_rows(&time, l::TIME, start, rows)?;
+        let t = r.f64_rows(&time, l::TIME, start, rows.min(n - start))?;
         for (k, &x) in t.iter().enumerate() {
             let i = start + k as u64;
             if !x.is_finite() {
@@ -226,10 +321,10 @@ fn check_increasing(r: &Reader, n: u64) -> Result<bool, TelemetryError> {
     if !r.has(l::TICK) {
         return Ok(false);
     }
-    let tick = r.shaped(l::TICK, &[n])?;
+    let tick = r.shaped_rows(l::TICK, n, &[], truncated)?;
     let mut prev: Option<u64> = None;
     for start in (0..n).step_by(rows as usize) {
-        let t = r.int_rows(&tick, l::TICK, start, rows)?;
+        let t = r.int_rows(&tick, l::TICK, start, rows.min(n - start))?;
         for (k, &x) in t.iter().enumerate() {
             if let Some(p) = prev.filter(|&p| x <= p) {
                 return Err(r.err(format!(
@@ -244,32 +339,20 @@ fn check_increasing(r: &Reader, n: u64) -> Result<bool, TelemetryError> {
 }
 
 fn read(r: &Reader) -> Result<Checked, TelemetryError> {
-    let attrs: HashMap<String, AttrValue> = r
-        .file
-        .root()
-        .attrs()
-        .map_err(|e| r.err(format!("unreadable root attributes ({e})")))?;
-    let (n, t01) = {
-        let d = r.file.dataset(l::TIME).map_err(|_| r.missing(l::TIME))?;
-        let shape = d.shape().map_err(|e| r.err(format!("/time: {e}")))?;
+    let (rows, t01) = {
+        let d = r.dataset(l::TIME)?;
+        let shape = d.shape();
         if shape.len() != 1 || shape[0] == 0 {
             return Err(r.err(format!(
                 "/time has shape {shape:?}, the layout needs [N] with N > 0"
             )));
         }
-        (shape[0], r.f64_rows(&d, l::TIME, 0, 2)?)
+        (shape[0] as u64, r.f64_rows(&d, l::TIME, 0, 2)?)
     };
-    let incomplete = |expected: u64| {
-        if n < expected && attrs.contains_key("format") {
-            " (an incomplete recording: its writer stopped before the end)"
-        } else {
-            ""
-        }
-    };
-    let has_tick = check_increasing(r, n)?;
-    if let Some(v) = attrs.get("format_version") {
+    let ours = r.attr("format").is_some();
+    if let Some(a) = r.attr("format_version") {
         let v =
-            num_attr(v).ok_or_else(|| r.err("root attribute `format_version` is not a number"))?;
+            num_attr(&a).ok_or_else(|| r.err("root attribute `format_version` is not a number"))?;
         if v != l::FORMAT_VERSION as f64 {
             return Err(r.err(format!(
                 "format_version {v} is not one this build reads ({}): a newer or foreign layout",
@@ -281,24 +364,24 @@ fn read(r: &Reader) -> Result<Checked, TelemetryError> {
     if !r.has(l::IS_VOLTAGE[0]) {
         return Err(r.missing(l::IS_VOLTAGE[0]));
     }
-    let scenario = match attrs.get("scenario") {
-        Some(v) => {
+    let scenario = match r.attr("scenario") {
+        Some(a) => {
             let text =
-                text_attr(v).ok_or_else(|| r.err("root attribute `scenario` is not a string"))?;
+                text_attr(&a).ok_or_else(|| r.err("root attribute `scenario` is not a string"))?;
             Scenario::from_toml_str(&text)
                 .map_err(|e| r.err(format!("root attribute `scenario`: {e}")))?
         }
         None => {
             // Another tool's file: the default scenario at the file's rate and length.
-            let fs = match attrs.get("sample_rate_hz") {
-                Some(v) => num_attr(v)
+            let fs = match r.attr("sample_rate_hz") {
+                Some(a) => num_attr(&a)
                     .ok_or_else(|| r.err("root attribute `sample_rate_hz` is not a number"))?,
-                None if n >= 2 => 1.0 / (t01[1] - t01[0]),
+                None if rows >= 2 => 1.0 / (t01[1] - t01[0]),
                 None => return Err(r.err("one sample and no `sample_rate_hz` attribute")),
             };
             let mut s = Scenario {
                 sample_rate_hz: fs,
-                duration_s: n as f64 / fs,
+                duration_s: rows as f64 / fs,
                 ..Scenario::default()
             };
             s.star_tracker.rate_hz = s.star_tracker.rate_hz.min(fs);
@@ -309,34 +392,55 @@ fn read(r: &Reader) -> Result<Checked, TelemetryError> {
                 .map_err(|e| r.err(format!("no `scenario` attribute, and {e}")))?
         }
     };
-    if scenario.n_samples() != n {
+    let n_is = scenario.inertial_sensor.len();
+    let expected = scenario.n_samples();
+    // A recording of ours cut short (its writer stopped or is still writing): the
+    // rows every replayed dataset has. Any other count is an error.
+    let truncated = ours && rows < expected;
+    let mut paths = vec![l::TIME, l::STAR_Q, l::STAR_VALID];
+    for i in 0..n_is.min(2) {
+        paths.extend([l::IS_VOLTAGE[i], l::IS_FLAGS[i]]);
+    }
+    let n = match truncated {
+        true => paths
+            .iter()
+            .chain(r.has(l::TICK).then_some(&l::TICK))
+            .filter_map(|p| r.file.dataset(p).ok())
+            .map(|d| d.shape().first().copied().unwrap_or(0) as u64)
+            .fold(rows, u64::min),
+        false => rows,
+    };
+    if !truncated && expected != n {
         return Err(r.err(format!(
-            "/time has {n} rows, but the scenario ({} s at {} Hz) has {} samples{}",
-            scenario.duration_s,
-            scenario.sample_rate_hz,
-            scenario.n_samples(),
-            incomplete(scenario.n_samples())
+            "/time has {n} rows, but the scenario ({} s at {} Hz) has {expected} samples",
+            scenario.duration_s, scenario.sample_rate_hz,
         )));
     }
-    let n_is = scenario.inertial_sensor.len();
+    if n == 0 {
+        return Err(r.err("no sample was written (the recording stopped before its first chunk)"));
+    }
     if n_is == 2 && !two {
         return Err(r.err(format!(
             "the scenario has two inertial sensors but /{} is missing",
             l::IS_VOLTAGE[1]
         )));
     }
-    let seed = match attrs.get("seed") {
-        Some(v) => {
-            num_attr(v).ok_or_else(|| r.err("root attribute `seed` is not a number"))? as u64
-        }
+    let has_tick = check_increasing(r, n, truncated)?;
+    let seed = match r.attr("seed") {
+        Some(a) => match a.read_scalar::<u64>() {
+            Ok(v) => v,
+            Err(_) => {
+                num_attr(&a).ok_or_else(|| r.err("root attribute `seed` is not a number"))? as u64
+            }
+        },
         None => scenario.seed,
     };
-    let method = attrs.get("method").and_then(text_attr);
-    r.shaped(l::STAR_Q, &[n, 4])?;
-    r.shaped(l::STAR_VALID, &[n])?;
+    let method = r.attr("method").and_then(|a| text_attr(&a));
+    r.shaped_rows(l::STAR_Q, n, &[4], truncated)?;
+    r.shaped_rows(l::STAR_VALID, n, &[], truncated)?;
     for i in 0..n_is {
-        r.shaped(l::IS_VOLTAGE[i], &[n, 3, 2])?;
-        r.shaped(l::IS_FLAGS[i], &[n])?;
+        r.shaped_rows(l::IS_VOLTAGE[i], n, &[3, 2], truncated)?;
+        r.shaped_rows(l::IS_FLAGS[i], n, &[], truncated)?;
     }
     let faults = read_faults(r)?;
     Ok(Checked {
@@ -345,18 +449,75 @@ fn read(r: &Reader) -> Result<Checked, TelemetryError> {
         method,
         faults,
         n,
+        expected,
         has_tick,
     })
 }
 
 impl Recording {
+    /// How the recording falls short of its scenario, if it does.
+    pub fn truncation(&self) -> Option<Truncation> {
+        let rows = self.n.max(self.seen.get());
+        if rows >= self.expected {
+            return None;
+        }
+        let last = rows - 1;
+        let last_tick = match self.has_tick {
+            true => guarded(&self.r, |r| {
+                r.int_rows(&r.dataset(l::TICK)?, l::TICK, last, 1)
+            })
+            .ok()
+            .and_then(|v| v.first().copied())
+            .unwrap_or(last),
+            false => last,
+        };
+        Some(Truncation {
+            rows,
+            expected: self.expected,
+            last_tick,
+        })
+    }
+
     /// The sensor stream, in tick order, read a window at a time.
     pub fn samples(&self) -> Samples<'_> {
         Samples {
             rec: self,
             next: 0,
+            avail: self.n,
             window: Vec::new().into_iter(),
             failed: false,
+        }
+    }
+
+    /// Rows every replayed dataset holds now (re-read from the file: a writer may be
+    /// adding them), at most the scenario's.
+    fn rows_now(&self) -> u64 {
+        let r = &self.r;
+        let mut paths = vec![l::TIME, l::STAR_Q, l::STAR_VALID];
+        if self.has_tick {
+            paths.push(l::TICK);
+        }
+        for i in 0..self.scenario.inertial_sensor.len().min(2) {
+            paths.extend([l::IS_VOLTAGE[i], l::IS_FLAGS[i]]);
+        }
+        let rows = |p: &&str| -> u64 {
+            r.file.dataset(p).ok().map_or(0, |d| {
+                let _ = d.refresh();
+                d.shape().first().copied().unwrap_or(0) as u64
+            })
+        };
+        paths.iter().map(rows).min().unwrap_or(0).min(self.expected)
+    }
+
+    /// Wait, up to `idle` without a new row, for rows past `avail`; the rows now.
+    fn wait_for_rows(&self, avail: u64, idle: std::time::Duration) -> u64 {
+        let since = std::time::Instant::now();
+        loop {
+            let now = self.rows_now();
+            if now > avail || since.elapsed() >= idle {
+                return now.max(avail);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
         }
     }
 
@@ -425,6 +586,8 @@ impl Recording {
 pub struct Samples<'a> {
     rec: &'a Recording,
     next: u64,
+    /// Rows known to be in the file.
+    avail: u64,
     window: std::vec::IntoIter<SensorSample>,
     failed: bool,
 }
@@ -436,13 +599,25 @@ impl Iterator for Samples<'_> {
         if let Some(s) = self.window.next() {
             return Some(Ok(s));
         }
-        if self.failed || self.next >= self.rec.n {
+        if self.failed {
             return None;
         }
-        let count = self.rec.chunk_rows.max(1).min(self.rec.n - self.next);
+        if self.next >= self.avail {
+            match self.rec.follow {
+                Some(idle) if self.avail < self.rec.expected => {
+                    self.avail = self.rec.wait_for_rows(self.avail, idle);
+                }
+                _ => {}
+            }
+            if self.next >= self.avail {
+                return None;
+            }
+        }
+        let count = self.rec.chunk_rows.max(1).min(self.avail - self.next);
         match self.rec.window(self.next, count) {
             Ok(w) => {
                 self.next += w.len() as u64;
+                self.rec.seen.set(self.rec.seen.get().max(self.next));
                 self.window = w.into_iter();
                 self.window.next().map(Ok)
             }
@@ -476,13 +651,11 @@ fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, TelemetryE
         return Ok(Vec::new());
     }
     let nf = r
-        .file
-        .dataset(l::FAULT_TICK)
-        .and_then(|d| d.shape())
-        .map_err(|e| r.err(format!("/{}: {e}", l::FAULT_TICK)))?
+        .dataset(l::FAULT_TICK)?
+        .shape()
         .first()
         .copied()
-        .unwrap_or(0);
+        .unwrap_or(0) as u64;
     let tick = r.ints(l::FAULT_TICK, nf)?;
     let kind = r.ints(l::FAULT_KIND, nf)?;
     let field = r.ints(l::FAULT_FIELD, nf)?;
@@ -514,16 +687,14 @@ pub fn full(path: &Path) -> Result<(Telemetry, Scenario), TelemetryError> {
 
 fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), TelemetryError> {
     let s = rec.scenario.clone();
-    let n = s.n_samples();
+    let n = rec.n;
     let ni = s.inertial_sensor.len() as u64;
     let m = r
-        .file
-        .dataset(l::EST_TIME)
-        .and_then(|d| d.shape())
-        .map_err(|_| r.missing(l::EST_TIME))?
+        .dataset(l::EST_TIME)?
+        .shape()
         .first()
         .copied()
-        .unwrap_or(0);
+        .unwrap_or(0) as u64;
     let mut t = Telemetry::new(ni as usize, s.sample_rate_hz, 0);
     t.torque_cmd = r.f64s(l::TORQUE_CMD, &[n, 3])?;
     t.torque = r.f64s(l::TORQUE, &[n, 3])?;
@@ -556,7 +727,7 @@ fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), Tele
     let nc = crate::msg::N_CAUSES;
     let by_cause = r
         .shaped(l::EST_REJECTED_BY_CAUSE, &[m, nc as u64])?
-        .read_u64()
+        .read_raw::<u64>()
         .map_err(|e| r.err(format!("/{}: {e}", l::EST_REJECTED_BY_CAUSE)))?;
     let chi2 = r.f64s(l::EST_CHI2, &[m, crate::msg::N_GROUPS as u64])?;
     let block = |p: &str| r.f64s(p, &[m, ni, 3]);

@@ -1,145 +1,254 @@
-//! `telemetry.h5` writer, streaming: one contiguous dataset per channel with `units`
-//! and `description` attributes, the scenario and software version on the root.
+//! `telemetry.h5` writer, on the HDF Group's libhdf5: one chunked dataset per channel,
+//! its rows unlimited and extended as they arrive, compressed chunk by chunk (byte
+//! shuffle, then deflate); `units` and `description` on every dataset, the scenario and
+//! software version on the root.
 //!
-//! Every dataset's storage is reserved when the file is created (N rows for the
-//! samples, a bound for the estimate rows), so the file's structure never moves. Rows
-//! are buffered [`CHUNK_ROWS`] at a time; each full chunk is written into the reserved
-//! storage, then each dataset's header is rewritten with its new row count. The file
-//! on disk is therefore always valid, holding every chunk written so far: a crash loses
-//! at most the buffered chunk, and h5py reads a recording while it grows. Memory is
-//! one chunk, whatever the campaign's length.
+//! The file is created in the HDF5 1.10 format and switched to SWMR (single writer,
+//! multiple readers) once its datasets exist. Rows are buffered [`CHUNK_ROWS`] at a
+//! time; each flush extends every dataset, writes its rows and flushes the file, in the
+//! order SWMR readers rely on. So h5py (`swmr=True`) and `replay --follow` read the
+//! file while it grows, and a writer killed between flushes leaves a file holding every
+//! flushed row, its size in proportion to them. Memory is one chunk of rows and
+//! libhdf5's chunk cache, whatever the campaign's length. At the end SWMR is left and
+//! the fault log added as `/faults` (SWMR creates no new objects).
 
-use super::columns::{estimate_columns, sample_columns, Column};
-use super::h5::{self, Kind, Msg, Value};
+use super::columns::{estimate_columns, sample_columns, Buf, Column, Kind};
 use super::layout as l;
 use super::{Meta, RowGate, Telemetry, TelemetryError};
 use crate::faults::FaultRecord;
 use crate::msg::{EstimateMsg, Header, IsSample, SensorSample, StarSample, TruthState};
-use std::os::unix::fs::FileExt;
+use hdf5::types::VarLenUnicode;
+use ndarray::{ArrayViewD, IxDyn};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
-/// Samples per chunk: 4096 rows (≈ 1.4 MB with two IS; 410 s of a 10 Hz campaign).
+/// Samples per chunk: 4096 rows (≈ 1.4 MB with two IS before compression; 410 s of a
+/// 10 Hz campaign). Also the rows of each sample dataset's HDF5 chunk.
 pub const CHUNK_ROWS: usize = 4096;
 
-/// Room left in the root header for the `faults` link added at the end [bytes].
-const ROOT_SPARE: usize = 40;
+/// Rows of an estimate dataset's HDF5 chunk (a row every 10 s: 640 s of campaign).
+const ESTIMATE_CHUNK_ROWS: usize = 64;
 
-fn align8(x: u64) -> u64 {
-    x.div_ceil(8) * 8
+/// How each chunk is compressed on disk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Compression {
+    /// Stored as is.
+    None,
+    /// HDF5's byte shuffle, then deflate (zlib) at this level, 1 (fastest) to 9.
+    Deflate(u8),
 }
 
-/// Lays out objects one after another from `at`.
-struct Alloc {
-    at: u64,
+impl Compression {
+    /// The default, chosen by measurement (docs/telemetry.md): level 1 keeps nearly
+    /// all of level 9's saving at a fraction of its time.
+    pub const DEFAULT: Compression = Compression::Deflate(1);
 }
 
-impl Alloc {
-    fn take(&mut self, bytes: u64) -> u64 {
-        let a = self.at;
-        self.at = align8(self.at + bytes);
-        a
-    }
-}
-
-/// The strings of a batch of objects, to go into one global heap collection.
-#[derive(Default)]
-struct Strings {
-    all: Vec<String>,
-}
-
-impl Strings {
-    /// A text attribute value for `s` (the heap's address filled in by `place`).
-    fn add(&mut self, s: &str) -> Value {
-        self.all.push(s.to_string());
-        Value::Text(0, self.all.len() as u32, s.len())
-    }
-
-    fn heap(&self) -> Vec<u8> {
-        let refs: Vec<&str> = self.all.iter().map(String::as_str).collect();
-        h5::global_heap(&refs)
-    }
-}
-
-/// `units` and `description` of `path`, their strings in `strings`.
-fn channel_attrs(path: &str, strings: &mut Strings, heap_at: u64) -> Vec<Msg> {
-    let c = l::channel(path);
-    [("units", c.units), ("description", c.description)]
-        .into_iter()
-        .map(|(name, text)| h5::attribute(name, &at_heap(&strings.add(text), heap_at)))
-        .collect()
-}
-
-/// `v` with its string (if any) in the heap at `heap_at`.
-fn at_heap(v: &Value, heap_at: u64) -> Value {
-    match *v {
-        Value::Text(_, i, n) => Value::Text(heap_at, i, n),
-        Value::U64(x) => Value::U64(x),
-        Value::F64(x) => Value::F64(x),
-    }
-}
-
-/// The datasets of `cols` grouped as the layout's paths say: (group, [(name, column)]).
-fn groups<'a>(
-    cols: impl Iterator<Item = &'a Column>,
-) -> Vec<(&'static str, Vec<(&'static str, usize)>)> {
-    let mut g: Vec<(&'static str, Vec<(&'static str, usize)>)> = Vec::new();
-    for (i, c) in cols.enumerate() {
-        let (group, name) = c.path.rsplit_once('/').unwrap_or(("", c.path));
-        match g.iter_mut().find(|(n, _)| *n == group) {
-            Some((_, v)) => v.push((name, i)),
-            None => g.push((group, vec![(name, i)])),
+impl std::fmt::Display for Compression {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Compression::None => f.write_str("none"),
+            Compression::Deflate(n) => write!(f, "{n}"),
         }
     }
-    g
+}
+
+/// A `--record-compression` value that is neither `none` nor a level 1–9.
+#[derive(Debug, thiserror::Error)]
+#[error("`{0}` is not a compression: give `none` or a deflate level 1 to 9")]
+pub struct CompressionParseError(String);
+
+impl std::str::FromStr for Compression {
+    type Err = CompressionParseError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "none" | "0" => Ok(Compression::None),
+            t => match t.parse::<u8>() {
+                Ok(n @ 1..=9) => Ok(Compression::Deflate(n)),
+                _ => Err(CompressionParseError(s.to_string())),
+            },
+        }
+    }
 }
 
 /// Streams a recording to `telemetry.h5` as it is made (see the module doc).
 pub struct Writer {
-    file: std::fs::File,
+    /// The file; `None` once closed.
+    file: Option<hdf5::File>,
     path: PathBuf,
     fs: f64,
     n_is: usize,
-    /// Samples the file is laid out for.
+    /// Samples the scenario has.
     n: u64,
     chunk_rows: usize,
     samples: Vec<Column>,
     estimates: Vec<Column>,
     gate: RowGate,
-    root_at: u64,
-    /// The root's messages but the spare room (links first, then attributes).
-    root_msgs: Vec<Msg>,
-    eof: u64,
+    last_flush: Instant,
+}
+
+/// `units` and `description` of the layout's channel `path`, on `loc`.
+fn channel_attrs(loc: &hdf5::Location, path: &str) -> hdf5::Result<()> {
+    let c = l::channel(path);
+    text_attr(loc, "units", c.units)?;
+    text_attr(loc, "description", c.description)
+}
+
+/// A variable-length UTF-8 string attribute (h5py reads it as `str`).
+fn text_attr(loc: &hdf5::Location, name: &str, text: &str) -> hdf5::Result<()> {
+    let v: VarLenUnicode = text
+        .parse()
+        .map_err(|e| hdf5::Error::from(format!("attribute {name}: {e}")))?;
+    loc.new_attr::<VarLenUnicode>()
+        .create(name)?
+        .write_scalar(&v)
+}
+
+fn scalar_attr<T: hdf5::H5Type>(loc: &hdf5::Location, name: &str, v: T) -> hdf5::Result<()> {
+    loc.new_attr::<T>().create(name)?.write_scalar(&v)
+}
+
+/// The root attributes of the layout.
+fn root_attrs(root: &hdf5::Location, meta: &Meta) -> hdf5::Result<()> {
+    text_attr(root, "format", l::FORMAT)?;
+    scalar_attr(root, "format_version", l::FORMAT_VERSION)?;
+    let software = concat!(env!("CARGO_PKG_NAME"), " ", env!("CARGO_PKG_VERSION"));
+    text_attr(root, "software", software)?;
+    text_attr(root, "scenario", &meta.scenario_toml)?;
+    text_attr(root, "scenario_name", &meta.scenario_name)?;
+    scalar_attr(root, "seed", meta.seed)?;
+    text_attr(root, "method", &meta.method)?;
+    text_attr(root, "mode", &meta.mode)?;
+    scalar_attr(root, "sample_rate_hz", meta.sample_rate_hz)?;
+    scalar_attr(root, "duration_s", meta.duration_s)?;
+    scalar_attr(root, "n_inertial_sensors", meta.n_is as u64)
+}
+
+/// Create the groups of `cols`' paths that `file` lacks.
+fn groups(file: &hdf5::File, cols: &[&Column]) -> hdf5::Result<()> {
+    for c in cols {
+        if let Some((g, _)) = c.path.rsplit_once('/') {
+            if file.group(g).is_err() {
+                file.create_group(g)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Column `c`'s dataset: no rows yet, unlimited, chunked by `chunk` rows.
+fn create_dataset(
+    file: &hdf5::File,
+    c: &Column,
+    chunk: usize,
+    z: Compression,
+) -> hdf5::Result<hdf5::Dataset> {
+    let mut extents = vec![hdf5::Extent::resizable(0)];
+    extents.extend(c.row_shape.iter().map(|&n| hdf5::Extent::fixed(n)));
+    let mut chunk_dims = vec![chunk.max(1)];
+    chunk_dims.extend(&c.row_shape);
+    let mut b = match c.kind {
+        Kind::F64 => file.new_dataset::<f64>(),
+        Kind::U64 => file.new_dataset::<u64>(),
+        Kind::U8 => file.new_dataset::<u8>(),
+    }
+    .chunk(chunk_dims)
+    .obj_track_times(false);
+    if let Compression::Deflate(level) = z {
+        b = b.shuffle().deflate(level);
+    }
+    let ds = b
+        .shape(hdf5::SimpleExtents::from_vec(extents))
+        .create(c.path)?;
+    channel_attrs(&ds, c.path)?;
+    Ok(ds)
+}
+
+/// Append `c`'s buffered rows to its dataset.
+fn write_rows(c: &mut Column) -> hdf5::Result<()> {
+    let n = c.pending() as usize;
+    if n == 0 {
+        return Ok(());
+    }
+    let Some(ds) = c.ds.as_ref() else {
+        return Err(format!("/{} is closed", c.path).into());
+    };
+    let start = c.rows as usize;
+    let mut dims = vec![start + n];
+    dims.extend(&c.row_shape);
+    ds.resize(dims)?;
+    let mut shape = vec![n];
+    shape.extend(&c.row_shape);
+    let shape = IxDyn(&shape);
+    let rows = super::read::rows_selection(start, start + n, &c.row_shape);
+    let bad = |e: ndarray::ShapeError| hdf5::Error::from(e.to_string());
+    match &c.buf {
+        Buf::F64(v) => ds.write_slice(ArrayViewD::from_shape(shape, v).map_err(bad)?, &rows)?,
+        Buf::U64(v) => ds.write_slice(ArrayViewD::from_shape(shape, v).map_err(bad)?, &rows)?,
+        Buf::U8(v) => ds.write_slice(ArrayViewD::from_shape(shape, v).map_err(bad)?, &rows)?,
+    }
+    c.rows += n as u64;
+    c.buf.clear();
+    Ok(())
 }
 
 impl Writer {
     /// Create `path` for `n` samples of the run `meta` describes, written `chunk_rows`
-    /// rows at a time ([`CHUNK_ROWS`] outside tests).
+    /// rows at a time ([`CHUNK_ROWS`] outside tests), compressed by default.
     pub fn create(
         path: &Path,
         meta: &Meta,
         n: u64,
         chunk_rows: usize,
     ) -> Result<Self, TelemetryError> {
-        let ni = meta.n_is;
-        let fs = meta.sample_rate_hz;
-        let (mut samples, mut estimates) = sized_columns(ni, fs, n);
-        // Sizes first (they do not depend on addresses), then addresses, then bytes.
-        let at = place(meta, &mut samples, &mut estimates);
-        let (image, root) = metadata_image(meta, &mut samples, &mut estimates, &at, chunk_rows);
-        let file = open_file(path, &image, at.eof)?;
-        Ok(Writer {
-            file,
+        Self::create_with(path, meta, n, chunk_rows, Compression::DEFAULT)
+    }
+
+    /// [`Writer::create`] with compression `z`.
+    pub fn create_with(
+        path: &Path,
+        meta: &Meta,
+        n: u64,
+        chunk_rows: usize,
+        z: Compression,
+    ) -> Result<Self, TelemetryError> {
+        let chunk_rows = chunk_rows.max(1);
+        let mut samples = sample_columns(meta.n_is);
+        let mut estimates = estimate_columns(meta.n_is);
+        let err = |source| TelemetryError::Hdf5Write {
             path: path.to_path_buf(),
-            fs,
-            n_is: ni,
+            source,
+        };
+        let file = hdf5::File::with_options()
+            .with_fapl(|p| p.libver_v110())
+            .create(path)
+            .map_err(err)?;
+        root_attrs(&file, meta).map_err(err)?;
+        let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
+        groups(&file, &all).map_err(err)?;
+        let est_chunk = chunk_rows.min(ESTIMATE_CHUNK_ROWS);
+        for (c, rows) in samples
+            .iter_mut()
+            .map(|c| (c, chunk_rows))
+            .chain(estimates.iter_mut().map(|c| (c, est_chunk)))
+        {
+            c.ds = Some(create_dataset(&file, c, rows, z).map_err(err)?);
+            c.reserve(rows);
+        }
+        // Every object exists: from here readers may follow the file.
+        file.start_swmr().map_err(err)?;
+        Ok(Writer {
+            file: Some(file),
+            path: path.to_path_buf(),
+            fs: meta.sample_rate_hz,
+            n_is: meta.n_is,
             n,
-            chunk_rows: chunk_rows.max(1),
+            chunk_rows,
             samples,
             estimates,
             gate: RowGate::default(),
-            root_at: at.root,
-            root_msgs: root,
-            eof: at.eof,
+            last_flush: Instant::now(),
         })
     }
 
@@ -151,8 +260,8 @@ impl Writer {
         }
     }
 
-    fn io_err(&self, source: std::io::Error) -> TelemetryError {
-        TelemetryError::Write {
+    fn h5_err(&self, source: hdf5::Error) -> TelemetryError {
+        TelemetryError::Hdf5Write {
             path: self.path.clone(),
             source,
         }
@@ -207,64 +316,36 @@ impl Writer {
         Ok(())
     }
 
-    /// Write the buffered rows, then publish them in the datasets' headers.
+    /// Write the buffered rows and flush the file: readers see them from here on, and
+    /// a crash keeps them.
     pub fn flush(&mut self) -> Result<(), TelemetryError> {
-        let need = self.estimates[0].rows + self.estimates[0].pending();
-        if need > self.estimates[0].capacity {
-            self.grow_estimates(need)?;
+        self.last_flush = Instant::now();
+        let pending = self
+            .samples
+            .iter()
+            .chain(self.estimates.iter())
+            .any(|c| c.pending() > 0);
+        if !pending {
+            return Ok(());
         }
-        let file = &self.file;
-        let path = &self.path;
-        let err = |source| TelemetryError::Write {
-            path: path.clone(),
-            source,
-        };
-        let cols = || self.samples.iter().chain(self.estimates.iter());
-        for c in cols().filter(|c| !c.buf.is_empty()) {
-            file.write_all_at(&c.buf, c.data_at + c.rows * c.row_bytes)
-                .map_err(err)?;
-        }
+        let mut done = Ok(());
         for c in self.samples.iter_mut().chain(self.estimates.iter_mut()) {
-            if !c.buf.is_empty() {
-                c.rows += c.pending();
-                c.buf.clear();
-                file.write_all_at(&c.header(), c.header_at).map_err(err)?;
-            }
+            done = done.and_then(|_| write_rows(c));
         }
-        Ok(())
+        let done = done.and_then(|_| match &self.file {
+            Some(f) => f.flush(),
+            None => Ok(()),
+        });
+        done.map_err(|e| self.h5_err(e))
     }
 
-    /// Move the estimate columns' storage to the end of the file, with room for
-    /// `rows` rows at least.
-    fn grow_estimates(&mut self, rows: u64) -> Result<(), TelemetryError> {
-        let cap = rows.max(2 * self.estimates[0].capacity);
-        let mut chunk = vec![0u8; 1 << 20];
-        for k in 0..self.estimates.len() {
-            let c = &self.estimates[k];
-            let at = self.eof;
-            let used = c.rows * c.row_bytes;
-            let mut done = 0;
-            while done < used {
-                let n = (used - done).min(chunk.len() as u64) as usize;
-                self.file
-                    .read_exact_at(&mut chunk[..n], c.data_at + done)
-                    .map_err(|e| self.io_err(e))?;
-                self.file
-                    .write_all_at(&chunk[..n], at + done)
-                    .map_err(|e| self.io_err(e))?;
-                done += n as u64;
-            }
-            self.eof = align8(at + cap * c.row_bytes);
-            let c = &mut self.estimates[k];
-            c.data_at = at;
-            c.capacity = cap;
+    /// Flush if rows wait and the last flush is at least `age` old: a real-time
+    /// recorder's rows reach live readers within `age`, not a chunk later.
+    pub fn flush_if_older(&mut self, age: Duration) -> Result<(), TelemetryError> {
+        if self.last_flush.elapsed() >= age {
+            self.flush()?;
         }
-        self.file.set_len(self.eof).map_err(|e| self.io_err(e))?;
-        // The headers point to the new storage once the pending rows are published;
-        // until then they still name the old one, intact.
-        self.file
-            .write_all_at(&h5::superblock(self.eof, self.root_at), 0)
-            .map_err(|e| self.io_err(e))
+        Ok(())
     }
 
     /// Write what is buffered and the fault log (`[faults]` runs), and close the file.
@@ -275,8 +356,9 @@ impl Writer {
         detected: &[u64],
     ) -> Result<(), TelemetryError> {
         self.flush()?;
+        self.close()?;
         if !faults.is_empty() {
-            self.write_faults(faults, detected)?;
+            write_faults(&self.path, faults, detected).map_err(|e| self.h5_err(e))?;
         }
         let got = self.samples[0].rows;
         if got != self.n {
@@ -285,300 +367,59 @@ impl Writer {
         Ok(())
     }
 
-    /// The `/faults` group, at the end of the file, then linked from the root.
-    fn write_faults(&mut self, f: &[FaultRecord], detected: &[u64]) -> Result<(), TelemetryError> {
-        let nf = f.len();
-        let u = |g: &dyn Fn(&FaultRecord) -> u64| -> Vec<u8> {
-            f.iter().flat_map(|r| g(r).to_le_bytes()).collect()
-        };
-        let x = |g: &dyn Fn(&FaultRecord) -> f64| -> Vec<u8> {
-            f.iter().flat_map(|r| g(r).to_le_bytes()).collect()
-        };
-        let det: Vec<u8> = (0..nf)
-            .flat_map(|i| detected.get(i).copied().unwrap_or(0).to_le_bytes())
-            .collect();
-        let cols: Vec<(&'static str, Kind, Vec<u8>)> = vec![
-            (l::FAULT_TICK, Kind::U64, u(&|r| r.tick)),
-            (l::FAULT_KIND, Kind::U64, u(&|r| r.kind as u64)),
-            (l::FAULT_FIELD, Kind::U64, u(&|r| r.field as u64)),
-            (l::FAULT_BIT, Kind::U64, u(&|r| r.bit as u64)),
-            (l::FAULT_SAMPLES, Kind::U64, u(&|r| r.samples as u64)),
-            (l::FAULT_BEFORE, Kind::F64, x(&|r| r.before)),
-            (l::FAULT_AFTER, Kind::F64, x(&|r| r.after)),
-            (l::FAULT_SIGMAS, Kind::F64, x(&|r| r.sigmas)),
-            (l::FAULT_DETECTED, Kind::U64, det),
-        ];
-        let mut strings = Strings::default();
-        let placeholder: Vec<Vec<Msg>> = cols
-            .iter()
-            .map(|c| channel_attrs(c.0, &mut strings, 0))
-            .collect();
-        let mut alloc = Alloc { at: self.eof };
-        let links: Vec<(&str, u64)> = cols.iter().map(|c| (name_of(c.0), 0)).collect();
-        let group_at = alloc.take(h5::object_header(&h5::group(&links)).len() as u64);
-        let dims = [nf as u64];
-        let header_at: Vec<u64> = cols
-            .iter()
-            .zip(&placeholder)
-            .map(|(c, a)| {
-                alloc.take(h5::object_header(&h5::dataset(c.1, &dims, 0, a)).len() as u64)
-            })
-            .collect();
-        let heap = strings.heap();
-        let heap_at = alloc.take(heap.len() as u64);
-        let data_at: Vec<u64> = cols.iter().map(|c| alloc.take(c.2.len() as u64)).collect();
-        let eof = alloc.at;
-
-        let mut strings = Strings::default();
-        let mut image = vec![0u8; (eof - self.eof) as usize];
-        let base = self.eof;
-        let mut put = |at: u64, bytes: &[u8]| {
-            let at = (at - base) as usize;
-            image[at..at + bytes.len()].copy_from_slice(bytes);
-        };
-        let links: Vec<(&str, u64)> = cols
-            .iter()
-            .zip(&header_at)
-            .map(|(c, &a)| (name_of(c.0), a))
-            .collect();
-        put(group_at, &h5::object_header(&h5::group(&links)));
-        for (k, c) in cols.iter().enumerate() {
-            let attrs = channel_attrs(c.0, &mut strings, heap_at);
-            put(
-                header_at[k],
-                &h5::object_header(&h5::dataset(c.1, &dims, data_at[k], &attrs)),
-            );
-            put(data_at[k], &c.2);
+    /// Close every dataset, then the file (leaving SWMR).
+    fn close(&mut self) -> Result<(), TelemetryError> {
+        for c in self.samples.iter_mut().chain(self.estimates.iter_mut()) {
+            c.ds = None;
         }
-        put(heap_at, &heap);
-        let path = self.path.clone();
-        let err = |source| TelemetryError::Write {
-            path: path.clone(),
-            source,
-        };
-        self.file.write_all_at(&image, base).map_err(err)?;
-        self.eof = eof;
-        self.file.set_len(eof).map_err(err)?;
-        self.file
-            .write_all_at(&h5::superblock(eof, self.root_at), 0)
-            .map_err(err)?;
-        // Last, the link: until it is written the file is the one without faults.
-        let root = root_header(&self.root_msgs, Some(group_at));
-        self.file.write_all_at(&root, self.root_at).map_err(err)?;
-        Ok(())
-    }
-}
-
-/// The datasets of a file grouped as the layout's paths say (see [`groups`]).
-type Tree = Vec<(&'static str, Vec<(&'static str, usize)>)>;
-
-/// The sample and estimate columns of a file for `n` samples of `ni` sensors at `fs`
-/// [Hz], with their capacities.
-fn sized_columns(ni: usize, fs: f64, n: u64) -> (Vec<Column>, Vec<Column>) {
-    let mut samples = sample_columns(ni);
-    let mut estimates = estimate_columns(ni);
-    // Estimate rows are ≥ one spacing apart, plus the first and the final one; more
-    // (a foreign estimator cadence) moves their storage to the end of the file.
-    let spacing = ((super::ESTIMATE_ROW_EVERY_S * fs).round() as u64).max(1);
-    for c in &mut samples {
-        c.capacity = n;
-    }
-    for c in &mut estimates {
-        c.capacity = n / spacing + 2;
-    }
-    (samples, estimates)
-}
-
-/// The root's links: to each top-level dataset and each group, at `addr(group, column)`.
-fn root_links(tree: &Tree, addr: &dyn Fn(&str, usize) -> u64) -> Vec<Msg> {
-    let mut m = h5::group(&[]);
-    for (group, items) in tree {
-        if group.is_empty() {
-            for &(name, i) in items {
-                m.push(h5::link(name, addr("", i)));
-            }
-        } else {
-            m.push(h5::link(group, addr(group, 0)));
+        match self.file.take() {
+            Some(f) => f.close().map_err(|e| self.h5_err(e)),
+            None => Ok(()),
         }
     }
-    m
 }
 
-/// Where every object of a new file goes.
-struct Placement {
-    root: u64,
-    /// Each group's header.
-    groups: Vec<(&'static str, u64)>,
-    /// Each column's header and storage, samples then estimates.
-    headers: Vec<u64>,
-    data: Vec<u64>,
-    heap: u64,
-    /// The global heap's bytes (the strings of every attribute).
-    heap_bytes: Vec<u8>,
-    /// The end of the metadata (headers and heap).
-    meta_end: u64,
-    eof: u64,
-}
-
-/// The first pass: the objects' sizes (which do not depend on addresses), hence their
-/// addresses.
-fn place(meta: &Meta, samples: &mut [Column], estimates: &mut [Column]) -> Placement {
-    let mut strings = Strings::default();
-    let root_attrs = root_attributes(meta, &mut strings);
-    for c in samples.iter_mut().chain(estimates.iter_mut()) {
-        c.attrs = channel_attrs(c.path, &mut strings, 0);
+/// The `/faults` group, added to the closed file `path`.
+fn write_faults(path: &Path, f: &[FaultRecord], detected: &[u64]) -> hdf5::Result<()> {
+    let file = hdf5::File::with_options()
+        .with_fapl(|p| p.libver_v110())
+        .open_rw(path)?;
+    file.create_group("faults")?;
+    let u = |g: &dyn Fn(&FaultRecord) -> u64| -> Vec<u64> { f.iter().map(g).collect() };
+    let x = |g: &dyn Fn(&FaultRecord) -> f64| -> Vec<f64> { f.iter().map(g).collect() };
+    let det: Vec<u64> = (0..f.len())
+        .map(|i| detected.get(i).copied().unwrap_or(0))
+        .collect();
+    let ints = [
+        (l::FAULT_TICK, u(&|r| r.tick)),
+        (l::FAULT_KIND, u(&|r| r.kind as u64)),
+        (l::FAULT_FIELD, u(&|r| r.field as u64)),
+        (l::FAULT_BIT, u(&|r| r.bit as u64)),
+        (l::FAULT_SAMPLES, u(&|r| r.samples as u64)),
+        (l::FAULT_DETECTED, det),
+    ];
+    let floats = [
+        (l::FAULT_BEFORE, x(&|r| r.before)),
+        (l::FAULT_AFTER, x(&|r| r.after)),
+        (l::FAULT_SIGMAS, x(&|r| r.sigmas)),
+    ];
+    for (p, v) in &ints {
+        let ds = file
+            .new_dataset_builder()
+            .obj_track_times(false)
+            .with_data(v.as_slice())
+            .create(*p)?;
+        channel_attrs(&ds, p)?;
     }
-    let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
-    let tree = groups(all.iter().copied());
-    let mut root_msgs = root_links(&tree, &|_, _| 0);
-    root_msgs.extend(root_attrs.iter().map(|v| h5::attribute(v.0, &v.1)));
-    let root_len = root_header(&root_msgs, None).len() as u64;
-    let mut alloc = Alloc { at: 48 };
-    let root = alloc.take(root_len);
-    let mut group_at = Vec::new();
-    for (group, items) in &tree {
-        if !group.is_empty() {
-            let links: Vec<(&str, u64)> = items.iter().map(|&(n, _)| (n, 0)).collect();
-            let len = h5::object_header(&h5::group(&links)).len() as u64;
-            group_at.push((*group, alloc.take(len)));
-        }
+    for (p, v) in &floats {
+        let ds = file
+            .new_dataset_builder()
+            .obj_track_times(false)
+            .with_data(v.as_slice())
+            .create(*p)?;
+        channel_attrs(&ds, p)?;
     }
-    let mut header_at = Vec::new();
-    for c in &all {
-        header_at.push(alloc.take(c.header().len() as u64));
-    }
-    let heap = strings.heap();
-    let heap_at = alloc.take(heap.len() as u64);
-    let meta_end = alloc.at;
-    let mut data_at = Vec::new();
-    for c in &all {
-        data_at.push(alloc.take(c.capacity * c.row_bytes));
-    }
-    Placement {
-        root,
-        groups: group_at,
-        headers: header_at,
-        data: data_at,
-        heap: heap_at,
-        heap_bytes: heap,
-        meta_end,
-        eof: alloc.at,
-    }
-}
-
-/// The second pass: the metadata's bytes (superblock, headers, heap) at the addresses
-/// of `at`, the columns given theirs; and the root's messages.
-fn metadata_image(
-    meta: &Meta,
-    samples: &mut [Column],
-    estimates: &mut [Column],
-    at: &Placement,
-    chunk_rows: usize,
-) -> (Vec<u8>, Vec<Msg>) {
-    let heap_at = at.heap;
-    let mut strings = Strings::default();
-    let root_attrs = root_attributes(meta, &mut strings);
-    for (k, c) in samples.iter_mut().chain(estimates.iter_mut()).enumerate() {
-        c.attrs = channel_attrs(c.path, &mut strings, heap_at);
-        c.header_at = at.headers[k];
-        c.data_at = at.data[k];
-        c.buf.reserve(chunk_rows * c.row_bytes as usize);
-    }
-    let mut image = vec![0u8; at.meta_end as usize];
-    let mut put = |addr: u64, bytes: &[u8]| {
-        image[addr as usize..addr as usize + bytes.len()].copy_from_slice(bytes);
-    };
-    let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
-    let tree = groups(all.iter().copied());
-    let group_addr = |g: &str| at.groups.iter().find(|(n, _)| *n == g).map_or(0, |x| x.1);
-    let mut root = root_links(&tree, &|g, i| {
-        if g.is_empty() {
-            all[i].header_at
-        } else {
-            group_addr(g)
-        }
-    });
-    root.extend(
-        root_attrs
-            .iter()
-            .map(|v| h5::attribute(v.0, &at_heap(&v.1, heap_at))),
-    );
-    put(at.root, &root_header(&root, None));
-    for (group, items) in &tree {
-        if !group.is_empty() {
-            let links: Vec<(&str, u64)> =
-                items.iter().map(|&(n, i)| (n, all[i].header_at)).collect();
-            put(group_addr(group), &h5::object_header(&h5::group(&links)));
-        }
-    }
-    for c in &all {
-        put(c.header_at, &c.header());
-    }
-    put(heap_at, &at.heap_bytes);
-    put(0, &h5::superblock(at.eof, at.root));
-    (image, root)
-}
-
-/// Create `path` holding `image`, `eof` bytes long.
-fn open_file(path: &Path, image: &[u8], eof: u64) -> Result<std::fs::File, TelemetryError> {
-    let err = |source| TelemetryError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-    // Read too: moving the estimate rows copies them.
-    let file = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(path)
-        .map_err(err)?;
-    file.write_all_at(image, 0).map_err(err)?;
-    // The reserved storage reads as zeros (and takes no disk space) until written.
-    file.set_len(eof).map_err(err)?;
-    Ok(file)
-}
-
-fn name_of(path: &'static str) -> &'static str {
-    path.rsplit_once('/').map_or(path, |x| x.1)
-}
-
-/// The root header: links, attributes, the `faults` link if any, and padding that
-/// keeps its size whether or not that link is there.
-fn root_header(msgs: &[Msg], faults: Option<u64>) -> Vec<u8> {
-    let mut m = msgs.to_vec();
-    let mut spare = ROOT_SPARE;
-    if let Some(at) = faults {
-        let link = h5::link("faults", at);
-        spare -= link.size();
-        m.push(link);
-    }
-    m.push(h5::nil(spare));
-    h5::object_header(&m)
-}
-
-/// The root attributes (their strings added to `strings`).
-fn root_attributes(meta: &Meta, strings: &mut Strings) -> Vec<(&'static str, Value)> {
-    vec![
-        ("format", strings.add(l::FORMAT)),
-        ("format_version", Value::U64(l::FORMAT_VERSION)),
-        (
-            "software",
-            strings.add(concat!(
-                env!("CARGO_PKG_NAME"),
-                " ",
-                env!("CARGO_PKG_VERSION")
-            )),
-        ),
-        ("scenario", strings.add(&meta.scenario_toml)),
-        ("scenario_name", strings.add(&meta.scenario_name)),
-        ("seed", Value::U64(meta.seed)),
-        ("method", strings.add(&meta.method)),
-        ("mode", strings.add(&meta.mode)),
-        ("sample_rate_hz", Value::F64(meta.sample_rate_hz)),
-        ("duration_s", Value::F64(meta.duration_s)),
-        ("n_inertial_sensors", Value::U64(meta.n_is as u64)),
-    ]
+    file.close()
 }
 
 /// Write a recording held in memory. Every truth and sensor row must be present.
@@ -647,14 +488,24 @@ mod tests {
     use super::*;
 
     #[test]
-    fn estimate_rows_beyond_the_reserved_room_move_to_the_end_of_the_file() {
+    fn compression_values_parse_and_others_are_refused() {
+        assert_eq!("none".parse::<Compression>().unwrap(), Compression::None);
+        assert_eq!("4".parse::<Compression>().unwrap(), Compression::Deflate(4));
+        for bad in ["10", "-1", "fast", ""] {
+            let e = bad.parse::<Compression>().unwrap_err().to_string();
+            assert!(e.contains("deflate level 1 to 9"), "{e}");
+        }
+    }
+
+    #[test]
+    fn estimate_rows_grow_their_datasets_chunk_by_chunk() {
         let dir = std::env::temp_dir().join(format!("taiji-grow-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("grow.h5");
         let s = crate::scenario::Scenario::default();
         let mut meta = Meta::of(&s, 1, "joint", "in-process");
         meta.n_is = 1;
-        // 10 samples at 10 Hz: room for 10 / 100 + 2 = 2 estimate rows; write 9.
+        // 10 samples at 10 Hz, two rows a chunk; 9 estimate rows.
         let mut w = Writer::create(&path, &meta, 10, 2).unwrap();
         for k in 0..10 {
             let header = Header::at(k, k, 10.0);
@@ -677,19 +528,12 @@ mod tests {
             }
         }
         w.finish(&[], &[]).unwrap();
-        let f = hdf5_pure::File::open(&path).unwrap();
-        assert_eq!(
-            f.dataset(l::EST_TICK).unwrap().read_u64().unwrap(),
-            (100..109).collect::<Vec<u64>>()
-        );
-        assert_eq!(
-            f.dataset(l::EST_BETA).unwrap().shape().unwrap(),
-            vec![9, 1, 3]
-        );
-        assert_eq!(
-            f.dataset(l::TICK).unwrap().read_u64().unwrap(),
-            (0..10).collect::<Vec<u64>>()
-        );
+        let f = hdf5::File::open(&path).unwrap();
+        let ticks: Vec<u64> = f.dataset(l::EST_TICK).unwrap().read_raw().unwrap();
+        assert_eq!(ticks, (100..109).collect::<Vec<u64>>());
+        assert_eq!(f.dataset(l::EST_BETA).unwrap().shape(), vec![9, 1, 3]);
+        let ticks: Vec<u64> = f.dataset(l::TICK).unwrap().read_raw().unwrap();
+        assert_eq!(ticks, (0..10).collect::<Vec<u64>>());
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
