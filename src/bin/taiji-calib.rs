@@ -9,7 +9,7 @@ use taiji::montecarlo;
 use taiji::progress::Bar;
 use taiji::report::Report;
 use taiji::scenario::Scenario;
-use taiji::telemetry::Meta;
+use taiji::telemetry::{Compression, Meta};
 
 #[derive(Parser)]
 #[command(
@@ -57,6 +57,10 @@ enum Cmd {
         /// Record every stream to DIR/telemetry.h5.
         #[arg(long)]
         record: bool,
+        /// With --record: each chunk shuffled and deflated at this level (1–9), or
+        /// `none`.
+        #[arg(long, default_value_t = Compression::DEFAULT, value_name = "none|N")]
+        record_compression: Compression,
         /// Also draw the figures to DIR/plots/ (PNG and SVG; implies --record); the
         /// reports embed them.
         #[arg(long)]
@@ -363,13 +367,14 @@ fn run(cli: Cli) -> Result<ExitCode, CliError> {
             out,
             method,
             record,
+            record_compression,
             plots,
         } => run_campaign(
             scenario.as_deref(),
             seed,
             &out,
             method.into(),
-            record,
+            (record || plots).then_some(record_compression),
             plots,
         ),
         Cmd::Replay {
@@ -422,7 +427,7 @@ fn run_campaign(
     seed: Option<u64>,
     out: &std::path::Path,
     method: Method,
-    record: bool,
+    record: Option<Compression>,
     plots: bool,
 ) -> Result<ExitCode, CliError> {
     check_out(out)?;
@@ -436,7 +441,7 @@ fn run_campaign(
     };
     let bar = Bar::new(1000, "campaign");
     let tick = |f: f64| bar.set((f * 1000.0) as u64);
-    let (estimate, tel, faults) = if record || plots {
+    let (estimate, tel, faults) = if record.is_some() || plots {
         // The recording streams to the folder as the campaign runs.
         out_dir(out)?;
         recorded_campaign(&s, seed, method, out, record, plots, tick)?
@@ -467,7 +472,7 @@ fn recorded_campaign(
     seed: u64,
     method: Method,
     out: &std::path::Path,
-    record: bool,
+    record: Option<Compression>,
     plots: bool,
     tick: impl FnMut(f64),
 ) -> Result<
@@ -481,13 +486,14 @@ fn recorded_campaign(
     // The recording streams to disk as the campaign runs; figures need the streams in
     // memory.
     let mut file = match record {
-        true => Some(taiji::telemetry::Writer::create(
+        Some(z) => Some(taiji::telemetry::Writer::create_with(
             &out.join("telemetry.h5"),
             &Meta::of(s, seed, method.name(), "in-process"),
             s.n_samples(),
             taiji::telemetry::CHUNK_ROWS,
+            z,
         )?),
-        false => None,
+        None => None,
     };
     let mut tel = plots.then(|| {
         let n = s.n_samples();
@@ -551,8 +557,10 @@ fn replay(
 ) -> Result<ExitCode, CliError> {
     let t0 = std::time::Instant::now();
     check_out(out)?;
-    let mut rec = taiji::telemetry::read::open(telemetry)?;
-    rec.follow = how.follow;
+    let rec = match how.follow {
+        Some(idle) => taiji::telemetry::read::open_following(telemetry, idle)?,
+        None => taiji::telemetry::read::open(telemetry)?,
+    };
     if let (Some(t), None) = (rec.truncation(), how.follow) {
         truncated(telemetry, t, how.complete)?;
     }

@@ -130,6 +130,10 @@ pub struct StageArgs {
     /// Seed (default: the scenario's).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// The recorder's compression: each chunk shuffled and deflated at this level
+    /// (1–9), or `none`.
+    #[arg(long, default_value_t = crate::telemetry::Compression::DEFAULT, value_name = "none|N")]
+    pub record_compression: crate::telemetry::Compression,
     #[command(flatten)]
     pub bus: BusArgs,
 }

@@ -20,6 +20,10 @@ use crate::stage::Stage;
 use crate::telemetry::{Meta, Writer, CHUNK_ROWS};
 use std::time::Duration;
 
+/// The longest a received row waits in memory while the recorder idles: what a live
+/// reader of the file (h5py with `swmr=True`, `replay --follow`) lags behind the run.
+const LIVE_FLUSH: Duration = Duration::from_secs(2);
+
 /// File name of the recording in the run directory.
 pub const TELEMETRY_FILE: &str = "telemetry.h5";
 
@@ -59,7 +63,13 @@ pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let mut service = RecorderService {
         truth: bus::subscriber_with_queue::<TruthState>(&link.node, bus::SVC_TRUTH, q)?,
         estimate: bus::subscriber_with_queue::<EstimateMsg>(&link.node, bus::SVC_ESTIMATE, q)?,
-        tel: Some(Writer::create(&path, &meta, n, CHUNK_ROWS)?),
+        tel: Some(Writer::create_with(
+            &path,
+            &meta,
+            n,
+            CHUNK_ROWS,
+            args.record_compression,
+        )?),
         path,
         n,
         fee: FrontEnd::new(&s, seed, true),
@@ -198,8 +208,12 @@ impl Service for RecorderService {
             self.complete(t, link.progress.samples_lost)?;
             return Ok(Turn::Done);
         }
-        if self.tel.is_none() {
+        let Some(t) = self.tel.as_mut() else {
             return Ok(Turn::Done);
+        };
+        if got == 0 {
+            // Idle: rows waiting reach live readers (SWMR) within LIVE_FLUSH.
+            t.flush_if_older(LIVE_FLUSH)?;
         }
         Ok(match got {
             0 => Turn::Idle(Duration::from_millis(1)),

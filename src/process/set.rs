@@ -53,6 +53,9 @@ pub struct SupervisorArgs {
     /// Start the recorder too: every stream to OUT/telemetry.h5.
     #[arg(long)]
     pub record: bool,
+    /// With --record: each chunk shuffled and deflated at this level (1–9), or `none`.
+    #[arg(long, default_value_t = crate::telemetry::Compression::DEFAULT, value_name = "none|N")]
+    pub record_compression: crate::telemetry::Compression,
     /// Draw the figures from the recording to OUT/plots/ (implies --record).
     #[arg(long)]
     pub plots: bool,

@@ -580,6 +580,10 @@ fn new_set(args: &SupervisorArgs, s: &Scenario) -> Result<Set, SupervisorError> 
     let table_args = vec!["--table".into(), table.display().to_string()];
     if args.record {
         common.push("--record".into());
+        scenario_args.extend([
+            "--record-compression".into(),
+            args.record_compression.to_string(),
+        ]);
     }
     if args.realtime {
         common.extend([

@@ -231,6 +231,23 @@ pub fn open(path: &Path) -> Result<Recording, TelemetryError> {
     })
 }
 
+/// [`open`] a recording that may still be being written, and follow it: until it
+/// opens with rows (the file created, its writer in SWMR mode, a first flush), it is
+/// tried again for up to `idle`; the last error is returned after that.
+pub fn open_following(path: &Path, idle: std::time::Duration) -> Result<Recording, TelemetryError> {
+    let since = std::time::Instant::now();
+    loop {
+        match open(path) {
+            Ok(mut rec) => {
+                rec.follow = Some(idle);
+                return Ok(rec);
+            }
+            Err(e) if since.elapsed() >= idle => return Err(e),
+            Err(_) => std::thread::sleep(std::time::Duration::from_millis(100)),
+        }
+    }
+}
+
 /// Run `f` on the file; a panic inside the HDF5 binding is reported as corruption.
 fn guarded<T>(
     r: &Reader,

@@ -29,33 +29,47 @@ pub const CHUNK_ROWS: usize = 4096;
 /// Rows of an estimate dataset's HDF5 chunk (a row every 10 s: 640 s of campaign).
 const ESTIMATE_CHUNK_ROWS: usize = 64;
 
-/// How each chunk is compressed on disk.
+/// How each chunk is compressed on disk: HDF5's byte shuffle, then deflate (zlib).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Compression {
     /// Stored as is.
     None,
-    /// HDF5's byte shuffle, then deflate (zlib) at this level, 1 (fastest) to 9.
+    /// Level 1 on the datasets whose values repeat or step (ticks, times, flags, the
+    /// commanded torque, the estimates: 30–100× smaller), the noise-dominated floats
+    /// as they are (deflate saves them 10–30 % at about +50 % of the process set's
+    /// wall time). Measured in docs/telemetry.md.
+    Auto,
+    /// Every dataset at this level, 1 (fastest) to 9.
     Deflate(u8),
 }
 
 impl Compression {
-    /// The default, chosen by measurement (docs/telemetry.md): level 1 keeps nearly
-    /// all of level 9's saving at a fraction of its time.
-    pub const DEFAULT: Compression = Compression::Deflate(1);
+    /// The default, chosen by measurement (docs/telemetry.md).
+    pub const DEFAULT: Compression = Compression::Auto;
+
+    /// The deflate level of column `c`, if it is compressed.
+    fn level(self, c: &Column) -> Option<u8> {
+        match self {
+            Compression::None => None,
+            Compression::Auto => c.steps().then_some(1),
+            Compression::Deflate(n) => Some(n),
+        }
+    }
 }
 
 impl std::fmt::Display for Compression {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Compression::None => f.write_str("none"),
+            Compression::Auto => f.write_str("auto"),
             Compression::Deflate(n) => write!(f, "{n}"),
         }
     }
 }
 
-/// A `--record-compression` value that is neither `none` nor a level 1–9.
+/// A `--record-compression` value that is neither `none`, `auto` nor a level 1–9.
 #[derive(Debug, thiserror::Error)]
-#[error("`{0}` is not a compression: give `none` or a deflate level 1 to 9")]
+#[error("`{0}` is not a compression: give `none`, `auto` or a deflate level 1 to 9")]
 pub struct CompressionParseError(String);
 
 impl std::str::FromStr for Compression {
@@ -64,6 +78,7 @@ impl std::str::FromStr for Compression {
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.trim() {
             "none" | "0" => Ok(Compression::None),
+            "auto" => Ok(Compression::Auto),
             t => match t.parse::<u8>() {
                 Ok(n @ 1..=9) => Ok(Compression::Deflate(n)),
                 _ => Err(CompressionParseError(s.to_string())),
@@ -155,7 +170,7 @@ fn create_dataset(
     }
     .chunk(chunk_dims)
     .obj_track_times(false);
-    if let Compression::Deflate(level) = z {
+    if let Some(level) = z.level(c) {
         b = b.shuffle().deflate(level);
     }
     let ds = b
@@ -491,9 +506,10 @@ mod tests {
     fn compression_values_parse_and_others_are_refused() {
         assert_eq!("none".parse::<Compression>().unwrap(), Compression::None);
         assert_eq!("4".parse::<Compression>().unwrap(), Compression::Deflate(4));
+        assert_eq!("auto".parse::<Compression>().unwrap(), Compression::Auto);
         for bad in ["10", "-1", "fast", ""] {
             let e = bad.parse::<Compression>().unwrap_err().to_string();
-            assert!(e.contains("deflate level 1 to 9"), "{e}");
+            assert!(e.contains("`auto` or a deflate level 1 to 9"), "{e}");
         }
     }
 
