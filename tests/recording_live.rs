@@ -4,6 +4,7 @@
 //! leaves a file that h5py and `replay` read up to its last flushed rows, its size in
 //! proportion to them.
 
+#[allow(dead_code)] // the in-process helper is for the process-set tests
 mod common;
 mod tmpdir;
 
