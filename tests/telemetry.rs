@@ -285,6 +285,26 @@ fn bad_telemetry_files_get_a_clear_error() {
 }
 
 #[test]
+fn a_recording_of_the_former_hand_written_encoder_still_replays_bit_for_bit() {
+    // tests/data/legacy-encoder.h5: 150 s recorded by `run --record` before libhdf5
+    // wrote the files (contiguous datasets, written byte by byte); its report beside it.
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let dir = tmp("legacy");
+    let out = calib()
+        .args(["replay", "--telemetry"])
+        .arg(data.join("legacy-encoder.h5"))
+        .arg("--out")
+        .arg(dir.join("replay"))
+        .output()
+        .unwrap();
+    assert!(matches!(out.status.code(), Some(0 | 1)), "{out:?}");
+    let live: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(data.join("legacy-encoder.json")).unwrap())
+            .unwrap();
+    assert_eq!(estimates(&report(&dir.join("replay"))), estimates(&live));
+}
+
+#[test]
 fn the_docs_document_the_layout_the_code_writes() {
     let doc =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/telemetry.md"))
