@@ -52,13 +52,15 @@ pub struct Truncation {
 }
 
 /// The text of a string attribute, whichever string type its writer chose.
+/// (A corrupt file's text may not be UTF-8: then it is no text.)
 fn text_attr(a: &hdf5::Attribute) -> Option<String> {
+    let text = |b: &[u8]| std::str::from_utf8(b).ok().map(str::to_string);
     if let Ok(v) = a.read_scalar::<VarLenUnicode>() {
-        return Some(v.as_str().to_string());
+        return text(v.as_bytes());
     }
     a.read_scalar::<VarLenAscii>()
         .ok()
-        .map(|v| v.as_str().to_string())
+        .and_then(|v| text(v.as_bytes()))
 }
 
 fn num_attr(a: &hdf5::Attribute) -> Option<f64> {
@@ -260,6 +262,9 @@ fn guarded<T>(
     })?
 }
 
+/// Tries of a metadata read whose checksum fails, in SWMR mode (see [`load`]).
+const SWMR_READ_ATTEMPTS: u32 = 27;
+
 /// Open the file with libhdf5, which checks its superblock and length (data is read
 /// on demand). A file still open for writing, or whose writer died, opens as an SWMR
 /// reader sees it: every row flushed so far.
@@ -269,10 +274,13 @@ fn load(path: &Path) -> Result<Reader, TelemetryError> {
         source,
     })?;
     let open = |mode| {
-        std::panic::catch_unwind(|| File::open_as(path, mode)).map_err(|_| {
-            TelemetryError::Corrupt {
-                path: path.to_path_buf(),
-            }
+        let mut b = File::with_options();
+        // An SWMR reader retries metadata whose checksum fails, backing off twice as
+        // long each time from 1 ns (100 tries by default: hours on a corrupt file).
+        // 27 tries wait 0.13 s in all: a live writer's flush is not torn longer.
+        b.fapl().metadata_read_attempts(SWMR_READ_ATTEMPTS);
+        std::panic::catch_unwind(|| b.open_as(path, mode)).map_err(|_| TelemetryError::Corrupt {
+            path: path.to_path_buf(),
         })
     };
     let file = match open(hdf5::file::OpenMode::Read)? {
