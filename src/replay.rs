@@ -1,18 +1,22 @@
 //! Replay: the estimator alone on a recording's star-tracker and IS channels (never
 //! truth). On our own recordings it reproduces the live estimates bit for bit, since
-//! it feeds the same samples, in the same order, to the same estimator. The samples
-//! are read from the file a window at a time, so memory does not grow with its length.
+//! it feeds the same samples, in the same order, to the same estimator. A recording
+//! holds each tick's sample once; where its scenario injected bus faults (duplicates,
+//! reorders, missing samples, garbage headers), replay delivers the samples as that
+//! bus did, from the same seeded injector: the deliveries depend on the seed and the
+//! tick alone. The samples are read from the file a window at a time, so memory does
+//! not grow with its length.
 
 use crate::estimate::{Estimator, Method};
-use crate::msg::EstimateMsg;
+use crate::faults::{Delivery, Injector};
+use crate::msg::{EstimateMsg, SensorSample};
 use crate::telemetry::read::Recording;
 use crate::telemetry::{RowGate, TelemetryError};
 
 /// The final estimate of a replay.
 pub struct Replayed {
     pub estimate: EstimateMsg,
-    /// Detection of the recording's own fault log (`/faults`; bus faults are not in a
-    /// recording's samples, so they are left out).
+    /// Detection of the recording's own fault log (`/faults`).
     pub faults: Option<crate::faults::FaultScore>,
 }
 
@@ -38,29 +42,31 @@ pub fn run_with_rows(
     let n = rec.expected;
     let mut score = (!rec.faults.is_empty()).then(|| {
         let mut sc = crate::faults::FaultScore::new(s);
-        for r in rec
-            .faults
-            .iter()
-            .filter(|r| r.field != crate::faults::FIELD_HEADER)
-        {
+        for r in &rec.faults {
             sc.push(*r);
         }
         sc
     });
+    // The bus of the live run (none without `[faults]`: each sample once).
+    let bus = Injector::new(s, rec.seed);
+    let mut prev: Option<SensorSample> = None;
     for (i, sample) in rec.samples().enumerate() {
         let sample = sample?;
-        let e = est.step(&sample);
-        if let Some(sc) = score.as_mut() {
-            sc.observe(
-                sample.header.tick,
-                crate::faults::Delivery::This,
-                false,
-                e.tick_rejections,
-            );
+        for (d, of, second) in bus.annotated_deliveries(sample.header.tick) {
+            let m = match d {
+                Delivery::This => sample,
+                Delivery::Previous => prev.unwrap_or(sample),
+                Delivery::Garbage => bus.garbage(&sample),
+            };
+            let e = est.step(&m);
+            if let Some(sc) = score.as_mut() {
+                sc.observe(of, d, second, e.tick_rejections);
+            }
+            if gate.due(&e, fs) {
+                row(&e);
+            }
         }
-        if gate.due(&e, fs) {
-            row(&e);
-        }
+        prev = Some(sample);
         if i % 10_000 == 0 {
             progress((i as f64 / n as f64).min(1.0));
         }
