@@ -103,6 +103,22 @@ fn implausible_priors_are_rejected() {
 }
 
 #[test]
+fn priors_farther_than_the_estimator_acquires_are_refused_naming_the_key() {
+    // β's prior 10 % off is acquired (measured); 15 % and 30 % are not: refused.
+    for rel in ["0.15", "0.3"] {
+        let e = err(&format!("[ground_calibration]\nbeta_rel_error = {rel}"));
+        assert!(
+            e.contains("ground_calibration.beta_rel_error") && e.contains("at most 0.1"),
+            "{e}"
+        );
+    }
+    Scenario::from_toml_str("[ground_calibration]\nbeta_rel_error = 0.1").unwrap();
+    // 12 % off on one axis, given as the prior itself.
+    let e = err("[[inertial_sensor]]\nbeta_prior = [6.18e-8, 5.52143e-8, 7.36191e-8]");
+    assert!(e.contains("inertial_sensor[0].beta_prior") && e.contains("11.9 %"), "{e}");
+}
+
+#[test]
 fn a_frequency_too_low_for_the_duration_is_rejected() {
     assert!(err("[maneuver]\nfrequency_hz = 1e-5").contains("maneuver.frequency_hz"));
 }

@@ -7,6 +7,12 @@ use super::*;
 use crate::scenario::maneuver::{axis_frequencies, round_down_4, torque_boost, Envelope, Timeline};
 use std::path::Path;
 
+/// The farthest β's prior may be from the truth, relative: as far as the estimator
+/// acquires β (measured over 20 seeds each: every run met the requirements with honest
+/// σ at 0.12; at 0.15 eight runs of ten ended UNVERIFIED, the gates having rejected
+/// the samples that would have corrected β), with a margin.
+pub const MAX_BETA_PRIOR_REL: f64 = 0.1;
+
 /// The error of a value out of range, naming its key.
 fn err<T>(key: &str, msg: &str) -> Result<T, ScenarioError> {
     Err(ScenarioError::key(key, msg))
@@ -266,8 +272,14 @@ impl Scenario {
     fn validate_ground_calibration(&self) -> Result<(), ScenarioError> {
         let gc = &self.ground_calibration;
         nonneg("ground_calibration.beta_rel_error", gc.beta_rel_error)?;
-        if gc.beta_rel_error >= 0.5 {
-            return err("ground_calibration.beta_rel_error", "must be < 0.5");
+        if gc.beta_rel_error > MAX_BETA_PRIOR_REL {
+            return err(
+                "ground_calibration.beta_rel_error",
+                &format!(
+                    "{} is more than the estimator acquires: β's prior may be at most {} off (10 %); farther, its gates reject the samples that would correct it",
+                    gc.beta_rel_error, MAX_BETA_PRIOR_REL
+                ),
+            );
         }
         nonneg(
             "ground_calibration.com_offset_error_m",
@@ -299,8 +311,8 @@ impl Scenario {
             if let Some(bp) = is.beta_prior {
                 for (a, v) in bp.iter().enumerate() {
                     pos(&key("beta_prior"), *v)?;
-                    if (v / is.beta[a] - 1.0).abs() > 0.2 {
-                        return err(&key("beta_prior"), &format!("axis {a} is more than 20 % off the truth {} = {:e}; the ground calibration cannot be that wrong", key("beta"), is.beta[a]));
+                    if (v / is.beta[a] - 1.0).abs() > MAX_BETA_PRIOR_REL {
+                        return err(&key("beta_prior"), &format!("axis {a} is {:.1} % off the truth {} = {:e}: more than the estimator acquires (at most 10 %; farther, its gates reject the samples that would correct it)", 100.0 * (v / is.beta[a] - 1.0).abs(), key("beta"), is.beta[a]));
                     }
                 }
             }
