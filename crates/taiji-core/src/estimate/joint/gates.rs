@@ -103,8 +103,8 @@ impl JointEstimator {
             let (rho, var_rho, tol) = match self.ratio[a].ratio() {
                 Some((r, vr)) => (r, vr * (var1 + r * r * var2), 0.0),
                 // Before the fit: the prior ratio, with room for the ground error. The
-                // scenario allows each prior within 20 % of its truth, so the ratio
-                // within 50 %. A 10 % room rejected the samples of an axis whose priors
+                // scenario allows each prior within 10 % of its truth, so the ratio
+                // within 22 %; the room is 50 % (it was sized for 20 % priors). A 10 % room rejected the samples of an axis whose priors
                 // were 5 % off in opposite directions, and the fit learns from accepted
                 // samples only: with priors 5 % off at random, 5 of 30 runs lost a
                 // third of the campaign as `angular_mismatch`, 13 were inconsistent.
