@@ -252,3 +252,68 @@ fn a_second_run_of_a_scenario_reuses_its_plan_from_the_cache() {
     assert!(!log4.contains("from the plan cache"));
     assert_eq!(first, fourth);
 }
+
+#[test]
+fn any_truth_within_the_priors_uncertainty_flies_its_plan_and_one_outside_is_named() {
+    // The IS range binds the plan (a low design limit); IS1's CoM prior is given, with a
+    // ground-calibration uncertainty of ±2 mm. The plan sees the priors only.
+    let scenario = |r: [f64; 3]| {
+        format!(
+            "name = \"box\"\n[front_end]\nmaneuver_limit_m_s2 = 5e-10\n\
+             [ground_calibration]\ncom_offset_error_m = 0.002\n\
+             [[inertial_sensor]]\ncom_offset_m = [{}, {}, {}]\n\
+             com_offset_prior_m = [0.2164, -0.1251, 0.0002]\n\
+             [[inertial_sensor]]\ncom_offset_m = [0.2164, 0.1251, 0.0002]\n\
+             com_offset_prior_m = [0.2164, 0.1251, 0.0002]\n",
+            r[0], r[1], r[2]
+        )
+    };
+    let prior = [0.2164, -0.1251, 0.0002];
+    let (s, _) = planned(&scenario(prior));
+    assert!(s.maneuver.planned);
+    let flies = |r: [f64; 3]| {
+        let mut t = load(&scenario(prior));
+        t.inertial_sensor[0].com_offset_m = r;
+        t.maneuver = s.maneuver.clone();
+        t.plan_pending = false;
+        t.validated()
+    };
+    // 60 truths drawn inside the ±2 mm box (its corners among them): each flies the plan.
+    let mut x = 12345u64;
+    let mut unit = || {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    for k in 0..60 {
+        let r: [f64; 3] = std::array::from_fn(|a| {
+            let u = if k < 8 {
+                if k >> a & 1 == 1 {
+                    1.0
+                } else {
+                    -1.0
+                }
+            } else {
+                unit()
+            };
+            prior[a] + 0.002 * u * (1.0 - 1e-9)
+        });
+        flies(r).unwrap_or_else(|e| panic!("truth {r:?} inside the box: {e}"));
+    }
+    // A truth 5 mm out: refused, naming the prior and the uncertainty, never asking for
+    // the waveform keys to be left out (they were).
+    let e = plan::resolve(load(&scenario([0.2214, -0.1301, 0.0052])))
+        .expect_err("a truth outside the uncertainty overshoots the range")
+        .to_string();
+    assert!(
+        e.contains("inertial_sensor[0].com_offset_prior_m")
+            && e.contains("5.00 mm from its prior")
+            && e.contains("com_offset_error_m to at least 5.00 mm")
+            && !e.contains("leave the waveform keys out"),
+        "{e}"
+    );
+    // As it says: with a 5 mm uncertainty the same truth flies its plan.
+    let wider = scenario([0.2214, -0.1301, 0.0052]).replace("0.002\n", "0.005\n");
+    planned(&wider);
+}

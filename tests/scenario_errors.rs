@@ -115,7 +115,10 @@ fn priors_farther_than_the_estimator_acquires_are_refused_naming_the_key() {
     Scenario::from_toml_str("[ground_calibration]\nbeta_rel_error = 0.1").unwrap();
     // 12 % off on one axis, given as the prior itself.
     let e = err("[[inertial_sensor]]\nbeta_prior = [6.18e-8, 5.52143e-8, 7.36191e-8]");
-    assert!(e.contains("inertial_sensor[0].beta_prior") && e.contains("11.9 %"), "{e}");
+    assert!(
+        e.contains("inertial_sensor[0].beta_prior") && e.contains("11.9 %"),
+        "{e}"
+    );
 }
 
 #[test]
