@@ -13,7 +13,43 @@ pub struct Quantity {
     pub truth: [f64; 3],
     pub estimate: [f64; 3],
     pub sigma: [f64; 3],
+    /// The bound of the data alone (the Cramér–Rao bound of the maneuver flown).
     pub crlb: [f64; 3],
+    /// 1σ of the estimator's own prior (joint: 5 % of β's prior, 5 cm for r).
+    #[serde(default)]
+    pub prior_sigma: [f64; 3],
+    /// The bound with that prior: 1/√(1/crlb² + 1/prior_sigma²).
+    #[serde(default)]
+    pub crlb_with_prior: [f64; 3],
+    /// How much of the information behind σ came from the data, 1 − (σ/prior_sigma)²:
+    /// 0 where the estimate is its prior, 1 where the prior did not matter.
+    #[serde(default)]
+    pub data_share: [f64; 3],
+}
+
+impl Quantity {
+    fn new(truth: [f64; 3], estimate: [f64; 3], sigma: [f64; 3], crlb: [f64; 3]) -> Self {
+        Quantity {
+            truth,
+            estimate,
+            sigma,
+            crlb,
+            prior_sigma: [f64::NAN; 3],
+            crlb_with_prior: [f64::NAN; 3],
+            data_share: [f64::NAN; 3],
+        }
+    }
+
+    /// Set the estimator's prior σ, and what follows from it.
+    fn with_prior(mut self, prior_sigma: [f64; 3]) -> Self {
+        self.prior_sigma = prior_sigma;
+        for a in 0..3 {
+            let (c, p) = (self.crlb[a], prior_sigma[a]);
+            self.crlb_with_prior[a] = 1.0 / (1.0 / (c * c) + 1.0 / (p * p)).sqrt();
+            self.data_share[a] = (1.0 - (self.sigma[a] / p).powi(2)).clamp(0.0, 1.0);
+        }
+        self
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -88,6 +124,28 @@ pub struct Report {
     /// The maneuver flown: waveform, schedule, whether planned, envelope, bound.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub maneuver: Option<crate::plan::ManeuverReport>,
+    /// Probability of meeting every requirement that the bound with the estimator's
+    /// prior predicts (β and r of each IS, each error normal with that σ): before
+    /// the run, from the maneuver and the noise model alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted_probability_requirements_met: Option<f64>,
+    /// Parameters whose estimate is mostly the estimator's prior (data share < 50 %).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub prior_dominated: Vec<String>,
+    /// What the user should know before trusting the result (also printed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+/// A data share below this: the parameter is named prior-dominated.
+pub const PRIOR_DOMINATED_SHARE: f64 = 0.5;
+
+/// P(|e| < req) for e ~ N(0, σ²).
+fn within(req: f64, sigma: f64) -> f64 {
+    if sigma.is_nan() || sigma <= 0.0 {
+        return f64::NAN;
+    }
+    libm::erf(req / (sigma * std::f64::consts::SQRT_2))
 }
 
 impl Report {
@@ -101,21 +159,25 @@ impl Report {
     ) -> Report {
         let mut iss = Vec::new();
         let mut met = true;
+        let priors = s.priors();
         for (i, is) in s.inertial_sensor.iter().enumerate() {
-            let q = |truth: [f64; 3], e: [f64; 3], sg: [f64; 3], c: [f64; 3]| Quantity {
-                truth,
-                estimate: e,
-                sigma: sg,
-                crlb: c,
-            };
-            let beta = q(is.beta, est.beta[i], est.beta_sigma[i], crlb.beta[i]);
-            let k = q(is.k(), est.k[i], est.k_sigma[i], crlb.k[i]);
-            let r = q(
+            let q = Quantity::new;
+            let mut beta = q(is.beta, est.beta[i], est.beta_sigma[i], crlb.beta[i]);
+            let mut k = q(is.k(), est.k[i], est.k_sigma[i], crlb.k[i]);
+            let mut r = q(
                 is.com_offset_m,
                 est.r_b[i],
                 est.r_sigma[i],
                 crlb.com_offset_m[i],
             );
+            if method == "joint" {
+                // The joint estimator's prior (the paper's filter has its own).
+                use crate::estimate::joint::{PRIOR_BETA_REL, PRIOR_COM_M};
+                let pk = crate::scenario::k_from_beta(&is.geometry_m, &priors[i].beta);
+                beta = beta.with_prior(priors[i].beta.map(|b| PRIOR_BETA_REL * b.abs()));
+                k = k.with_prior(pk.map(|x| PRIOR_BETA_REL * x.abs()));
+                r = r.with_prior([PRIOR_COM_M; 3]);
+            }
             for a in 0..3 {
                 met &= ((beta.estimate[a] - beta.truth[a]) / beta.truth[a]).abs()
                     < REQ_SCALE_FACTOR_REL;
@@ -166,7 +228,59 @@ impl Report {
             hosts: None,
             estimator_loop_allocations: None,
             maneuver: Some(crate::plan::describe(s, Some(crlb), None)),
+            predicted_probability_requirements_met: None,
+            prior_dominated: Vec::new(),
+            warnings: Vec::new(),
         }
+        .with_prior_judgement(s, crlb)
+    }
+
+    /// The prediction from the bound, the prior-dominated parameters, and the
+    /// warnings they call for.
+    fn with_prior_judgement(mut self, s: &Scenario, crlb: &Crlb) -> Self {
+        let axes = ["x", "y", "z"];
+        let mut p = 1.0;
+        for is in &self.inertial_sensors {
+            for a in 0..3 {
+                let b = &is.beta;
+                p *= within(
+                    REQ_SCALE_FACTOR_REL * b.truth[a].abs(),
+                    b.crlb_with_prior[a],
+                );
+                p *= within(REQ_COM_M, is.com_offset.crlb_with_prior[a]);
+                for (name, q) in [("β", &is.beta), ("r", &is.com_offset)] {
+                    if q.data_share[a] < PRIOR_DOMINATED_SHARE {
+                        self.prior_dominated.push(format!(
+                            "IS{} {name}{} (data share {:.1} %: it is the estimator's prior)",
+                            is.id,
+                            axes[a],
+                            100.0 * q.data_share[a]
+                        ));
+                    }
+                }
+            }
+        }
+        self.predicted_probability_requirements_met = p.is_finite().then_some(p);
+        let (worst, name) = crate::plan::worst_ratio(s, crlb);
+        if !s.maneuver.planned && worst > 1.0 {
+            self.warnings.push(format!(
+                "the written maneuver's bound is {worst:.1}× the requirement ({name}): the maneuver alone cannot calibrate it{}; `taiji-calib plan` plans a maneuver that does",
+                match self.predicted_probability_requirements_met {
+                    Some(p) => format!(
+                        ", and the bound predicts the requirements met with probability {:.2} %",
+                        100.0 * p
+                    ),
+                    None => String::new(),
+                }
+            ));
+        }
+        if !self.prior_dominated.is_empty() {
+            self.warnings.push(format!(
+                "prior-dominated: {}",
+                self.prior_dominated.join("; ")
+            ));
+        }
+        self
     }
 
     /// One row per parameter and axis, formatted as the tables print it.
@@ -326,10 +440,24 @@ impl Report {
         if let Some(f) = &self.faults {
             let _ = writeln!(o, "Faults: {}", fault_line(f));
         }
+        if let Some(p) = self.predicted_probability_requirements_met {
+            let _ = writeln!(
+                o,
+                "Predicted from the bound: requirements met with probability {:.2} %",
+                100.0 * p
+            );
+        }
+        for w in &self.warnings {
+            let _ = writeln!(o, "Warning: {w}");
+        }
         let _ = writeln!(
             o,
-            "Requirements met: {}{}",
+            "Requirements met: {}{}{}",
             if self.requirements.met { "yes" } else { "NO" },
+            match (self.requirements.met, self.prior_dominated.is_empty()) {
+                (true, false) => " — by the prior only for the prior-dominated parameters above",
+                _ => "",
+            },
             if self.requirements.verified {
                 ""
             } else {
@@ -418,6 +546,45 @@ pub fn fault_line(f: &serde_json::Value) -> String {
         })
         .collect();
     list.join("; ")
+}
+
+#[cfg(test)]
+mod prior_tests {
+    use super::*;
+
+    /// An estimate whose σ is its prior's: the report names it prior-dominated, and a
+    /// requirement met says it was met by the prior only.
+    #[test]
+    fn an_estimate_that_is_its_prior_is_named_and_its_success_qualified() {
+        let s = Scenario::default();
+        let crlb = crate::crlb::crlb(&s).unwrap();
+        let priors = s.priors();
+        let mut e = EstimateMsg::default();
+        for (i, is) in s.inertial_sensor.iter().enumerate() {
+            e.beta[i] = is.beta;
+            e.k[i] = is.k();
+            e.r_b[i] = is.com_offset_m;
+            e.beta_sigma[i] = crlb.beta[i];
+            e.k_sigma[i] = crlb.k[i];
+            e.r_sigma[i] = crlb.com_offset_m[i];
+        }
+        // IS1's βy as uncertain as its prior.
+        e.beta_sigma[0][1] = crate::estimate::joint::PRIOR_BETA_REL * priors[0].beta[1];
+        let r = Report::new(&s, 1, "in-process", "joint", &e, &crlb);
+        assert_eq!(r.inertial_sensors[0].beta.data_share[1], 0.0);
+        assert!(r.inertial_sensors[0].beta.data_share[0] > 0.999);
+        assert_eq!(r.prior_dominated.len(), 1, "{:?}", r.prior_dominated);
+        assert!(r.prior_dominated[0].starts_with("IS1 βy (data share 0.0 %"));
+        let t = r.table();
+        assert!(t.contains("Warning: prior-dominated: IS1 βy"), "{t}");
+        assert!(
+            t.contains("Requirements met: yes — by the prior only"),
+            "{t}"
+        );
+        // The paper's filter has a prior of its own: nothing is judged.
+        let p = Report::new(&s, 1, "in-process", "paper", &e, &crlb);
+        assert!(p.prior_dominated.is_empty() && p.inertial_sensors[0].beta.data_share[0].is_nan());
+    }
 }
 
 #[cfg(test)]

@@ -67,6 +67,15 @@ fn notes(r: &Report) -> Vec<String> {
     if let Some(m) = &r.maneuver {
         v.push(m.line());
     }
+    if let Some(p) = r.predicted_probability_requirements_met {
+        v.push(format!(
+            "Predicted from the bound: requirements met with probability {:.2} %",
+            100.0 * p
+        ));
+    }
+    for w in &r.warnings {
+        v.push(format!("**Warning**: {w}"));
+    }
     v.push(format!(
         "Samples used {}, rejected {}",
         r.samples_used, r.samples_rejected

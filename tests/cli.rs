@@ -201,3 +201,73 @@ fn launch_help_is_immediate_and_lists_every_mode() {
     }
     assert!(t0.elapsed().as_secs() < 10, "took {:?}", t0.elapsed());
 }
+
+#[test]
+fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data() {
+    // 1 Hz typed for 1 mHz: its bound is 32× the requirement.
+    let dir = tmpdir::TmpDir::new("cli-typo");
+    let f = dir.join("typo.toml");
+    std::fs::write(&f, "name = \"typo\"\n[maneuver]\nfrequency_hz = 1.0\n").unwrap();
+    let out = calib()
+        .args(["run", "--scenario"])
+        .arg(&f)
+        .arg("--out")
+        .arg(dir.join("typo"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("Warning: the written maneuver's bound is 32.1× the requirement")
+            && text.contains("taiji-calib plan")
+            && text.contains("Predicted from the bound: requirements met with probability 0.00 %"),
+        "{text}"
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("typo/report.json")).unwrap())
+            .unwrap();
+    assert!(r["warnings"][0].as_str().unwrap().contains("32.1×"), "{r}");
+    assert!(
+        r["predicted_probability_requirements_met"]
+            .as_f64()
+            .unwrap()
+            < 1e-3
+    );
+    for is in r["inertial_sensors"].as_array().unwrap() {
+        for q in ["beta", "k", "com_offset"] {
+            for a in 0..3 {
+                let share = is[q]["data_share"][a].as_f64().unwrap();
+                let (c, p, cp) = (
+                    is[q]["crlb"][a].as_f64().unwrap(),
+                    is[q]["prior_sigma"][a].as_f64().unwrap(),
+                    is[q]["crlb_with_prior"][a].as_f64().unwrap(),
+                );
+                assert!(
+                    (0.0..=1.0).contains(&share) && cp < c.min(p),
+                    "{q} {a}: {is}"
+                );
+            }
+        }
+    }
+    // The default (planned) maneuver: no warning, the requirements all but certain.
+    let out = calib()
+        .args(["run", "--out"])
+        .arg(dir.join("default"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(!text.contains("Warning"), "{text}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("default/report.json")).unwrap())
+            .unwrap();
+    assert!(
+        r["predicted_probability_requirements_met"]
+            .as_f64()
+            .unwrap()
+            > 0.99
+    );
+    assert!(r.get("warnings").is_none() && r.get("prior_dominated").is_none());
+    let share = r["inertial_sensors"][0]["beta"]["data_share"][1]
+        .as_f64()
+        .unwrap();
+    assert!(share > 0.999, "{share}");
+}

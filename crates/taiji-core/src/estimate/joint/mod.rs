@@ -166,10 +166,10 @@ const TURN_WEIGHT: f64 = 10.0;
 /// Weak priors of the solve, 1σ. Wide against what the data determine (β to
 /// 10⁻⁵ relative, r to µm), so they only keep the normal equations regular before the
 /// maneuver has excited every parameter; the ground calibration is far tighter.
-/// β: this fraction of its prior [-] (the scenario allows priors within 20 %).
-const PRIOR_BETA_REL: f64 = 0.05;
+/// β: this fraction of its prior [-] (the scenario allows priors within 10 %).
+pub const PRIOR_BETA_REL: f64 = 0.05;
 /// CoM offset [m]: 5 cm, beyond any plausible test-mass offset.
-const PRIOR_COM_M: f64 = 0.05;
+pub const PRIOR_COM_M: f64 = 0.05;
 /// Star-tracker reference offset θ0 [rad] (0.6°) and its rate θ̇0 [rad/s].
 const PRIOR_THETA0_RAD: f64 = 1e-2;
 const PRIOR_THETA_RATE_RAD_S: f64 = 1e-4;
