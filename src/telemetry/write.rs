@@ -419,22 +419,22 @@ fn write_faults(path: &Path, f: &[FaultRecord], detected: &[u64]) -> hdf5::Resul
         (l::FAULT_SIGMAS, x(&|r| r.sigmas)),
     ];
     for (p, v) in &ints {
-        let ds = file
-            .new_dataset_builder()
-            .obj_track_times(false)
-            .with_data(v.as_slice())
-            .create(*p)?;
-        channel_attrs(&ds, p)?;
+        whole_dataset(&file, p, v)?;
     }
     for (p, v) in &floats {
-        let ds = file
-            .new_dataset_builder()
-            .obj_track_times(false)
-            .with_data(v.as_slice())
-            .create(*p)?;
-        channel_attrs(&ds, p)?;
+        whole_dataset(&file, p, v)?;
     }
     file.close()
+}
+
+/// Dataset `path` of `file` holding `v`, with its channel's attributes.
+fn whole_dataset<T: hdf5::H5Type>(file: &hdf5::File, path: &str, v: &[T]) -> hdf5::Result<()> {
+    let ds = file
+        .new_dataset_builder()
+        .obj_track_times(false)
+        .with_data(v)
+        .create(path)?;
+    channel_attrs(&ds, path)
 }
 
 /// Write a recording held in memory. Every truth and sensor row must be present.
