@@ -388,3 +388,38 @@ fn priors_off_in_opposite_directions_do_not_lock_out_the_cross_is_test() {
     );
     assert_honest(&r, "β priors ±5 %");
 }
+
+#[test]
+fn other_sample_rates_and_dropouts_stay_honest_a_few_cells_of_the_matrix() {
+    // A few cells of docs/integrity.md's matrix, 6 seeds each: every requirement met
+    // and verified, no error beyond 4.5σ, (err/σ)² per group near 1 (loosely: 6 seeds).
+    for (name, text) in [
+        (
+            "2 Hz",
+            "sample_rate_hz = 2.0\n[star_tracker]\nrate_hz = 2.0\n",
+        ),
+        ("20 Hz", "sample_rate_hz = 20.0\n"),
+        (
+            "5 Hz, dropouts",
+            "sample_rate_hz = 5.0\n[star_tracker]\nrate_hz = 5.0\n\
+             [faults]\nis_dropout_rate = 0.01\nstar_dropout_rate = 0.02\n",
+        ),
+    ] {
+        let s = Scenario::from_toml_str(&format!("name = \"cell\"\n{text}")).unwrap();
+        let (s, _) = taiji::plan::resolve(s).unwrap();
+        let mc = taiji::montecarlo::run(&s, 1, 6, Method::Joint).unwrap();
+        assert_eq!(mc.runs_meeting_requirements, 6, "{name}\n{}", mc.table());
+        assert_eq!(mc.runs_verified, 6, "{name}\n{}", mc.table());
+        assert!(mc.worst_normalized < 4.5, "{name}\n{}", mc.table());
+        // β and k always; r's σ is cautious with dropouts (the matrix's known gap).
+        let groups = if name.contains("dropouts") { 2 } else { 3 };
+        for g in 0..groups {
+            let v = mc.chi2_by_group[g];
+            assert!(
+                (0.4..2.0).contains(&v),
+                "{name}, group {g}: {v}\n{}",
+                mc.table()
+            );
+        }
+    }
+}
