@@ -15,6 +15,7 @@ pub mod outbox;
 pub mod plant;
 pub mod recorder;
 pub mod set;
+pub mod status;
 pub mod supervisor;
 
 use crate::bus::{self, BusError, Pub, Sub};

@@ -7,12 +7,14 @@ use crate::bus::{self, BusError};
 use crate::launch::{LaunchDescription, ProcessSpec, Restart};
 use crate::msg::{
     Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_COMMANDER,
-    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER, STATE_DONE,
+    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER, SET_FINISHED, SET_RUNNING, SET_STARTING,
+    SET_STOPPING, STATE_DONE,
 };
 use crate::process::estimator::{EstimatorTable, CHECKPOINT_FILE, TABLE_FILE};
 pub use crate::process::set::SupervisorArgs;
 use crate::process::set::{Member, Reap, Set, SupervisorError};
 pub use crate::process::set::{SetError, SpawnError, UserError};
+use crate::process::status::StatusBoard;
 use crate::report::Report;
 use crate::scenario::Scenario;
 use crate::timing::monotonic_ns;
@@ -378,7 +380,15 @@ fn supervise(
                 estimates: &estimates,
                 send: &send,
             };
-            Watch::new(launch, s.n_samples()).run(&ports, &mut set, hosts.as_mut())
+            let mut board = StatusBoard::new(&node, args, s, launch).map_err(set_err)?;
+            let r =
+                Watch::new(launch, s.n_samples()).run(&ports, &mut set, hosts.as_mut(), &mut board);
+            let state = match r {
+                Ok(Some(_)) => SET_FINISHED,
+                _ => SET_STOPPING,
+            };
+            board.publish(&set, state, true);
+            r
         }
     };
     set.bar.finish();
@@ -699,6 +709,7 @@ impl Watch {
         ports: &Ports,
         set: &mut Set,
         mut hosts: Option<&mut super::hosts::InCharge>,
+        board: &mut StatusBoard,
     ) -> Result<Option<EstimateMsg>, SupervisorError> {
         let set_err = SupervisorError::Set;
         loop {
@@ -706,6 +717,17 @@ impl Watch {
                 return Ok(None);
             }
             let link_silent = self.hear(ports, set, hosts.as_deref_mut())?;
+            let state = match (self.started, self.final_est.is_some()) {
+                (_, true) => SET_FINISHED,
+                (true, false) => SET_RUNNING,
+                (false, false) => SET_STARTING,
+            };
+            board.publish(set, state, false);
+            // An operator's stop from a monitor: as SIGINT would (exit 130).
+            if let Some(pid) = board.stop_request() {
+                log::warn!("stop requested from a monitor (pid {pid}); stopping the set");
+                return Ok(None);
+            }
             // Exits: restart what may be restarted, otherwise stop the set.
             match set.reap("").map_err(set_err)? {
                 Reap::Running => {}
