@@ -182,6 +182,12 @@ pub struct SetStatus {
     pub maneuver_tick: u64,
     /// Commanded body torque at `maneuver_tick` [N m] (zero: no axis rocked).
     pub maneuver_torque_nm: [f64; 3],
+    /// Cramér–Rao bound (1σ) of the samples up to `maneuver_tick`, from the scenario's
+    /// noise-free campaign (`crlb::crlb_curve`), per IS and axis: β [rad s^-2 V^-1],
+    /// k [m s^-2 V^-1], r [m]; NaN before every parameter has been excited.
+    pub bound_beta: [[f64; 3]; 2],
+    pub bound_k: [[f64; 3]; 2],
+    pub bound_r: [[f64; 3]; 2],
     /// Process id of the monitor whose stop request was accepted (0: none).
     pub stop_requested_by: u32,
     /// Slots used in `members`, and names used in `host_names`.
@@ -206,6 +212,9 @@ impl Default for SetStatus {
             elapsed_ns: 0,
             maneuver_tick: 0,
             maneuver_torque_nm: [0.0; 3],
+            bound_beta: [[f64::NAN; 3]; 2],
+            bound_k: [[f64::NAN; 3]; 2],
+            bound_r: [[f64::NAN; 3]; 2],
             stop_requested_by: 0,
             n_members: 0,
             n_hosts: 0,

@@ -8,6 +8,7 @@
 use super::set::{Set, SupervisorArgs};
 use crate::bus::{self, BusError};
 use crate::commander::Commander;
+use crate::crlb::Crlb;
 use crate::launch::LaunchDescription;
 use crate::msg::{
     Header, MemberStatus, Request, SetStatus, MAX_HOSTS, MAX_MEMBERS, PROC_ESTIMATOR, REQ_STOP,
@@ -28,6 +29,8 @@ pub(crate) struct StatusBoard {
     /// The launch description's host names, in order (one host: none).
     hosts: Vec<String>,
     commander: Commander,
+    /// The bound as the campaign goes (`crlb::crlb_curve`).
+    bound: Vec<(u64, Option<Crlb>)>,
     t0: Instant,
     next: Instant,
     seq: u64,
@@ -42,6 +45,7 @@ impl StatusBoard {
         args: &SupervisorArgs,
         s: &Scenario,
         launch: &LaunchDescription,
+        bound: Vec<(u64, Option<Crlb>)>,
     ) -> Result<Self, BusError> {
         let publisher = bus::publisher::<SetStatus>(node, bus::SVC_STATUS)?;
         let requests = bus::subscriber::<Request>(node, bus::SVC_REQUEST)?;
@@ -66,6 +70,7 @@ impl StatusBoard {
             fixed,
             hosts,
             commander: Commander::new(s),
+            bound,
             t0: Instant::now(),
             next: Instant::now(),
             seq: 0,
@@ -123,6 +128,9 @@ impl StatusBoard {
             .map_or(0, |p| p.next_tick);
         st.maneuver_tick = tick;
         st.maneuver_torque_nm = self.commander.torque(tick);
+        if let Some(b) = crate::crlb::bound_at(&self.bound, tick) {
+            (st.bound_beta, st.bound_k, st.bound_r) = (b.beta, b.k, b.com_offset_m);
+        }
         bus::publish(&self.publisher, st)
     }
 

@@ -58,6 +58,9 @@ impl Outcome {
 /// maneuver planned when it had none.
 pub const PLANNED_SCENARIO_FILE: &str = "scenario.toml";
 
+/// Points of the bound's curve the status interpolates between (`crlb::bound_at`).
+const BOUND_POINTS: usize = 64;
+
 /// Run the campaign through the process set.
 pub fn run(args: &SupervisorArgs) -> Outcome {
     let s = match Scenario::load_or_default(args.scenario.as_deref()) {
@@ -90,10 +93,12 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     if me.is_some() && args.record {
         return Outcome::UserError(UserError::RecordOverHosts);
     }
-    let Some(crlb) = crate::crlb::crlb(&s) else {
+    // The bound as the campaign goes, for monitors; its last point is the report's.
+    let curve = crate::crlb::crlb_curve(&s, BOUND_POINTS, crate::campaign::Threads::available());
+    let Some(crlb) = curve.last().and_then(|(_, c)| *c) else {
         return Outcome::UserError(UserError::SingularFisher);
     };
-    match supervise(args, &s, &launch, me.as_deref()) {
+    match supervise(args, &s, &launch, me.as_deref(), curve) {
         Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
         Ok(Supervised::Done(final_est, members, wall, hosts)) => {
             let seed = args.seed.unwrap_or(s.seed);
@@ -324,6 +329,7 @@ fn supervise(
     s: &Scenario,
     launch: &LaunchDescription,
     me: Option<&str>,
+    bound: Vec<(u64, Option<crate::crlb::Crlb>)>,
 ) -> Result<Supervised, SupervisorError> {
     let set_err = |e: BusError| SupervisorError::Set(e.into());
     let t_start = Instant::now();
@@ -380,7 +386,7 @@ fn supervise(
                 estimates: &estimates,
                 send: &send,
             };
-            let mut board = StatusBoard::new(&node, args, s, launch).map_err(set_err)?;
+            let mut board = StatusBoard::new(&node, args, s, launch, bound).map_err(set_err)?;
             let r =
                 Watch::new(launch, s.n_samples()).run(&ports, &mut set, hosts.as_mut(), &mut board);
             let state = match r {
