@@ -40,6 +40,10 @@ pub const SVC_STATUS: &str = "taiji/status";
 /// act on a run without publishing where a stage listens.
 pub const SVC_REQUEST: &str = "taiji/request";
 
+/// Node name of outside monitors (`taiji-calib monitor`): a live one is no stage of a
+/// crashed run, so a new supervisor does not refuse the prefix for it.
+pub const MONITOR_NODE: &str = "taiji-monitor";
+
 /// Default prefix of every iceoryx2 resource of a run (files in /dev/shm and /tmp/iceoryx2).
 pub const DEFAULT_PREFIX: &str = "taiji_";
 

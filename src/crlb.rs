@@ -7,8 +7,8 @@ use crate::commander::Commander;
 use crate::estimate::joint::{P_BETA, P_R};
 use crate::estimate::JointEstimator;
 use crate::fee::FrontEnd;
-use crate::msg::SensorSample;
 use crate::model::plant::{Plant, PlantNoise};
+use crate::msg::SensorSample;
 use crate::scenario::{k_from_beta, Scenario};
 
 /// 1σ bounds per IS [same units as the parameters].
@@ -183,7 +183,10 @@ mod tests {
         assert_eq!(bound_at(&curve, t10), Some(c10));
         let mid = bound_at(&curve, (t9 + t10) / 2).unwrap();
         let (lo, hi) = (c10.beta[0][0], c9.beta[0][0]);
-        assert!(lo < mid.beta[0][0] && mid.beta[0][0] < hi, "{lo} {mid:?} {hi}");
+        assert!(
+            lo < mid.beta[0][0] && mid.beta[0][0] < hi,
+            "{lo} {mid:?} {hi}"
+        );
         assert_eq!(bound_at(&curve, 0), None);
         assert_eq!(bound_at(&curve, s.n_samples() + 1), None);
     }

@@ -476,9 +476,12 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
             survey.removed_dead
         );
     }
-    // Live nodes without a supervisor: the set of a supervisor killed a moment ago.
-    if !survey.alive.is_empty() {
-        return Err(another_run(&args.bus_prefix, None, survey.alive));
+    // Live nodes without a supervisor: the set of a supervisor killed a moment ago
+    // (a monitor still attached is none of it: it reads the next run as well).
+    let mut alive = survey.alive;
+    alive.retain(|n| n != bus::MONITOR_NODE);
+    if !alive.is_empty() {
+        return Err(another_run(&args.bus_prefix, None, alive));
     }
     // Only now the folder: a refused run creates none.
     std::fs::create_dir_all(&args.out).map_err(|source| {
