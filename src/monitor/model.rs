@@ -438,7 +438,8 @@ pub struct EstimateView {
     pub is_final: bool,
     pub status: String,
     pub status_word: u64,
-    pub chi2_per_dof: Vec<(String, f64)>,
+    /// Per residual group (1 when the noise model fits).
+    pub chi2_per_dof: std::collections::BTreeMap<String, f64>,
     pub sigma_inflation: f64,
     pub samples_used: u64,
     pub samples_rejected: u64,
@@ -489,7 +490,7 @@ pub struct Latency {
     /// The estimator's own figure since it started [µs].
     pub end_to_end_since_start_us: Option<Quantiles>,
     /// Each stage's input hop since it started [µs].
-    pub hops_since_start_us: Vec<(String, Quantiles)>,
+    pub hops_since_start_us: std::collections::BTreeMap<String, Quantiles>,
     pub missed_deadlines: u64,
     pub missed_deadlines_in_window: Option<u64>,
     pub samples_lost: u64,

@@ -149,7 +149,7 @@ fn shown(name: &str, v: Option<f64>, relative_to: f64) -> String {
 fn parameters(f: &mut Frame, r: Rect, v: &View) {
     let block = Block::default()
         .borders(Borders::ALL)
-        .title(" estimates (β, k: 1σ and bound relative; r: µm) ");
+        .title(" estimates (β, k: 1σ and bound relative; r: 1σ and bound in µm) ");
     let Some(e) = &v.snap.estimate else {
         f.render_widget(Paragraph::new("no estimate yet").block(block), r);
         return;
@@ -162,7 +162,7 @@ fn parameters(f: &mut Frame, r: Rect, v: &View) {
     );
     let rows = e.parameters.iter().enumerate().map(|(i, p)| {
         let est = match p.name {
-            "r" => format!("{:.3} µm", p.estimate * 1e6),
+            "r" => format!("{:+.7} m", p.estimate),
             _ => format!("{:.6e}", p.estimate),
         };
         let rel = p.estimate;
@@ -170,7 +170,7 @@ fn parameters(f: &mut Frame, r: Rect, v: &View) {
         let err = p.err_over_sigma.map_or("—".into(), |x| format!("{x:+.2}"));
         let truth = match (p.name, p.truth) {
             (_, None) => "—".into(),
-            ("r", Some(t)) => format!("{:.3} µm", t * 1e6),
+            ("r", Some(t)) => format!("{t:+.7} m"),
             (_, Some(t)) => format!("{t:.6e}"),
         };
         let style = if i == v.selected {
@@ -194,8 +194,8 @@ fn parameters(f: &mut Frame, r: Rect, v: &View) {
         Constraint::Length(4),
         Constraint::Length(4),
         Constraint::Length(14),
-        Constraint::Length(11),
-        Constraint::Length(11),
+        Constraint::Length(13),
+        Constraint::Length(13),
         Constraint::Length(8),
         Constraint::Length(14),
         Constraint::Length(6),
@@ -278,7 +278,7 @@ fn latency(f: &mut Frame, r: Rect, s: &Snapshot) {
         f.render_widget(Paragraph::new("—").block(block), r);
         return;
     };
-    let title = format!(" latency [µs] p50 / p99 / max ");
+    let title = " latency [µs] p50 / p99 / max ";
     let block = Block::default().borders(Borders::ALL).title(title);
     let q = |x: &super::model::Quantiles| format!("{:.1} / {:.1} / {:.1}", x.p50, x.p99, x.max);
     let mut lines = vec![Line::from(format!(
@@ -319,7 +319,7 @@ fn processes(f: &mut Frame, r: Rect, s: &Snapshot) {
             .loop_allocations
             .map_or(String::new(), |a| format!(" alloc {a}"));
         Row::new(vec![
-            Cell::from(p.name.clone()),
+            Cell::from(p.name.trim_start_matches("taiji-").to_string()),
             Cell::from(p.host.clone()),
             Cell::from(p.state),
             Cell::from(format!("{:.0} ms", p.heartbeat_age_ms)),
@@ -328,12 +328,12 @@ fn processes(f: &mut Frame, r: Rect, s: &Snapshot) {
         ])
     });
     let widths = [
-        Constraint::Length(16),
+        Constraint::Length(10),
         Constraint::Length(7),
         Constraint::Length(9),
         Constraint::Length(8),
         Constraint::Length(8),
-        Constraint::Length(14),
+        Constraint::Length(13),
     ];
     f.render_widget(Table::new(rows, widths).header(header).block(block), r);
 }
@@ -407,7 +407,7 @@ fn plot(f: &mut Frame, r: Rect, v: &View) {
         )
         .y_axis(Axis::default().bounds([bottom, top]).labels([
             format!("{bottom:.0}"),
-            "1".to_string(),
+            format!("{:.1}", (bottom + top) / 2.0),
             format!("{top:.0}"),
         ]));
     f.render_widget(chart, r);
