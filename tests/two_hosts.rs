@@ -22,6 +22,7 @@ use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
+const CALIB: &str = env!("CARGO_BIN_EXE_taiji-calib");
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
 static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
@@ -557,4 +558,61 @@ fn host_options_that_cannot_work_are_user_errors() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(says), "{args:?}: {err}");
     }
+}
+
+/// `taiji-calib monitor --once --json` on each host, inside that host's namespaces (the
+/// supervisor's: its network and its private /dev/shm and /tmp/iceoryx2): on either one
+/// it shows every process with its host, the estimates and the run's progress, the
+/// statuses and estimates it lacks crossing the tunnel. The run, real time ×200, stays
+/// bit-identical to the in-process one, loses nothing and its loop allocates nothing.
+#[test]
+fn a_monitor_on_either_host_shows_the_whole_set_and_changes_nothing() {
+    need_two_hosts!();
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let hosts = Hosts::up("mo");
+    let dir = tmp("monitor");
+    let sc = write_scenario(&dir, SHORT);
+    let rt = ["--realtime", "--time-scale", "200"];
+    let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &rt);
+    let mut sim = hosts.supervisor("sim", &sc, &dir.join("sim"), &rt);
+    wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
+    let two = Path::new(ROOT).join("tools/two_hosts.toml");
+    for (host, sup) in [("sim", pid_of(&sim)), ("flight", pid_of(&flight))] {
+        for names in [None, Some(&two)] {
+            let mut c = Command::new("nsenter");
+            c.args(["--target", &sup.to_string(), "--mount", "--net", "--"])
+                .arg(CALIB)
+                .args(["monitor", "--bus-prefix", "tjhil_", "--once", "--json"])
+                .args(["--timeout", "20"]);
+            if let Some(n) = names {
+                c.arg("--hosts").arg(n);
+            }
+            let o = c.output().unwrap();
+            assert!(o.status.success(), "monitor on {host}: {}", text(&o));
+            let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+            assert_eq!(j["run"]["state"], "running", "on {host}: {j}");
+            assert_eq!(j["run"]["pacing"], "realtime");
+            assert_eq!(j["estimate"]["parameters"].as_array().unwrap().len(), 18);
+            let procs = j["processes"].as_array().unwrap();
+            assert_eq!(procs.len(), 4, "on {host}: {j}");
+            for p in procs {
+                let expected = match p["name"].as_str().unwrap() {
+                    "taiji-estimator" => "flight",
+                    _ => "sim",
+                };
+                assert_eq!(p["host"], expected, "on {host}: {p}");
+                assert_eq!(p["state"], "running", "on {host}: {p}");
+            }
+            assert!(j["latency"]["end_to_end_us"]["count"].as_u64().unwrap() > 0);
+        }
+    }
+    let so = sim.wait_with_output().unwrap();
+    let fo = flight.wait_with_output().unwrap();
+    assert!(so.status.success(), "sim: {}", text(&so));
+    assert!(fo.status.success(), "flight: {}", text(&fo));
+    let r = report(&dir.join("sim"));
+    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(r["samples_used"], 30000);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
 }

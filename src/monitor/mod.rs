@@ -64,8 +64,8 @@ pub enum MonitorError {
         "no run on bus prefix {prefix:?} after {timeout_s} s (no supervisor's status; start one with tools/launch, check --bus-prefix, or raise --timeout)"
     )]
     NoRun { prefix: String, timeout_s: f64 },
-    /// The run ended before the monitor saw an estimate.
-    #[error("the run on bus prefix {prefix:?} ended before an estimate arrived")]
+    /// The run ended (or stood still) before the monitor saw an estimate.
+    #[error("the run on bus prefix {prefix:?} ended or sent no estimate before --timeout")]
     Ended { prefix: String },
     #[error("the terminal: {0}")]
     Terminal(#[source] std::io::Error),
@@ -204,7 +204,9 @@ fn once(
             break Ok(());
         }
         let silent = t.status_at.map_or(t0.elapsed(), |s| s.elapsed());
-        if silent > SILENT.max(timeout) || (t.ended() && t.latest.is_none()) {
+        // A run held still (no estimate comes) is given the same time as a run to come.
+        let starved = since.is_none() && t0.elapsed() > SILENT.max(timeout);
+        if silent > SILENT.max(timeout) || starved || (t.ended() && t.latest.is_none()) {
             break Err(MonitorError::Ended {
                 prefix: args.bus_prefix.clone(),
             });
