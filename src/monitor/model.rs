@@ -170,7 +170,9 @@ impl Tracker {
         if self
             .history
             .last()
-            .is_none_or(|p| tick >= p.tick + step || (m.flags & EST_FINAL != 0 && tick > p.tick))
+            .map_or(true, |p| {
+                tick >= p.tick + step || (m.flags & EST_FINAL != 0 && tick > p.tick)
+            })
         {
             let (value, sigma) = values_of(&m);
             let bound = self.status.map_or([f64::NAN; ROWS], |s| bound_of(&s));
