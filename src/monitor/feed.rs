@@ -56,6 +56,12 @@ impl Feed {
         Ok(())
     }
 
+    /// Was this process asked to terminate (SIGINT, SIGTERM)? iceoryx2 takes both
+    /// signals while a node exists, so the monitor asks it and leaves cleanly.
+    pub fn terminated(&self) -> bool {
+        self._node.wait(std::time::Duration::ZERO).is_err()
+    }
+
     /// Ask the supervisor in charge to stop the run (repeat until its status names this
     /// monitor: a request may be lost while the link between hosts settles).
     pub fn request_stop(&mut self) -> Result<(), BusError> {

@@ -67,6 +67,9 @@ pub enum MonitorError {
     /// The run ended (or stood still) before the monitor saw an estimate.
     #[error("the run on bus prefix {prefix:?} ended or sent no estimate before --timeout")]
     Ended { prefix: String },
+    /// SIGINT or SIGTERM before the snapshot was taken.
+    #[error("terminated before the snapshot")]
+    Terminated,
     #[error("the terminal: {0}")]
     Terminal(#[source] std::io::Error),
     #[error("cannot write {}: {source}", path.display())]
@@ -194,6 +197,9 @@ fn once(
     let t0 = Instant::now();
     let result = loop {
         std::thread::sleep(FRAME);
+        if feed.terminated() {
+            break Err(MonitorError::Terminated);
+        }
         if let Err(e) = pump(&mut feed, &mut t) {
             break Err(e.into());
         }

@@ -167,13 +167,9 @@ impl Tracker {
         let n = self.status.map_or(0, |s| s.n_samples).max(1);
         let step = (n / HISTORY as u64).max(1);
         let tick = m.header.tick;
-        if self
-            .history
-            .last()
-            .map_or(true, |p| {
-                tick >= p.tick + step || (m.flags & EST_FINAL != 0 && tick > p.tick)
-            })
-        {
+        if self.history.last().map_or(true, |p| {
+            tick >= p.tick + step || (m.flags & EST_FINAL != 0 && tick > p.tick)
+        }) {
             let (value, sigma) = values_of(&m);
             let bound = self.status.map_or([f64::NAN; ROWS], |s| bound_of(&s));
             self.history.push(Point {
@@ -508,4 +504,106 @@ pub struct ProcessView {
     pub next_tick: u64,
     pub samples_lost: u64,
     pub loop_allocations: Option<u64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg::{MemberStatus, Progress, CAUSE_LINEAR_OUTLIER};
+
+    fn status(missed: u64) -> SetStatus {
+        let mut st = SetStatus {
+            state: SET_RUNNING,
+            n_samples: 1000,
+            sample_rate_hz: 10.0,
+            period_ns: 1_000_000,
+            time_scale: 100.0,
+            n_members: 1,
+            ..Default::default()
+        };
+        st.members[0] = MemberStatus {
+            process: PROC_ESTIMATOR,
+            heard: 1,
+            last: Progress {
+                next_tick: 500,
+                missed_deadlines: missed,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        st
+    }
+
+    fn estimate(tick: u64, latency_us: u64, rejected: u64) -> EstimateMsg {
+        let mut m = EstimateMsg::default();
+        m.header.tick = tick;
+        m.header.origin_ns = 1_000_000;
+        m.header.publish_ns = 1_000_000 + latency_us * 1000;
+        m.beta_sigma = [[1.0; 3]; 2];
+        m.rejected_by_cause[CAUSE_LINEAR_OUTLIER] = rejected;
+        m.n_used = tick + 1 - rejected;
+        m.n_rejected = rejected;
+        m
+    }
+
+    #[test]
+    fn rates_and_latency_are_over_the_window_and_old_entries_leave_it() {
+        let t0 = Instant::now();
+        let hosts = crate::monitor::HostNames(None);
+        let mut t = Tracker::new(None);
+        t.status(&status(2), t0);
+        for us in 1..=100 {
+            t.estimate(&estimate(us, us, 0), t0);
+        }
+        t.settle(t0);
+        let t1 = t0 + Duration::from_secs(2);
+        t.status(&status(7), t1);
+        t.estimate(&estimate(200, 50, 10), t1);
+        t.settle(t1);
+        let s = t.snapshot("p_", &hosts, t1);
+        let l = s.latency.unwrap();
+        assert_eq!(l.end_to_end_us.count, 101);
+        assert_eq!(l.end_to_end_us.p50, 50.0);
+        assert_eq!(l.end_to_end_us.p99, 99.0);
+        assert_eq!(l.end_to_end_us.max, 100.0);
+        assert_eq!(l.missed_deadlines, 7);
+        assert_eq!(l.missed_deadlines_in_window, Some(5));
+        let e = s.estimate.unwrap();
+        let outlier = &e.rejections[CAUSE_LINEAR_OUTLIER];
+        assert_eq!((outlier.count, outlier.rate_per_s), (10, 5.0));
+        assert_eq!(e.parameters.len(), 18);
+        assert!(e
+            .parameters
+            .iter()
+            .all(|p| p.truth.is_none() && p.bound.is_none()));
+        // Past the window, the old latencies and counts no longer count.
+        let t2 = t1 + WINDOW + Duration::from_secs(1);
+        t.settle(t2);
+        let s = t.snapshot("p_", &hosts, t2);
+        assert_eq!(s.latency.unwrap().end_to_end_us.count, 0);
+        assert_eq!(
+            s.estimate.unwrap().rejections[CAUSE_LINEAR_OUTLIER].rate_per_s,
+            0.0
+        );
+    }
+
+    #[test]
+    fn the_plot_keeps_one_point_per_step_and_the_final_estimate_stays() {
+        let t0 = Instant::now();
+        let mut t = Tracker::new(None);
+        t.status(&status(0), t0);
+        // 1000 samples, 400 points at most: a point every 2 ticks.
+        for tick in 0..10 {
+            t.estimate(&estimate(tick, 10, 0), t0);
+            t.settle(t0);
+        }
+        let ticks: Vec<u64> = t.history.iter().map(|p| p.tick).collect();
+        assert_eq!(ticks, [0, 2, 4, 6, 8]);
+        let mut last = estimate(999, 10, 0);
+        last.flags = EST_FINAL;
+        t.estimate(&last, t0);
+        // Sent again over hosts: the first final estimate is kept.
+        t.estimate(&estimate(5, 10, 0), t0);
+        assert_eq!(t.latest.unwrap().header.tick, 999);
+    }
 }

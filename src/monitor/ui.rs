@@ -69,6 +69,9 @@ pub fn run(
                 });
             }
         }
+        if feed.as_ref().is_some_and(Feed::terminated) {
+            break;
+        }
         if let Some(f) = feed.as_mut() {
             pump(f, &mut t)?;
             if let (Some(at), Some(f)) = (stop_sent, feed.as_mut()) {
