@@ -6,15 +6,15 @@
 use crate::bus::{self, BusError};
 use crate::launch::{LaunchDescription, ProcessSpec, Restart};
 use crate::msg::{
-    Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_COMMANDER,
-    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER, SET_FINISHED, SET_RUNNING, SET_STARTING,
-    SET_STOPPING, STATE_DONE,
+    Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_ESTIMATOR,
+    PROC_RECORDER, SET_FINISHED, SET_RUNNING, SET_STARTING, SET_STOPPING, STATE_DONE,
 };
 use crate::process::estimator::{EstimatorTable, CHECKPOINT_FILE, TABLE_FILE};
 pub use crate::process::set::SupervisorArgs;
 use crate::process::set::{Member, Reap, Set, SupervisorError};
 pub use crate::process::set::{SetError, SpawnError, UserError};
 use crate::process::status::StatusBoard;
+use crate::process::timing_report::{timing_json, MemberSummary};
 use crate::report::Report;
 use crate::scenario::Scenario;
 use crate::timing::monotonic_ns;
@@ -150,14 +150,6 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     }
 }
 
-/// Summary of the last progress each stage published.
-struct MemberSummary {
-    spec: ProcessSpec,
-    id: u32,
-    restarts: u32,
-    last: Option<Progress>,
-}
-
 enum Supervised {
     /// The final estimate, every member, the wall time [s], and (sets over hosts) the
     /// report's `hosts`.
@@ -169,67 +161,6 @@ enum Supervised {
     ),
     Interrupted,
     HostStopped(String),
-}
-
-fn latency_json(v: [f64; 3]) -> serde_json::Value {
-    json!({"p50": v[0], "p99": v[1], "max": v[2]})
-}
-
-fn timing_json(
-    args: &SupervisorArgs,
-    s: &Scenario,
-    members: &[MemberSummary],
-) -> serde_json::Value {
-    let get = |id: u32| members.iter().find(|m| m.id == id).and_then(|m| m.last);
-    let lost: u64 = members
-        .iter()
-        .filter_map(|m| m.last.map(|p| p.samples_lost))
-        .sum();
-    if !args.realtime {
-        return json!({"pacing": "accelerated", "samples_lost": lost});
-    }
-    // A tick misses its deadline when its estimate is published more than one period
-    // after the tick was due; the commander's own late starts are one cause of that.
-    let est = get(PROC_ESTIMATOR).unwrap_or_default();
-    let missed = est.missed_deadlines;
-    let commander_late = get(PROC_COMMANDER)
-        .map_or(0, |p| p.missed_deadlines)
-        .min(missed);
-    let scheduling: serde_json::Map<String, serde_json::Value> = members
-        .iter()
-        .filter(|m| m.id != PROC_RECORDER)
-        .filter_map(|m| {
-            let p = m.last?;
-            let mut policy = match p.rt_priority {
-                0 => "normal".to_string(),
-                n => format!("SCHED_FIFO {n}"),
-            };
-            if p.cpu >= 0 {
-                policy.push_str(&format!(" on CPU {}", p.cpu));
-            }
-            Some((m.spec.name.clone(), policy.into()))
-        })
-        .collect();
-    let hop = |id: u32| latency_json(get(id).unwrap_or_default().hop_latency_us);
-    json!({
-        "pacing": "realtime",
-        "time_scale": args.time_scale,
-        "period_us": 1e6 / (s.sample_rate_hz * args.time_scale),
-        "end_to_end_latency_us": latency_json(est.e2e_latency_us),
-        "hop_latency_us": {
-            "commander->plant": hop(PROC_PLANT),
-            "plant->fee": hop(PROC_FEE),
-            "fee->estimator": hop(PROC_ESTIMATOR),
-        },
-        "latency_samples": est.latency_count,
-        "scheduling": scheduling,
-        "missed_deadlines": missed,
-        "missed_deadlines_by_cause": {
-            "commander woke late": commander_late,
-            "plant, fee or estimator late": missed - commander_late,
-        },
-        "samples_lost": lost,
-    })
 }
 
 /// Sweeps the run's shared memory for objects abandoned half-made by a killed stage
