@@ -236,6 +236,13 @@ fn check_snapshot(j: &Value, with_truth: bool) {
     );
     assert!(0.0 < p50 && p50 <= p99 && p99 <= max, "{e2e}");
     assert_eq!(l["hops_since_start_us"].as_object().unwrap().len(), 3);
+    // Each stage's segment over the window; together they make up the end to end.
+    let segs = l["segments_us"].as_object().unwrap();
+    assert_eq!(segs.len(), 3, "{l}");
+    for (name, s) in segs {
+        assert!(s["count"].as_u64().unwrap() > 0, "{name}: {s}");
+        assert!(s["p50"].as_f64().unwrap() > 0.0, "{name}: {s}");
+    }
     let procs = j["processes"].as_array().unwrap();
     let names: Vec<&str> = procs.iter().map(|p| p["name"].as_str().unwrap()).collect();
     for stage in [
@@ -286,8 +293,15 @@ fn a_monitor_in_tmux_shows_the_run_and_stalled_or_detaching_monitors_change_noth
         // After the first solves: the status is then a verdict, not "no solution yet".
         screen.contains("running ·")
             && !screen.contains("no_solution")
-            && screen.contains("end to end, last 10 s")
+            && screen.contains("last 10 s: end to end")
             && row_with_numbers(&screen, 2, "r", "z")
+            && [
+                "commander->plant out",
+                "plant->fee out",
+                "fee->estimator out",
+            ]
+            .iter()
+            .all(|s| screen.contains(s))
     });
     for is in [1, 2] {
         for par in ["β", "k", "r"] {
@@ -310,18 +324,28 @@ fn a_monitor_in_tmux_shows_the_run_and_stalled_or_detaching_monitors_change_noth
         screen.contains("χ²/dof angular") && screen.contains("linear "),
         "{screen}"
     );
+    // "last 10 s: end to end P50 / P99 / MAX (N samples)", each a positive number.
     let e2e = screen
         .lines()
-        .find(|l| l.contains("end to end, last 10 s:"))
+        .find_map(|l| l.split("last 10 s: end to end").nth(1))
         .unwrap();
+    let figures: Vec<f64> = e2e
+        .split(['/', '('])
+        .take(3)
+        .filter_map(|w| w.trim().parse::<f64>().ok())
+        .collect();
     assert!(
-        e2e.split(['/', ':', '('])
-            .filter(|w| w.trim().parse::<f64>().is_ok_and(|x| x > 0.0))
-            .count()
-            >= 3,
+        figures.len() == 3 && figures.iter().all(|&x| x > 0.0),
         "{e2e}"
     );
-    assert!(screen.contains("commander->plant since start"), "{screen}");
+    for seg in [
+        "commander->plant out",
+        "plant->fee out",
+        "fee->estimator out",
+    ] {
+        assert!(screen.contains(seg), "{seg}: {screen}");
+    }
+    assert!(screen.contains("hop commander->plant"), "{screen}");
     assert!(screen.contains("missed deadlines"), "{screen}");
     assert!(
         screen.contains("estimator") && screen.contains("alloc 0"),

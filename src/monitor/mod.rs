@@ -166,9 +166,17 @@ fn pump(feed: &mut feed::Feed, t: &mut Tracker) -> Result<(), BusError> {
     let now = Instant::now();
     let mut est = Vec::new();
     let mut st = Vec::new();
-    feed.drain(|e| est.push(*e), |s| st.push(*s))?;
+    let mut heads = Vec::new();
+    feed.drain(
+        |e| est.push(*e),
+        |s| st.push(*s),
+        |k, h| heads.push((k, *h)),
+    )?;
     for s in &st {
         t.status(s, now);
+    }
+    for (k, h) in &heads {
+        t.stream(*k, h, now);
     }
     for e in &est {
         t.estimate(e, now);

@@ -3,13 +3,15 @@
 //! end-to-end latency are over a sliding window of wall-clock time; the stages' hop
 //! latencies are their own figures since they started (a stage keeps no window).
 
+use super::feed::Stream;
+use crate::msg::Header;
 use crate::msg::{
     status_text, EstimateMsg, SetStatus, CAUSE_NAMES, EST_FINAL, GROUP_NAMES, N_CAUSES,
     PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, SET_FINISHED, SET_RUNNING, SET_STARTING, SET_STOPPING,
     STATE_DONE, STATE_READY, STATE_RUNNING,
 };
 use serde::Serialize;
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
 
 /// Sliding window of the rates and the end-to-end latency [s of wall-clock time].
@@ -18,6 +20,11 @@ pub const WINDOW: Duration = Duration::from_secs(10);
 const HISTORY: usize = 400;
 /// End-to-end latencies kept at most (the window at ×1000 real time and more).
 const LATENCIES: usize = 50_000;
+/// Ticks of publish times kept to pair a stage's input with its output.
+const PAIRING_TICKS: u64 = 4096;
+/// The stages' segments of the end-to-end latency, each from one stage's publish to the
+/// next one's (its input hop and its processing): names, in order.
+pub const SEGMENTS: [&str; 3] = ["commander->plant", "plant->fee", "fee->estimator"];
 
 /// Parameter groups, in row order: name, unit of the raw value.
 pub const GROUPS: [(&str, &str); 3] = [("beta", "rad s^-2 V^-1"), ("k", "m s^-2 V^-1"), ("r", "m")];
@@ -106,6 +113,13 @@ pub struct Tracker {
     missed: VecDeque<(Instant, u64)>,
     /// (when, plant publish → estimate published [ns]).
     e2e: VecDeque<(Instant, u64)>,
+    /// (when, segment [ns]) per `SEGMENTS`.
+    segments: [VecDeque<(Instant, u64)>; 3],
+    /// Recent publish times by tick [ns]: commands; samples (plant's, front end's);
+    /// estimates.
+    torque_at: BTreeMap<u64, u64>,
+    sensor_at: BTreeMap<u64, (u64, u64)>,
+    estimate_at: BTreeMap<u64, u64>,
 }
 
 impl Tracker {
@@ -120,6 +134,43 @@ impl Tracker {
             counts: VecDeque::new(),
             missed: VecDeque::new(),
             e2e: VecDeque::new(),
+            segments: Default::default(),
+            torque_at: BTreeMap::new(),
+            sensor_at: BTreeMap::new(),
+            estimate_at: BTreeMap::new(),
+        }
+    }
+
+    fn segment(&mut self, k: usize, from_ns: u64, to_ns: u64, now: Instant) {
+        if from_ns > 0 && to_ns >= from_ns {
+            let w = &mut self.segments[k];
+            w.push_back((now, to_ns - from_ns));
+            if w.len() > LATENCIES {
+                w.pop_front();
+            }
+        }
+    }
+
+    /// A command's or sample's header: pair it with the other side of its segment.
+    pub fn stream(&mut self, k: Stream, h: &Header, now: Instant) {
+        let tick = h.tick;
+        match k {
+            Stream::Torque => {
+                self.torque_at.insert(tick, h.publish_ns);
+                if let Some(&(origin, _)) = self.sensor_at.get(&tick) {
+                    self.segment(0, h.publish_ns, origin, now);
+                }
+            }
+            Stream::Sensor => {
+                self.sensor_at.insert(tick, (h.origin_ns, h.publish_ns));
+                if let Some(&cmd) = self.torque_at.get(&tick) {
+                    self.segment(0, cmd, h.origin_ns, now);
+                }
+                self.segment(1, h.origin_ns, h.publish_ns, now);
+                if let Some(&est) = self.estimate_at.get(&tick) {
+                    self.segment(2, h.publish_ns, est, now);
+                }
+            }
         }
     }
 
@@ -128,6 +179,11 @@ impl Tracker {
         // The final estimate is sent again over hosts (same seq): keep the first.
         if self.latest.is_some_and(|l| l.flags & EST_FINAL != 0) {
             return;
+        }
+        let tick = m.header.tick;
+        self.estimate_at.insert(tick, m.header.publish_ns);
+        if let Some(&(_, fee)) = self.sensor_at.get(&tick) {
+            self.segment(2, fee, m.header.publish_ns, now);
         }
         if m.header.origin_ns > 0 && m.header.publish_ns >= m.header.origin_ns {
             self.e2e
@@ -151,9 +207,21 @@ impl Tracker {
     pub fn settle(&mut self, now: Instant) {
         let horizon = now.checked_sub(WINDOW);
         let old = |t: &Instant| horizon.is_some_and(|h| *t < h);
-        while self.e2e.front().is_some_and(|(t, _)| old(t)) {
-            self.e2e.pop_front();
+        for w in std::iter::once(&mut self.e2e).chain(self.segments.iter_mut()) {
+            while w.front().is_some_and(|(t, _)| old(t)) {
+                w.pop_front();
+            }
         }
+        let newest = [&self.torque_at, &self.estimate_at]
+            .iter()
+            .filter_map(|m| m.keys().next_back().copied())
+            .chain(self.sensor_at.keys().next_back().copied())
+            .max()
+            .unwrap_or(0);
+        let keep = newest.saturating_sub(PAIRING_TICKS);
+        self.torque_at = self.torque_at.split_off(&keep);
+        self.sensor_at = self.sensor_at.split_off(&keep);
+        self.estimate_at = self.estimate_at.split_off(&keep);
         // Keep one entry older than the window: rates span the whole of it.
         while self.counts.len() > 1 && self.counts.get(1).is_some_and(|(t, ..)| old(t)) {
             self.counts.pop_front();
@@ -260,12 +328,6 @@ impl Tracker {
     }
 
     fn latency_of(&self, st: &SetStatus, now: Instant) -> Latency {
-        let mut e2e: Vec<f64> = self.e2e.iter().map(|(_, ns)| *ns as f64 / 1e3).collect();
-        e2e.sort_by(f64::total_cmp);
-        let q = |p: f64| {
-            e2e.get(((p * e2e.len() as f64).ceil() as usize).saturating_sub(1))
-                .copied()
-        };
         let member = |id: u32| st.members.iter().find(|m| m.process == id && m.heard != 0);
         let hop = |id: u32| {
             member(id).map(|m| Quantiles {
@@ -285,12 +347,13 @@ impl Tracker {
         Latency {
             realtime: st.period_ns > 0,
             window_s: WINDOW.as_secs_f64(),
-            end_to_end_us: Quantiles {
-                p50: q(0.5).unwrap_or(0.0),
-                p99: q(0.99).unwrap_or(0.0),
-                max: e2e.last().copied().unwrap_or(0.0),
-                count: e2e.len() as u64,
-            },
+            end_to_end_us: quantiles(&self.e2e),
+            segments_us: SEGMENTS
+                .iter()
+                .zip(&self.segments)
+                .filter(|(_, w)| !w.is_empty())
+                .map(|(n, w)| (n.to_string(), quantiles(w)))
+                .collect(),
             end_to_end_since_start_us: est.map(|m| Quantiles {
                 p50: m.last.e2e_latency_us[0],
                 p99: m.last.e2e_latency_us[1],
@@ -314,6 +377,23 @@ impl Tracker {
                 .map(|m| m.last.samples_lost)
                 .sum(),
         }
+    }
+}
+
+/// p50, p99, max [µs] of a window of latencies [ns].
+fn quantiles(w: &VecDeque<(Instant, u64)>) -> Quantiles {
+    let mut v: Vec<f64> = w.iter().map(|(_, ns)| *ns as f64 / 1e3).collect();
+    v.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        v.get(((p * v.len() as f64).ceil() as usize).saturating_sub(1))
+            .copied()
+            .unwrap_or(0.0)
+    };
+    Quantiles {
+        p50: q(0.5),
+        p99: q(0.99),
+        max: v.last().copied().unwrap_or(0.0),
+        count: v.len() as u64,
     }
 }
 
@@ -485,6 +565,10 @@ pub struct Latency {
     pub window_s: f64,
     /// Plant publish → estimate published, over the window [µs].
     pub end_to_end_us: Quantiles,
+    /// Over the window, each stage's segment of it [µs]: from its upstream's publish to
+    /// its own (input hop and processing), by `SEGMENTS` name; a stream that does not
+    /// reach the monitor's host is left out.
+    pub segments_us: std::collections::BTreeMap<String, Quantiles>,
     /// The estimator's own figure since it started [µs].
     pub end_to_end_since_start_us: Option<Quantiles>,
     /// Each stage's input hop since it started [µs].
@@ -605,5 +689,40 @@ mod tests {
         // Sent again over hosts: the first final estimate is kept.
         t.estimate(&estimate(5, 10, 0), t0);
         assert_eq!(t.latest.unwrap().header.tick, 999);
+    }
+
+    #[test]
+    fn each_stages_segment_pairs_its_input_and_output_by_tick_in_any_order() {
+        let t0 = Instant::now();
+        let hosts = crate::monitor::HostNames(None);
+        let mut t = Tracker::new(None);
+        t.status(&status(0), t0);
+        let head = |tick, origin_ns, publish_ns| Header {
+            tick,
+            origin_ns,
+            publish_ns,
+            ..Default::default()
+        };
+        // Tick 1 in publish order; tick 2's estimate before its sample (another batch).
+        t.stream(Stream::Torque, &head(1, 0, 1_000), t0);
+        t.stream(Stream::Sensor, &head(1, 3_000, 7_000), t0);
+        let mut e = estimate(1, 0, 0);
+        (e.header.origin_ns, e.header.publish_ns) = (3_000, 12_000);
+        t.estimate(&e, t0);
+        let mut e = estimate(2, 0, 0);
+        (e.header.origin_ns, e.header.publish_ns) = (23_000, 32_000);
+        t.estimate(&e, t0);
+        t.stream(Stream::Sensor, &head(2, 23_000, 27_000), t0);
+        t.stream(Stream::Torque, &head(2, 0, 21_000), t0);
+        t.settle(t0);
+        let l = t.snapshot("p_", &hosts, t0).latency.unwrap();
+        let seg = |n: &str| {
+            let q = l.segments_us[n];
+            (q.count, q.max)
+        };
+        assert_eq!(seg("commander->plant"), (2, 2.0));
+        assert_eq!(seg("plant->fee"), (2, 4.0));
+        assert_eq!(seg("fee->estimator"), (2, 5.0));
+        assert_eq!((l.end_to_end_us.count, l.end_to_end_us.max), (2, 9.0));
     }
 }

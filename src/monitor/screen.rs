@@ -56,7 +56,7 @@ pub fn draw(f: &mut Frame, v: &View) {
     parameters(f, mid[0], v);
     let side = Layout::default()
         .direction(Direction::Vertical)
-        .constraints([Constraint::Min(8), Constraint::Length(9)])
+        .constraints([Constraint::Min(8), Constraint::Length(11)])
         .split(mid[1]);
     status(f, side[0], v.snap);
     latency(f, side[1], v.snap);
@@ -282,16 +282,19 @@ fn latency(f: &mut Frame, r: Rect, s: &Snapshot) {
     let block = Block::default().borders(Borders::ALL).title(title);
     let q = |x: &super::model::Quantiles| format!("{:.1} / {:.1} / {:.1}", x.p50, x.p99, x.max);
     let mut lines = vec![Line::from(format!(
-        "end to end, last {:.0} s: {} ({} samples)",
+        "last {:.0} s: end to end {} ({} samples)",
         l.window_s,
         q(&l.end_to_end_us),
         l.end_to_end_us.count
     ))];
+    for (seg, s) in &l.segments_us {
+        lines.push(Line::from(format!("  {seg} out: {}", q(s))));
+    }
     if let Some(e) = &l.end_to_end_since_start_us {
-        lines.push(Line::from(format!("end to end since start: {}", q(e))));
+        lines.push(Line::from(format!("since start: end to end {}", q(e))));
     }
     for (hop, h) in &l.hops_since_start_us {
-        lines.push(Line::from(format!("{hop} since start: {}", q(h))));
+        lines.push(Line::from(format!("  hop {hop}: {}", q(h))));
     }
     let pacing = if l.realtime {
         "real time"
