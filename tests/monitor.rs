@@ -490,3 +490,48 @@ fn a_snapshot_without_a_run_says_so_and_leaves_nothing_on_the_bus() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--hosts"));
 }
+
+/// A monitor still attached when a run ends (here stopped with SIGSTOP, so it cannot
+/// notice and detach) is no stray node of that run: the next run on the prefix starts.
+#[test]
+fn a_monitor_left_attached_does_not_keep_the_next_run_from_starting() {
+    let _s = serial();
+    let dir = tmpdir::TmpDir::new("monitor-next");
+    let sc = dir.join("scenario.toml");
+    // 300 s at ×100: 3 s of wall time.
+    std::fs::write(
+        &sc,
+        "name = \"next\"\nseed = 5\nduration_s = 300.0\n[maneuver]\nfrequency_hz = 1e-2\n",
+    )
+    .unwrap();
+    let pfx = prefix("n");
+    let tmux = Tmux::new("n");
+    let first = supervisor(&sc, &dir.join("a"), &pfx);
+    let pid = tmux.start("ui", &["monitor", "--bus-prefix", &pfx]);
+    wait_for("the run on the monitor", Duration::from_secs(60), || {
+        tmux.capture("ui").contains("running ·")
+    });
+    signal(pid, libc::SIGSTOP);
+    let o = finish(first);
+    assert!(
+        matches!(o.status.code(), Some(0 | 1)),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let o = finish(supervisor(&sc, &dir.join("b"), &pfx));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(matches!(o.status.code(), Some(0 | 1)), "{stderr}");
+    assert_eq!(report(&dir.join("b"))["estimator_loop_allocations"], 0);
+    signal(pid, libc::SIGCONT);
+    tmux.keys("ui", &["q"]);
+    wait_for("the monitor to quit", Duration::from_secs(10), || {
+        tmux.dead("ui")
+    });
+    let left: Vec<String> = std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(&pfx))
+        .collect();
+    assert!(left.is_empty(), "left in /dev/shm: {left:?}");
+}

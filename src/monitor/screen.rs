@@ -296,16 +296,13 @@ fn latency(f: &mut Frame, r: Rect, s: &Snapshot) {
     for (hop, h) in &l.hops_since_start_us {
         lines.push(Line::from(format!("  hop {hop}: {}", q(h))));
     }
-    let pacing = if l.realtime {
-        "real time"
-    } else {
-        "accelerated: no deadline"
+    let missed = match (l.realtime, l.missed_deadlines_in_window) {
+        (false, _) => "no deadline (accelerated)".to_string(),
+        (true, Some(n)) => format!("{} ({n} in the window)", l.missed_deadlines),
+        (true, None) => l.missed_deadlines.to_string(),
     };
     lines.push(Line::from(format!(
-        "missed deadlines {}{} · samples lost {} · {pacing}",
-        l.missed_deadlines,
-        l.missed_deadlines_in_window
-            .map_or(String::new(), |n| format!(" ({n} in the window)")),
+        "missed deadlines {missed} · samples lost {}",
         l.samples_lost
     )));
     f.render_widget(Paragraph::new(lines).block(block), r);
