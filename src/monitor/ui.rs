@@ -49,12 +49,12 @@ pub fn run(
     let mut confirm = false;
     let mut notice: Option<String> = None;
     let mut stop_sent: Option<Instant> = None;
-    let mut last_try = Instant::now() - FRAME;
+    let mut last_try: Option<Instant> = None;
     let t0 = Instant::now();
     loop {
         // Attach to a run when there is one (a new one after the last ended).
-        if feed.is_none() && last_try.elapsed() >= FRAME {
-            last_try = Instant::now();
+        if feed.is_none() && last_try.map_or(true, |at| at.elapsed() >= FRAME) {
+            last_try = Some(Instant::now());
             if let Some(f) = Feed::attach(prefix)? {
                 if t.ended() {
                     t = Tracker::new(t.truth);
