@@ -6,7 +6,9 @@
 //! `crate::topology` (`tools/launch --graph` draws it); the payloads' bus names are
 //! `Payload::TYPE_NAME`.
 
-use crate::msg::{Control, EstimateMsg, Progress, SensorSample, TorqueCommand, TruthState};
+use crate::msg::{
+    Control, EstimateMsg, Progress, Request, SensorSample, SetStatus, TorqueCommand, TruthState,
+};
 use iceoryx2::node::NodeView;
 use iceoryx2::node::{NodeCreationFailure, NodeListFailure};
 use iceoryx2::port::listener::ListenerCreateError;
@@ -32,6 +34,15 @@ pub const SVC_SENSOR: &str = "taiji/sensor";
 pub const SVC_ESTIMATE: &str = "taiji/estimate";
 pub const SVC_PROGRESS: &str = "taiji/progress";
 pub const SVC_CONTROL: &str = "taiji/control";
+/// The supervisor in charge's view of the set, for outside monitors (`SetStatus`).
+pub const SVC_STATUS: &str = "taiji/status";
+/// Operators' requests to the supervisor in charge (`Request`): the monitor's way to
+/// act on a run without publishing where a stage listens.
+pub const SVC_REQUEST: &str = "taiji/request";
+
+/// Node name of outside monitors (`taiji-calib monitor`): a live one is no stage of a
+/// crashed run, so a new supervisor does not refuse the prefix for it.
+pub const MONITOR_NODE: &str = "taiji-monitor";
 
 /// Default prefix of every iceoryx2 resource of a run (files in /dev/shm and /tmp/iceoryx2).
 pub const DEFAULT_PREFIX: &str = "taiji_";
@@ -91,7 +102,9 @@ payloads!(
     SensorSample,
     EstimateMsg,
     Progress,
-    Control
+    Control,
+    SetStatus,
+    Request
 );
 
 /// What went wrong on the bus. The variants met on every tick (`Loan`, `Send`,
@@ -262,7 +275,7 @@ fn service_name(name: &str) -> Result<ServiceName, BusError> {
 }
 
 fn is_small(name: &str) -> bool {
-    name == SVC_PROGRESS || name == SVC_CONTROL
+    [SVC_PROGRESS, SVC_CONTROL, SVC_STATUS, SVC_REQUEST].contains(&name)
 }
 
 /// Default subscriber queue depth of a service.
@@ -635,6 +648,53 @@ pub fn release(prefix: &str) -> Result<Released, BusError> {
     Ok(released)
 }
 
+/// Does publish–subscribe service `name` exist on this prefix? Reads the service
+/// folder only: no node, so an outside client that waits for a run leaves nothing in
+/// /dev/shm while none comes. False when it cannot be told.
+pub fn service_exists(prefix: &str, name: &str) -> bool {
+    use iceoryx2::service::Service as _;
+    let (Ok(cfg), Ok(sn)) = (config(prefix), service_name(name)) else {
+        return false;
+    };
+    ipc::Service::does_exist(&sn, &cfg, MessagingPattern::PublishSubscribe).unwrap_or(false)
+}
+
+/// For an outside client that detached (its node dropped): when no node of the prefix
+/// is left at all (the run ended while it was attached, so the supervisor had to leave
+/// them), remove the prefix's global object and the empty node folders. Never touches
+/// dead nodes' resources: those are the supervisor's to clean (concurrent cleaners race).
+pub fn release_if_unused(prefix: &str) -> usize {
+    let Ok(cfg) = config(prefix) else {
+        return 0;
+    };
+    if prefix.is_empty() {
+        return 0;
+    }
+    let mut left = 0usize;
+    if Node::<ipc::Service>::list(&cfg, |_| {
+        left += 1;
+        CallbackProgression::Continue
+    })
+    .is_err()
+        || left > 0
+    {
+        return 0;
+    }
+    remove_empty_node_dirs(&cfg);
+    let suffix = cfg.global.node.global_mgmt_suffix.to_string();
+    let Ok(dir) = std::fs::read_dir(SHM_DIR) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in dir.flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        if is_global_mgmt(&name, prefix, &suffix) && std::fs::remove_file(entry.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
 /// Removes the empty folders under iceoryx2's node directory. iceoryx2 0.9.3 removes a
 /// released node's files, then its folder only if nothing else is in it at that moment
 /// (a port still being dropped, a cleanup running beside it), so empty folders pile up.
@@ -726,6 +786,8 @@ mod tests {
             EstimateMsg::TYPE_NAME,
             Progress::TYPE_NAME,
             Control::TYPE_NAME,
+            SetStatus::TYPE_NAME,
+            Request::TYPE_NAME,
         ] {
             assert!(name.starts_with(&v), "{name} lacks {v}");
         }

@@ -26,6 +26,7 @@ pub mod fuzz;
 pub mod launch;
 
 pub mod model;
+pub mod monitor;
 pub mod montecarlo;
 pub mod msg;
 pub mod plan;

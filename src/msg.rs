@@ -121,3 +121,147 @@ pub struct Control {
     pub command: u32,
     pub _pad: u32,
 }
+
+/// Processes a `SetStatus` describes at most (the five stages, with room).
+pub const MAX_MEMBERS: usize = 8;
+/// Hosts a `SetStatus` names at most.
+pub const MAX_HOSTS: usize = 4;
+/// Bytes of a host name in a `SetStatus` (UTF-8, NUL-padded; longer names are cut).
+pub const HOST_NAME_BYTES: usize = 16;
+
+/// One process of the set as the supervisor in charge sees it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct MemberStatus {
+    /// `PROC_*` (0: an unused slot).
+    pub process: u32,
+    /// Index of its host in `SetStatus::host_names` (0 on one host).
+    pub host: u32,
+    /// Times the supervisor restarted it.
+    pub restarts: u32,
+    /// 1 once its first heartbeat arrived (`last` is then meaningful).
+    pub heard: u32,
+    /// Time since its last heartbeat reached the supervisor [ns].
+    pub heartbeat_age_ns: u64,
+    /// Its last heartbeat: state, ticks, counters, latency since it started.
+    pub last: Progress,
+}
+
+/// `SetStatus::state`: the processes are starting (not all ready yet).
+pub const SET_STARTING: u32 = 1;
+/// The campaign runs.
+pub const SET_RUNNING: u32 = 2;
+/// The final estimate is in; the set is being stopped.
+pub const SET_FINISHED: u32 = 3;
+/// Stopping before the end: a stop was requested (`REQ_ABORT`), or a signal.
+pub const SET_STOPPING: u32 = 4;
+
+/// Supervisor in charge → outside monitors (`bus::SVC_STATUS`), every
+/// `STATUS_EVERY_NS`: what only the supervisor knows (every process's heartbeat age,
+/// restarts and host; the maneuver's phase). Carries no truth: on a set over hosts it
+/// crosses to the flight host.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C)]
+pub struct SetStatus {
+    pub header: Header,
+    /// Process id of the supervisor in charge.
+    pub supervisor_pid: u32,
+    /// `SET_*`.
+    pub state: u32,
+    /// Samples in the campaign.
+    pub n_samples: u64,
+    /// Sample rate [Hz].
+    pub sample_rate_hz: f64,
+    /// Real-time tick period [ns] (0: accelerated lock-step).
+    pub period_ns: u64,
+    /// Real-time speed-up (simulated s per wall-clock s; 0 when accelerated).
+    pub time_scale: f64,
+    /// Wall-clock time since the supervisor started [ns].
+    pub elapsed_ns: u64,
+    /// Tick the maneuver phase below is given at (the estimator's next tick).
+    pub maneuver_tick: u64,
+    /// Commanded body torque at `maneuver_tick` [N m] (zero: no axis rocked).
+    pub maneuver_torque_nm: [f64; 3],
+    /// Cramér–Rao bound (1σ) of the samples up to `maneuver_tick`, from the scenario's
+    /// noise-free campaign (`crlb::crlb_curve`), per IS and axis: β [rad s^-2 V^-1],
+    /// k [m s^-2 V^-1], r [m]; NaN before every parameter has been excited.
+    pub bound_beta: [[f64; 3]; 2],
+    pub bound_k: [[f64; 3]; 2],
+    pub bound_r: [[f64; 3]; 2],
+    /// Process id of the monitor whose stop request was accepted (0: none).
+    pub stop_requested_by: u32,
+    /// Slots used in `members`, and names used in `host_names`.
+    pub n_members: u32,
+    pub n_hosts: u32,
+    pub _pad: u32,
+    pub members: [MemberStatus; MAX_MEMBERS],
+    /// The launch description's host names (one host: empty).
+    pub host_names: [[u8; HOST_NAME_BYTES]; MAX_HOSTS],
+}
+
+impl Default for SetStatus {
+    fn default() -> Self {
+        SetStatus {
+            header: Header::default(),
+            supervisor_pid: 0,
+            state: 0,
+            n_samples: 0,
+            sample_rate_hz: 0.0,
+            period_ns: 0,
+            time_scale: 0.0,
+            elapsed_ns: 0,
+            maneuver_tick: 0,
+            maneuver_torque_nm: [0.0; 3],
+            bound_beta: [[f64::NAN; 3]; 2],
+            bound_k: [[f64::NAN; 3]; 2],
+            bound_r: [[f64::NAN; 3]; 2],
+            stop_requested_by: 0,
+            n_members: 0,
+            n_hosts: 0,
+            _pad: 0,
+            members: [MemberStatus::default(); MAX_MEMBERS],
+            host_names: [[0; HOST_NAME_BYTES]; MAX_HOSTS],
+        }
+    }
+}
+
+impl SetStatus {
+    /// Host `i`'s name ("" when unnamed: a set on one host).
+    pub fn host_name(&self, i: u32) -> String {
+        let Some(raw) = self.host_names.get(i as usize) else {
+            return String::new();
+        };
+        let end = raw.iter().position(|&b| b == 0).unwrap_or(raw.len());
+        String::from_utf8_lossy(&raw[..end]).into_owned()
+    }
+
+    /// Store `name` as host `i` (cut to `HOST_NAME_BYTES` at a character boundary).
+    pub fn set_host_name(&mut self, i: usize, name: &str) {
+        let Some(slot) = self.host_names.get_mut(i) else {
+            return;
+        };
+        let mut end = name.len().min(HOST_NAME_BYTES);
+        while !name.is_char_boundary(end) {
+            end -= 1;
+        }
+        *slot = [0; HOST_NAME_BYTES];
+        slot[..end].copy_from_slice(&name.as_bytes()[..end]);
+    }
+}
+
+/// `Request::command`: stop the run now (the supervisor stops every process, as on
+/// SIGINT, and exits 130).
+pub const REQ_STOP: u32 = 1;
+
+/// Outside monitor → supervisor in charge (`bus::SVC_REQUEST`): an operator's control
+/// action. Only the supervisor commands the stages (`Control`), so a monitor never
+/// publishes where a stage listens.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct Request {
+    pub header: Header,
+    /// `REQ_*`.
+    pub command: u32,
+    /// Process id of the requesting monitor (on its host).
+    pub requester_pid: u32,
+}

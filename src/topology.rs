@@ -6,8 +6,8 @@
 
 use crate::bus::{self, Payload};
 use crate::msg::{
-    Control, EstimateMsg, Progress, SensorSample, TorqueCommand, TruthState, PROC_COMMANDER,
-    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER,
+    Control, EstimateMsg, Progress, Request, SensorSample, SetStatus, TorqueCommand, TruthState,
+    PROC_COMMANDER, PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER,
 };
 
 /// One process of the set.
@@ -94,11 +94,18 @@ pub struct Service {
     pub supervisor_subscribes: bool,
     /// The supervisor publishes.
     pub supervisor_publishes: bool,
+    /// Outside clients (`taiji-calib monitor`) use it, from any host: on a set over
+    /// hosts it crosses the link whoever else uses it.
+    pub outside: bool,
 }
 
-/// The data and control services. Truth goes to the front end and the recorder only:
-/// never to the estimator, and never across the link to a flight host.
-pub const SERVICES: [Service; 6] = [
+/// The data and control services, and the monitors' two. Truth goes to the front end
+/// and the recorder only: never to the estimator, to a monitor, or across the link to
+/// a flight host. A monitor reads the estimates (published off the estimator's loop
+/// thread, `process::outbox`) and the supervisor's status, and asks the supervisor
+/// for control actions: it never opens a port where a stage's loop would have to
+/// connect to it.
+pub const SERVICES: [Service; 8] = [
     Service {
         name: bus::SVC_TORQUE,
         payload: TorqueCommand::TYPE_NAME,
@@ -106,6 +113,7 @@ pub const SERVICES: [Service; 6] = [
         subscribers: Users::Some(&["taiji-plant"]),
         supervisor_subscribes: false,
         supervisor_publishes: false,
+        outside: false,
     },
     Service {
         name: bus::SVC_TRUTH,
@@ -114,6 +122,7 @@ pub const SERVICES: [Service; 6] = [
         subscribers: Users::Some(&["taiji-fee", "taiji-recorder"]),
         supervisor_subscribes: false,
         supervisor_publishes: false,
+        outside: false,
     },
     Service {
         name: bus::SVC_SENSOR,
@@ -122,6 +131,7 @@ pub const SERVICES: [Service; 6] = [
         subscribers: Users::Some(&["taiji-estimator", "taiji-recorder"]),
         supervisor_subscribes: false,
         supervisor_publishes: false,
+        outside: false,
     },
     Service {
         name: bus::SVC_ESTIMATE,
@@ -130,6 +140,7 @@ pub const SERVICES: [Service; 6] = [
         subscribers: Users::Some(&["taiji-recorder"]),
         supervisor_subscribes: true,
         supervisor_publishes: false,
+        outside: true,
     },
     Service {
         name: bus::SVC_PROGRESS,
@@ -138,6 +149,7 @@ pub const SERVICES: [Service; 6] = [
         subscribers: Users::EveryStage,
         supervisor_subscribes: true,
         supervisor_publishes: false,
+        outside: false,
     },
     Service {
         name: bus::SVC_CONTROL,
@@ -146,8 +158,32 @@ pub const SERVICES: [Service; 6] = [
         subscribers: Users::EveryStage,
         supervisor_subscribes: false,
         supervisor_publishes: true,
+        outside: false,
+    },
+    Service {
+        name: bus::SVC_STATUS,
+        payload: SetStatus::TYPE_NAME,
+        publishers: Users::Some(&[]),
+        subscribers: Users::Some(&[]),
+        supervisor_subscribes: false,
+        supervisor_publishes: true,
+        outside: true,
+    },
+    Service {
+        name: bus::SVC_REQUEST,
+        payload: Request::TYPE_NAME,
+        publishers: Users::Some(&[]),
+        subscribers: Users::Some(&[]),
+        supervisor_subscribes: true,
+        supervisor_publishes: false,
+        outside: true,
     },
 ];
+
+/// Does an outside client use service `name` (it then crosses every link)?
+pub fn outside(name: &str) -> bool {
+    SERVICES.iter().any(|s| s.name == name && s.outside)
+}
 
 /// The stage run by binary `process`.
 pub fn stage(process: &str) -> Option<&'static Stage> {

@@ -22,6 +22,7 @@ use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
+const CALIB: &str = env!("CARGO_BIN_EXE_taiji-calib");
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
 static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
@@ -557,4 +558,72 @@ fn host_options_that_cannot_work_are_user_errors() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(says), "{args:?}: {err}");
     }
+}
+
+/// `taiji-calib monitor --once --json` on each host, inside that host's namespaces (the
+/// supervisor's: its network and its private /dev/shm and /tmp/iceoryx2): on either one
+/// it shows every process with its host, the estimates and the run's progress, the
+/// statuses and estimates it lacks crossing the tunnel. The run (lock-step, long enough
+/// for the four snapshots, held near its end until they are taken) stays bit-identical
+/// to the in-process one, loses nothing and its loop allocates nothing.
+#[test]
+fn a_monitor_on_either_host_shows_the_whole_set_and_changes_nothing() {
+    need_two_hosts!();
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let hosts = Hosts::up("mo");
+    let dir = tmp("monitor");
+    // 600 000 ticks: over 10 s in lock-step over the tunnel; held near the end.
+    let sc = write_scenario(
+        &dir,
+        "name = \"mon\"\nseed = 11\nduration_s = 60000.0\n[maneuver]\nfrequency_hz = 1e-2\n",
+    );
+    let hold = Hold::at(&dir, 590_000);
+    let (k, v) = hold.env();
+    let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
+    let mut sim = hosts.supervisor_env("sim", &sc, &dir.join("sim"), &[], &[(k, &v)]);
+    wait_for_checkpoint(&dir.join("flight"), &mut sim, &mut flight);
+    let two = Path::new(ROOT).join("tools/two_hosts.toml");
+    for (host, sup) in [("sim", pid_of(&sim)), ("flight", pid_of(&flight))] {
+        for names in [None, Some(&two)] {
+            let mut c = Command::new("nsenter");
+            c.args(["--target", &sup.to_string(), "--mount", "--net", "--"])
+                .arg(CALIB)
+                .args(["monitor", "--bus-prefix", "tjhil_", "--once", "--json"])
+                .args(["--timeout", "20", "--watch", "0.2"]);
+            if let Some(n) = names {
+                c.arg("--hosts").arg(n);
+            }
+            let o = c.output().unwrap();
+            assert!(o.status.success(), "monitor on {host}: {}", text(&o));
+            let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+            assert_eq!(j["run"]["state"], "running", "on {host}: {j}");
+            assert_eq!(j["run"]["pacing"], "accelerated");
+            // Still flowing: the snapshots are taken before the hold.
+            assert!(
+                j["run"]["tick"].as_u64().unwrap() < 295_000,
+                "on {host}: {j}"
+            );
+            assert_eq!(j["estimate"]["parameters"].as_array().unwrap().len(), 18);
+            let procs = j["processes"].as_array().unwrap();
+            assert_eq!(procs.len(), 4, "on {host}: {j}");
+            for p in procs {
+                let expected = match p["name"].as_str().unwrap() {
+                    "taiji-estimator" => "flight",
+                    _ => "sim",
+                };
+                assert_eq!(p["host"], expected, "on {host}: {p}");
+                assert_eq!(p["state"], "running", "on {host}: {p}");
+            }
+            assert!(j["latency"]["end_to_end_us"]["count"].as_u64().unwrap() > 0);
+        }
+    }
+    hold.release();
+    let so = sim.wait_with_output().unwrap();
+    let fo = flight.wait_with_output().unwrap();
+    assert!(so.status.success(), "sim: {}", text(&so));
+    assert!(fo.status.success(), "flight: {}", text(&fo));
+    let r = report(&dir.join("sim"));
+    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(estimates(&r), in_process(&sc, 11));
 }

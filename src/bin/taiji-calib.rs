@@ -136,6 +136,10 @@ enum Cmd {
         #[arg(long, default_value = "out/plan")]
         out: PathBuf,
     },
+    /// Watch a running process set live (terminal UI; --once prints one snapshot):
+    /// estimates against the bound, status, rejections, latency, every process. It
+    /// changes nothing in the run; `q` leaves the monitor only.
+    Monitor(taiji::monitor::MonitorArgs),
 }
 
 #[derive(clap::Args)]
@@ -237,13 +241,19 @@ enum CliError {
     Report(#[from] taiji::report::ReportError),
     #[error(transparent)]
     Plot(#[from] taiji::plots::PlotError),
+    #[error(transparent)]
+    Monitor(#[from] taiji::monitor::MonitorError),
 }
 
 impl CliError {
     /// The process's exit code: 2 for every error (1 is a run whose requirements are
-    /// not met, 0 success).
+    /// not met, or a monitor that found no run; 0 success).
     fn exit_code(&self) -> u8 {
-        2
+        match self {
+            // Nothing to watch (no run on the prefix) is no user error.
+            CliError::Monitor(e) => e.exit_code(),
+            _ => 2,
+        }
     }
 }
 
@@ -418,6 +428,7 @@ fn run(cli: Cli) -> Result<ExitCode, CliError> {
             top,
             &out,
         ),
+        Cmd::Monitor(args) => Ok(ExitCode::from(taiji::monitor::run(&args)?)),
     }
 }
 

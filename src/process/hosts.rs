@@ -42,7 +42,8 @@ const ACK_QUIET: Duration = Duration::from_millis(300);
 /// that the stop is repeated until the other hosts acknowledge it.
 pub const FAULT_DROP_STOPS: &str = "TAIJI_FAULT_DROP_STOPS";
 
-/// Services whose users run on more than one host: only these cross the link (the
+/// Services whose users run on more than one host, and on a set over hosts those of
+/// outside monitors (which may run on any host): only these cross the link (the
 /// truth, for one, never reaches the flight computer).
 pub fn crossing_services(launch: &LaunchDescription, record: bool) -> Vec<String> {
     let in_charge = launch.host.first().map(|h| h.name.as_str()).unwrap_or("");
@@ -62,6 +63,8 @@ pub fn crossing_services(launch: &LaunchDescription, record: bool) -> Vec<String
         bus::SVC_ESTIMATE.into(),
         bus::SVC_PROGRESS.into(),
         bus::SVC_CONTROL.into(),
+        bus::SVC_STATUS.into(),
+        bus::SVC_REQUEST.into(),
         bus::wake_service("commander"),
         bus::wake_service("plant"),
         bus::wake_service("fee"),
@@ -75,7 +78,7 @@ pub fn crossing_services(launch: &LaunchDescription, record: bool) -> Vec<String
                 .collect();
             hosts.sort_unstable();
             hosts.dedup();
-            hosts.len() > 1
+            hosts.len() > 1 || (launch.host.len() > 1 && crate::topology::outside(s))
         })
         .collect()
 }
@@ -687,6 +690,8 @@ mod tests {
                 "taiji/estimate",
                 "taiji/progress",
                 "taiji/control",
+                "taiji/status",
+                "taiji/request",
                 "taiji/wake/fee",
                 "taiji/wake/estimator"
             ]

@@ -15,7 +15,9 @@ pub mod outbox;
 pub mod plant;
 pub mod recorder;
 pub mod set;
+pub mod status;
 pub mod supervisor;
+pub mod timing_report;
 
 use crate::bus::{self, BusError, Pub, Sub};
 use crate::estimate::Method;

@@ -6,13 +6,15 @@
 use crate::bus::{self, BusError};
 use crate::launch::{LaunchDescription, ProcessSpec, Restart};
 use crate::msg::{
-    Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_COMMANDER,
-    PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER, STATE_DONE,
+    Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_ESTIMATOR,
+    PROC_RECORDER, SET_FINISHED, SET_RUNNING, SET_STARTING, SET_STOPPING, STATE_DONE,
 };
 use crate::process::estimator::{EstimatorTable, CHECKPOINT_FILE, TABLE_FILE};
 pub use crate::process::set::SupervisorArgs;
 use crate::process::set::{Member, Reap, Set, SupervisorError};
 pub use crate::process::set::{SetError, SpawnError, UserError};
+use crate::process::status::StatusBoard;
+use crate::process::timing_report::{timing_json, MemberSummary};
 use crate::report::Report;
 use crate::scenario::Scenario;
 use crate::timing::monotonic_ns;
@@ -56,6 +58,9 @@ impl Outcome {
 /// maneuver planned when it had none.
 pub const PLANNED_SCENARIO_FILE: &str = "scenario.toml";
 
+/// Points of the bound's curve the status interpolates between (`crlb::bound_at`).
+const BOUND_POINTS: usize = 64;
+
 /// Run the campaign through the process set.
 pub fn run(args: &SupervisorArgs) -> Outcome {
     let s = match Scenario::load_or_default(args.scenario.as_deref()) {
@@ -88,10 +93,12 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     if me.is_some() && args.record {
         return Outcome::UserError(UserError::RecordOverHosts);
     }
-    let Some(crlb) = crate::crlb::crlb(&s) else {
+    // The bound as the campaign goes, for monitors; its last point is the report's.
+    let curve = crate::crlb::crlb_curve(&s, BOUND_POINTS, crate::campaign::Threads::available());
+    let Some(crlb) = curve.last().and_then(|(_, c)| *c) else {
         return Outcome::UserError(UserError::SingularFisher);
     };
-    match supervise(args, &s, &launch, me.as_deref()) {
+    match supervise(args, &s, &launch, me.as_deref(), curve) {
         Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
         Ok(Supervised::Done(final_est, members, wall, hosts)) => {
             let seed = args.seed.unwrap_or(s.seed);
@@ -143,14 +150,6 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     }
 }
 
-/// Summary of the last progress each stage published.
-struct MemberSummary {
-    spec: ProcessSpec,
-    id: u32,
-    restarts: u32,
-    last: Option<Progress>,
-}
-
 enum Supervised {
     /// The final estimate, every member, the wall time [s], and (sets over hosts) the
     /// report's `hosts`.
@@ -162,67 +161,6 @@ enum Supervised {
     ),
     Interrupted,
     HostStopped(String),
-}
-
-fn latency_json(v: [f64; 3]) -> serde_json::Value {
-    json!({"p50": v[0], "p99": v[1], "max": v[2]})
-}
-
-fn timing_json(
-    args: &SupervisorArgs,
-    s: &Scenario,
-    members: &[MemberSummary],
-) -> serde_json::Value {
-    let get = |id: u32| members.iter().find(|m| m.id == id).and_then(|m| m.last);
-    let lost: u64 = members
-        .iter()
-        .filter_map(|m| m.last.map(|p| p.samples_lost))
-        .sum();
-    if !args.realtime {
-        return json!({"pacing": "accelerated", "samples_lost": lost});
-    }
-    // A tick misses its deadline when its estimate is published more than one period
-    // after the tick was due; the commander's own late starts are one cause of that.
-    let est = get(PROC_ESTIMATOR).unwrap_or_default();
-    let missed = est.missed_deadlines;
-    let commander_late = get(PROC_COMMANDER)
-        .map_or(0, |p| p.missed_deadlines)
-        .min(missed);
-    let scheduling: serde_json::Map<String, serde_json::Value> = members
-        .iter()
-        .filter(|m| m.id != PROC_RECORDER)
-        .filter_map(|m| {
-            let p = m.last?;
-            let mut policy = match p.rt_priority {
-                0 => "normal".to_string(),
-                n => format!("SCHED_FIFO {n}"),
-            };
-            if p.cpu >= 0 {
-                policy.push_str(&format!(" on CPU {}", p.cpu));
-            }
-            Some((m.spec.name.clone(), policy.into()))
-        })
-        .collect();
-    let hop = |id: u32| latency_json(get(id).unwrap_or_default().hop_latency_us);
-    json!({
-        "pacing": "realtime",
-        "time_scale": args.time_scale,
-        "period_us": 1e6 / (s.sample_rate_hz * args.time_scale),
-        "end_to_end_latency_us": latency_json(est.e2e_latency_us),
-        "hop_latency_us": {
-            "commander->plant": hop(PROC_PLANT),
-            "plant->fee": hop(PROC_FEE),
-            "fee->estimator": hop(PROC_ESTIMATOR),
-        },
-        "latency_samples": est.latency_count,
-        "scheduling": scheduling,
-        "missed_deadlines": missed,
-        "missed_deadlines_by_cause": {
-            "commander woke late": commander_late,
-            "plant, fee or estimator late": missed - commander_late,
-        },
-        "samples_lost": lost,
-    })
 }
 
 /// Sweeps the run's shared memory for objects abandoned half-made by a killed stage
@@ -322,6 +260,7 @@ fn supervise(
     s: &Scenario,
     launch: &LaunchDescription,
     me: Option<&str>,
+    bound: Vec<(u64, Option<crate::crlb::Crlb>)>,
 ) -> Result<Supervised, SupervisorError> {
     let set_err = |e: BusError| SupervisorError::Set(e.into());
     let t_start = Instant::now();
@@ -378,7 +317,15 @@ fn supervise(
                 estimates: &estimates,
                 send: &send,
             };
-            Watch::new(launch, s.n_samples()).run(&ports, &mut set, hosts.as_mut())
+            let mut board = StatusBoard::new(&node, args, s, launch, bound).map_err(set_err)?;
+            let r =
+                Watch::new(launch, s.n_samples()).run(&ports, &mut set, hosts.as_mut(), &mut board);
+            let state = match r {
+                Ok(Some(_)) => SET_FINISHED,
+                _ => SET_STOPPING,
+            };
+            board.publish(&set, state, true);
+            r
         }
     };
     set.bar.finish();
@@ -460,9 +407,12 @@ fn claim(args: &SupervisorArgs) -> Result<PrefixHold, SupervisorError> {
             survey.removed_dead
         );
     }
-    // Live nodes without a supervisor: the set of a supervisor killed a moment ago.
-    if !survey.alive.is_empty() {
-        return Err(another_run(&args.bus_prefix, None, survey.alive));
+    // Live nodes without a supervisor: the set of a supervisor killed a moment ago
+    // (a monitor still attached is none of it: it reads the next run as well).
+    let mut alive = survey.alive;
+    alive.retain(|n| n != bus::MONITOR_NODE);
+    if !alive.is_empty() {
+        return Err(another_run(&args.bus_prefix, None, alive));
     }
     // Only now the folder: a refused run creates none.
     std::fs::create_dir_all(&args.out).map_err(|source| {
@@ -703,6 +653,7 @@ impl Watch {
         ports: &Ports,
         set: &mut Set,
         mut hosts: Option<&mut super::hosts::InCharge>,
+        board: &mut StatusBoard,
     ) -> Result<Option<EstimateMsg>, SupervisorError> {
         let set_err = SupervisorError::Set;
         loop {
@@ -710,6 +661,17 @@ impl Watch {
                 return Ok(None);
             }
             let link_silent = self.hear(ports, set, hosts.as_deref_mut())?;
+            let state = match (self.started, self.final_est.is_some()) {
+                (_, true) => SET_FINISHED,
+                (true, false) => SET_RUNNING,
+                (false, false) => SET_STARTING,
+            };
+            board.publish(set, state, false);
+            // An operator's stop from a monitor: as SIGINT would (exit 130).
+            if let Some(pid) = board.stop_request() {
+                log::warn!("stop requested from a monitor (pid {pid}); stopping the set");
+                return Ok(None);
+            }
             // Exits: restart what may be restarted, otherwise stop the set.
             match set.reap("").map_err(set_err)? {
                 Reap::Running => {}
