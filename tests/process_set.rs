@@ -9,7 +9,7 @@
 mod common;
 mod tmpdir;
 
-use common::{estimates, in_process, report};
+use common::{estimates, in_process, pids_with, report};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -50,24 +50,6 @@ fn supervisor(scenario: &Path, out: &Path, prefix: &str, extra: &[&str]) -> Comm
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     c
-}
-
-/// Processes whose command line carries this bus prefix (the set of one test).
-fn pids_with(prefix: &str, exe: &str) -> Vec<i32> {
-    let mut pids = Vec::new();
-    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
-        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else {
-            continue;
-        };
-        let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) else {
-            continue;
-        };
-        let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
-        if cmd.contains(prefix) && cmd.split(' ').next().is_some_and(|a| a.ends_with(exe)) {
-            pids.push(pid);
-        }
-    }
-    pids
 }
 
 fn signal(pid: i32, sig: i32) {

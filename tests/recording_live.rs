@@ -8,7 +8,7 @@
 mod common;
 mod tmpdir;
 
-use common::{estimates, report};
+use common::{estimates, pids_with, report};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -146,24 +146,6 @@ fn an_h5py_swmr_reader_and_replay_follow_read_a_live_recording_as_it_grows() {
     let replayed = report(&dir.join("replay"));
     assert_eq!(replayed["mode"], "replay");
     assert_eq!(estimates(&replayed), estimates(&live));
-}
-
-/// Processes of the set on bus prefix `pfx` whose executable is `exe`.
-fn pids_with(pfx: &str, exe: &str) -> Vec<i32> {
-    let mut pids = Vec::new();
-    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
-        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else {
-            continue;
-        };
-        let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) else {
-            continue;
-        };
-        let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
-        if cmd.contains(pfx) && cmd.split(' ').next().is_some_and(|a| a.ends_with(exe)) {
-            pids.push(pid);
-        }
-    }
-    pids
 }
 
 #[test]

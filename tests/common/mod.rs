@@ -42,3 +42,22 @@ pub fn in_process(scenario: &Path, seed: u64) -> Vec<Value> {
     let text = serde_json::to_string(&r).unwrap();
     estimates(&serde_json::from_str(&text).unwrap())
 }
+
+/// Processes whose command line carries this bus prefix (the set of one test).
+#[allow(dead_code)] // the tests that kill a process of the set use it
+pub fn pids_with(prefix: &str, exe: &str) -> Vec<i32> {
+    let mut pids = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else {
+            continue;
+        };
+        let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) else {
+            continue;
+        };
+        let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
+        if cmd.contains(prefix) && cmd.split(' ').next().is_some_and(|a| a.ends_with(exe)) {
+            pids.push(pid);
+        }
+    }
+    pids
+}
