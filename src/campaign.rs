@@ -202,11 +202,7 @@ impl Sim {
                 }
                 // What the bus delivers this tick (just the sample without bus faults).
                 for (d, of, second) in inj.annotated_deliveries(tick) {
-                    let m = match d {
-                        Delivery::This => sample,
-                        Delivery::Previous => self.prev.unwrap_or(sample),
-                        Delivery::Garbage => inj.garbage(&sample),
-                    };
+                    let m = inj.delivered(d, &sample, self.prev.as_ref());
                     b.delivered.push((m, of, d, second));
                 }
             } else {

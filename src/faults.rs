@@ -467,6 +467,23 @@ impl Injector {
 
     /// A message with a garbage header (random bytes from the seed and tick) and the
     /// payload of `s`.
+    /// The message delivery `d` carries: this tick's sample, the previous tick's
+    /// (held back by a reorder; this one's if there is none), or this one with a
+    /// garbage header. The live front end, the in-process campaign and replay all
+    /// deliver through it.
+    pub fn delivered(
+        &self,
+        d: Delivery,
+        this: &SensorSample,
+        prev: Option<&SensorSample>,
+    ) -> SensorSample {
+        match d {
+            Delivery::This => *this,
+            Delivery::Previous => *prev.unwrap_or(this),
+            Delivery::Garbage => self.garbage(this),
+        }
+    }
+
     pub fn garbage(&self, s: &SensorSample) -> SensorSample {
         let mut g = *s;
         let word = |salt| (hash_unit(self.seed, s.header.tick, salt) * (1u64 << 53) as f64) as u64;

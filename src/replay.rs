@@ -8,7 +8,7 @@
 //! not grow with its length.
 
 use crate::estimate::{Estimator, Method};
-use crate::faults::{Delivery, Injector};
+use crate::faults::Injector;
 use crate::msg::{EstimateMsg, SensorSample};
 use crate::telemetry::read::Recording;
 use crate::telemetry::{RowGate, TelemetryError};
@@ -53,12 +53,7 @@ pub fn run_with_rows(
     for (i, sample) in rec.samples().enumerate() {
         let sample = sample?;
         for (d, of, second) in bus.annotated_deliveries(sample.header.tick) {
-            let m = match d {
-                Delivery::This => sample,
-                Delivery::Previous => prev.unwrap_or(sample),
-                Delivery::Garbage => bus.garbage(&sample),
-            };
-            let e = est.step(&m);
+            let e = est.step(&bus.delivered(d, &sample, prev.as_ref()));
             if let Some(sc) = score.as_mut() {
                 sc.observe(of, d, second, e.tick_rejections);
             }

@@ -9,7 +9,7 @@
 mod common;
 mod tmpdir;
 
-use common::{estimates, in_process, report};
+use common::{estimates, in_process, prefix, report, serial, shm_left};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -17,16 +17,6 @@ use std::time::{Duration, Instant};
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 const CALIB: &str = env!("CARGO_BIN_EXE_taiji-calib");
-
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-fn prefix(name: &str) -> String {
-    format!("tjt{}{name}_", std::process::id())
-}
 
 /// 1500 s at ×100: 15 s of wall time.
 const SCENARIO: &str =
@@ -387,12 +377,7 @@ fn a_monitor_in_tmux_shows_the_run_and_stalled_or_detaching_monitors_change_noth
         tmux.dead("stalled")
     });
     // Nothing of the run is left on the bus once every monitor left.
-    let left: Vec<String> = std::fs::read_dir("/dev/shm")
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(&pfx))
-        .collect();
+    let left = shm_left(&pfx);
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
 }
 
@@ -470,12 +455,7 @@ fn a_snapshot_without_a_run_says_so_and_leaves_nothing_on_the_bus() {
         "{err}"
     );
     assert!(o.stdout.is_empty());
-    let left: Vec<String> = std::fs::read_dir("/dev/shm")
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(&pfx))
-        .collect();
+    let left = shm_left(&pfx);
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
     // User mistakes are refused with a line naming the option.
     let o = Command::new(CALIB)
@@ -527,11 +507,6 @@ fn a_monitor_left_attached_does_not_keep_the_next_run_from_starting() {
     wait_for("the monitor to quit", Duration::from_secs(10), || {
         tmux.dead("ui")
     });
-    let left: Vec<String> = std::fs::read_dir("/dev/shm")
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(&pfx))
-        .collect();
+    let left = shm_left(&pfx);
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
 }

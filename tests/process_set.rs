@@ -9,7 +9,7 @@
 mod common;
 mod tmpdir;
 
-use common::{estimates, in_process, pids_with, report};
+use common::{estimates, in_process, pids_with, prefix, report, serial, shm_left};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -19,18 +19,8 @@ use taiji::scenario::Scenario;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
-
 fn tmp(name: &str) -> tmpdir::TmpDir {
     tmpdir::TmpDir::new(&format!("ps-{name}"))
-}
-
-fn prefix(name: &str) -> String {
-    format!("tjt{}{name}_", std::process::id())
 }
 
 fn write_scenario(dir: &Path, text: &str) -> PathBuf {
@@ -683,12 +673,7 @@ fn a_follower_without_a_run_times_out_and_leaves_no_shared_memory() {
         err.contains("no run on prefix") && err.contains("--timeout"),
         "{err}"
     );
-    let left: Vec<String> = std::fs::read_dir("/dev/shm")
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(&pre))
-        .collect();
+    let left = shm_left(&pre);
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
 }
 

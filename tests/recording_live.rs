@@ -8,24 +8,13 @@
 mod common;
 mod tmpdir;
 
-use common::{estimates, pids_with, report};
+use common::{estimates, pids_with, prefix, report, serial};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 const CALIB: &str = env!("CARGO_BIN_EXE_taiji-calib");
-
-/// The two tests share the machine's two cores with nothing else of theirs.
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-fn prefix(name: &str) -> String {
-    format!("tjt{}{name}_", std::process::id())
-}
 
 fn scenario(dir: &Path, duration_s: f64) -> PathBuf {
     let p = dir.join("scenario.toml");

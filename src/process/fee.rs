@@ -5,7 +5,6 @@
 use super::driver::{self, Service, Turn};
 use super::{Exit, Link, ProcessError, StageArgs};
 use crate::bus;
-use crate::faults::Delivery;
 use crate::fee::FrontEnd;
 use crate::msg::{SensorSample, TruthState, STATE_DONE, STATE_RUNNING};
 use crate::stage::Stage;
@@ -83,11 +82,8 @@ impl FeeService {
             let sent = self.sent;
             let this = self.ring[(sent % RING) as usize];
             for d in self.inj.deliveries(sent) {
-                let mut m = match d {
-                    Delivery::This => this,
-                    Delivery::Previous => self.ring[(sent.wrapping_sub(1) % RING) as usize],
-                    Delivery::Garbage => self.inj.garbage(&this),
-                };
+                let prev = &self.ring[(sent.wrapping_sub(1) % RING) as usize];
+                let mut m = self.inj.delivered(d, &this, Some(prev));
                 m.header.publish_ns = monotonic_ns();
                 // Addressed to this estimator instance: what it receives from before the
                 // front-end noticed a restart carries the old one's and is dropped.

@@ -61,3 +61,29 @@ pub fn pids_with(prefix: &str, exe: &str) -> Vec<i32> {
     }
     pids
 }
+
+/// The process-set tests of one binary run one at a time: a real-time run measures
+/// the set alone, not several sets sharing two cores.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+#[allow(dead_code)] // not every test binary runs sets
+pub fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A bus prefix of this test process alone (`tools/test`'s leftover check knows `tjt`).
+#[allow(dead_code)] // not every test binary runs sets
+pub fn prefix(name: &str) -> String {
+    format!("tjt{}{name}_", std::process::id())
+}
+
+/// Entries of /dev/shm whose names start with `prefix`: what a run left there.
+#[allow(dead_code)] // not every test binary runs sets
+pub fn shm_left(prefix: &str) -> Vec<String> {
+    std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(prefix))
+        .collect()
+}
