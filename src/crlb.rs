@@ -135,6 +135,9 @@ fn bound_of(s: &Scenario, est: &JointEstimator) -> Option<Crlb> {
     // Nuisances at their noise-free best fit, β and r at the truth.
     let p = est.params_with(&beta, &r);
     let p = est.nuisance_fit(p);
+    let mut est = *est;
+    est.fix_srp_level_at(&p);
+    let p = est.nuisance_fit(p);
     let sigma = est.fisher_sigma(&p)?;
     let mut out = Crlb::default();
     for (i, is) in s.inertial_sensor.iter().enumerate() {

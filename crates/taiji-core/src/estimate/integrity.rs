@@ -47,11 +47,23 @@ impl Track {
     /// (the known white noise). While the track is still learning it rejects only
     /// gross outliers.
     pub fn check(&self, x: f64, floor: f64, gate: f64) -> bool {
+        self.check_wider(x, floor, 0.0, gate)
+    }
+
+    /// [`Self::check`] with the spread widened by `extra` (a variance the learned
+    /// spread cannot know yet, e.g. what the current solution's uncertainty leaves
+    /// in the residual).
+    pub fn check_wider(&self, x: f64, floor: f64, extra: f64, gate: f64) -> bool {
         if !x.is_finite() {
             return false;
         }
         let d = x - self.level;
-        let var = self.var.max(floor);
+        let var = self.var.max(floor)
+            + if extra.is_finite() {
+                extra.max(0.0)
+            } else {
+                0.0
+            };
         match self.n {
             0..=7 => true,
             n if n < WARM => d * d <= 1e4 * gate * gate * var,

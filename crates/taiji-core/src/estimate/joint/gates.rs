@@ -221,15 +221,46 @@ impl JointEstimator {
         any
     }
 
+    /// What the current solution's uncertainty leaves in each whitened linear
+    /// residual of `sig`, as a variance: the residual's change were one β or r one σ
+    /// off, summed over them (their correlations left out). Twelve evaluations of the
+    /// model, so only for a sample the learned spread alone would refuse.
+    fn parameter_spread(&self, sig: &Sig) -> [f64; 6] {
+        let mut v = [0.0; 6];
+        for k in P_BETA..P_R + 6 {
+            if !self.param_used(k) {
+                continue;
+            }
+            let mut pp = self.p;
+            pp[k] += self.sigma[k];
+            #[allow(clippy::op_ref)]
+            let d = self.gate_w * ((self.coeffs(&pp).lin - &self.gate_c) * sig);
+            for (vr, dr) in v.iter_mut().zip(d.iter()) {
+                *vr += dr * dr;
+            }
+        }
+        v
+    }
+
     /// The linear group's whitened residuals at the current solution, each against
-    /// its track; every one must pass.
+    /// its track (widened by the solution's uncertainty); every one must pass.
     pub(super) fn linear_consistent(&mut self, sig: &Sig) -> bool {
         // By reference: the owned matrices would be copied (gate_c is 1.5 kB) every
         // sample, which the lint does not know.
         #[allow(clippy::op_ref)]
         let raw = &self.gate_c * sig;
         let z = self.gate_w * raw;
-        let ok = (0..6).all(|k| self.lin_track[k].check(z[k], 1.0, self.cfg.gate_sigma));
+        let gate = self.cfg.gate_sigma;
+        let mut ok = (0..6).all(|k| self.lin_track[k].check(z[k], 1.0, gate));
+        if !ok {
+            // Before calling it an outlier: could the solution's own uncertainty
+            // explain it? (When the maneuver starts exciting a parameter, the residual
+            // grows with that parameter's error; refusing it — hundreds of samples in a
+            // row until the track starts over — refused exactly the samples that
+            // determine it: r_z 5× its bound without thruster noise.)
+            let v = self.parameter_spread(sig);
+            ok = (0..6).all(|k| self.lin_track[k].check_wider(z[k], 1.0, v[k], gate));
+        }
         for k in 0..6 {
             if ok {
                 self.lin_track[k].learn(z[k], ALPHA_LIN);

@@ -75,6 +75,12 @@ pub struct JointEstimator {
     /// (set, tick).
     jump_candidate: [u64; 2],
     sum_ref: [[f64; 3]; 2],
+    /// The SRP the attitude turns, as IS1 measured it (inertial, the maneuver's A r̂
+    /// out) at the first sample whose running solution could tell (`srp_change_known`)
+    /// [V, IS1's linear channels], and 1 once set: the turn's constant part (on Φ1, with the parameter β1)
+    /// and the origin of its measured change (`S_TF`, with the running β̂1).
+    srp_level: [f64; 3],
+    srp_level_set: u64,
     q_ref: UnitQuaternion<f64>,
     q_ref_set: u64,
     psi: [[f64; 3]; 2],

@@ -78,26 +78,23 @@ impl JointEstimator {
                     lin[(row, S_PP + prod(j, a))] -= inv_k * beta1(j) * beta1(a) * r(a);
                     lin[(row, S_PP + prod(a, a))] += inv_k * r(j) * beta1(a) * beta1(a);
                 }
-                // SRP direction turning with the attitude: a_srp = R̂ᵀ b − (β1 Φ1 − Φ̂) × b
-                // to first order in β1 − β̂1, i.e. b − (β1 Φ1) × b + W b.
-                if self.drifted() {
-                    // The DC only: with the attitude uncertain after bridged ticks,
-                    // the fluctuation's turn is below what is known of the attitude
-                    // (measured: turning the measured SRP then cost r_z accuracy).
-                    lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * bc[j2];
-                    lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * bc[j1];
-                } else {
-                    // −θ × a(t) with the SRP as measured, a_m(t) = k_1m (ΣV_1m,ref +
-                    // ε_m(t)): the reference sample's on Φ1, its change (`S_TF`). The
-                    // SRP's fluctuation δ(t) turns with the attitude too, (Rᵀ − I) δ ŝ,
-                    // up to 5×10⁻¹⁴ m/s² across the sun; taken as white noise it kept
-                    // r_z at 1.3× its bound at 10⁴ s and (err/σ)² at 2.2–3.2 at
-                    // 10⁵–3×10⁵ s.
-                    let (k1, k2) = (self.k_of(p, 0, j1), self.k_of(p, 0, j2));
-                    lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * k2 * self.sum_ref[0][j2];
-                    lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * k1 * self.sum_ref[0][j1];
-                    lin[(row, S_TF + j)] = inv_k;
-                }
+                // SRP turning with the attitude: a_srp = R̂ᵀ a − (β1 Φ1 − Φ̂) × a to first
+                // order in β1 − β̂1, i.e. a − (β1 Φ1) × a + W a. The SRP a(t) as IS1
+                // measures it: a level a0 (`srp_level`, in IS1's volts times the parameter k)
+                // turned with the parameter β1,
+                // and its change since, a(t) − a0 (the fluctuation, ~10⁻¹² m/s²),
+                // turned with the running β̂1 (`S_TF`): the running β̂'s error then
+                // multiplies only the change. δ turns with the attitude, up to
+                // 5×10⁻¹⁴ m/s² across the sun; taken as white noise it kept r_z at
+                // 1.3× its bound at 10⁴ s and (err/σ)² at 2.2–3.2 at 10⁵–3×10⁵ s.
+                // Before the level is known, the fitted DC (no `S_TF` yet).
+                let a0 = |m: usize| match self.srp_level_set {
+                    1 => self.k_of(p, 0, m) * self.srp_level[m.min(2)],
+                    _ => bc[m.min(2)],
+                };
+                lin[(row, S_PHI + j1)] += inv_k * beta1(j1) * a0(j2);
+                lin[(row, S_PHI + j2)] -= inv_k * beta1(j2) * a0(j1);
+                lin[(row, S_TF + j)] = inv_k;
                 for m in 0..3 {
                     lin[(row, S_W + 3 * j + m)] = -inv_k * bc[m];
                 }

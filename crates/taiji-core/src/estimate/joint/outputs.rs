@@ -45,6 +45,18 @@ impl JointEstimator {
         p
     }
 
+    /// Turn the SRP level IS1's channels hold at `p` (reference sample plus bias, in
+    /// volts) from now on, as a run fixes it once its solution can tell the level
+    /// (`fix_srp_level`). For the bound: its noise-free statistics never solve, so
+    /// never fix the level themselves, and the bound is that of the model a run ends
+    /// with.
+    pub fn fix_srp_level_at(&mut self, p: &Par) {
+        for m in 0..3 {
+            self.srp_level[m] = self.sum_ref[0][m] + p[P_B + m];
+        }
+        self.srp_level_set = 1;
+    }
+
     /// Parameter vector with β, r set (nuisances at their reference values).
     pub fn params_with(&self, beta: &[[f64; 3]; 2], r: &[[f64; 3]; 2]) -> Par {
         let mut p = self.p_prior;

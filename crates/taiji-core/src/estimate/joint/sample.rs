@@ -111,6 +111,7 @@ impl JointEstimator {
         if let Some(sig) = lin_sig {
             self.n_used += 1;
             self.update_linear(&sig, &dv);
+            self.fix_srp_level(&sig, &dv, &psi_mid, &phi_mid);
             self.gate_s = sig;
         } else {
             self.n_rejected += 1;
@@ -210,9 +211,8 @@ impl JointEstimator {
 
     /// The SRP in IS1's channels against the reference sample [V], inertial: the
     /// maneuver's A r̂ / k̂ (this sample's ω̇, ω at the running solution) and the
-    /// running DC turned by θ̂ = β̂1 Φ1 taken out. Both are small (3 % and 5×10⁻⁴ of
-    /// the SRP), so their running errors stay far below the fluctuation. `s` holds
-    /// this sample's signals up to `S_TF`.
+    /// running DC turned by θ̂ = β̂1 Φ1 taken out. `s` holds this sample's signals up
+    /// to `S_TF`.
     pub(super) fn srp_change(&self, s: &Sig, phi_mid: &[[f64; 3]; 2]) -> [f64; 3] {
         let bc = self.srp_dc(&self.p);
         let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
@@ -254,15 +254,95 @@ impl JointEstimator {
                 s[S_W + 3 * a + m] = w_turn[(a, m)];
             }
         }
-        let eps = self.srp_change(&s, phi_mid);
-        let a_eps = Vector3::from_fn(|m, _| self.k_of(&self.p, 0, m) * eps[m]);
-        let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
-        let tf = theta.cross(&a_eps);
-        for j in 0..3 {
-            s[S_TF + j] = tf[j];
-        }
         s[S_ONE] = 1.0;
         s[S_T] = t;
+        if self.srp_level_set == 1 || self.srp_change_known(dv, psi_mid, phi_mid) {
+            let eps = self.srp_change(&s, phi_mid);
+            // The change since the level, in m/s² with the running k̂ (0 on the sample
+            // that sets the level).
+            let change = Vector3::from_fn(|m, _| {
+                let v = self.sum_ref[0][m] + eps[m];
+                let v0 = if self.srp_level_set == 1 {
+                    self.srp_level[m]
+                } else {
+                    v
+                };
+                self.k_of(&self.p, 0, m) * (v - v0)
+            });
+            let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
+            let tf = theta.cross(&change);
+            for j in 0..3 {
+                s[S_TF + j] = tf[j];
+            }
+        }
         s
+    }
+
+    /// The SRP level the turn uses from now on, once the running solution can tell
+    /// it: from this accepted sample's signals `sig` (which then had `S_TF` = 0).
+    fn fix_srp_level(
+        &mut self,
+        sig: &Sig,
+        dv: &[[f64; 3]; 2],
+        psi_mid: &[[f64; 3]; 2],
+        phi_mid: &[[f64; 3]; 2],
+    ) {
+        if self.srp_level_set == 1 || !self.srp_change_known(dv, psi_mid, phi_mid) {
+            return;
+        }
+        let eps = self.srp_change(sig, phi_mid);
+        let a: [f64; 3] = core::array::from_fn(|m| self.sum_ref[0][m] + eps[m]);
+        if a.iter().all(|v| v.is_finite()) {
+            self.srp_level = a;
+            self.srp_level_set = 1;
+        }
+    }
+
+    /// Is the running solution good enough to measure the SRP's fluctuation with
+    /// (`srp_change`)? What its uncertainty (σ of the last solve) leaves in IS1's
+    /// channels — the maneuver's A r through r and β, the DC's turn, and k times the
+    /// whole level — must be below the fluctuation itself (the SRP model's
+    /// stationary variance, [m²/s⁴]): the measured level is then as good as the SRP
+    /// model could tell. Until the maneuver has excited the parameters, it is not.
+    fn srp_change_known(
+        &self,
+        dv: &[[f64; 3]; 2],
+        psi_mid: &[[f64; 3]; 2],
+        phi_mid: &[[f64; 3]; 2],
+    ) -> bool {
+        let (p, sg) = (&self.p, &self.sigma);
+        let n = self.n_is();
+        let wdot = Vector3::from_fn(|a, _| {
+            (0..n)
+                .map(|l| self.w(l) * p[P_BETA + 3 * l + a] * dv[l][a])
+                .sum::<f64>()
+        });
+        let omega = Vector3::from_fn(|a, _| p[P_BETA + a] * psi_mid[0][a]);
+        let r = Vector3::from_fn(|a, _| p[P_R + a]);
+        let bc = Vector3::from(self.srp_dc(p));
+        let a_r = wdot.cross(&r) + omega.cross(&omega.cross(&r));
+        let mut lev = 0.0;
+        for a in 0..3 {
+            let e = Vector3::ith(a, 1.0);
+            // r1_a.
+            let d = wdot.cross(&e) + omega.cross(&omega.cross(&e));
+            lev += d.norm_squared() * sg[P_R + a].powi(2);
+            // β1_a: ω̇ (its share), ω, the DC's turn θ × b.
+            let d = e.cross(&r) * (self.w(0) * dv[0][a])
+                + (e.cross(&omega.cross(&r)) + omega.cross(&e.cross(&r))) * psi_mid[0][a]
+                + e.cross(&bc) * phi_mid[0][a];
+            lev += d.norm_squared() * sg[P_BETA + a].powi(2);
+            if n == 2 {
+                // β2_a through ω̇.
+                let d = e.cross(&r) * (self.w(1) * dv[1][a]);
+                lev += d.norm_squared() * sg[P_BETA + 3 + a].powi(2);
+            }
+            // Channel a: A r̂ / k̂ (k through its β's relative error).
+            let kb = PERM[a];
+            lev += (a_r[a] * sg[P_BETA + kb] / p[P_BETA + kb]).powi(2);
+        }
+        let nb = self.bank.poles();
+        let var_srp: f64 = self.bank.var[..nb].iter().sum();
+        lev <= var_srp
     }
 }
