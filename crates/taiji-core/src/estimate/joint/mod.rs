@@ -166,7 +166,10 @@ pub struct JointEstimator {
 /// walk (the rate steps of bridged ticks) tracked with a bandwidth near the maneuver's
 /// frequencies, where the CoM signal is; one correlation length left r_z's
 /// (err/σ)² at 4.2 with 5 % IS dropouts (30 seeds), 10 gives 0.85–1.2 there and a
-/// conservative 0.1–0.3 at 1–2 % (where r_z's error is at its bound anyway).
+/// conservative 0.06 at 1 % (where 0.5 would give 0.7 but 6.4 at 5 %): the factor
+/// that makes σ honest grows with the number of bridged ticks, so this form is not
+/// the drift error's own (docs/integrity.md, known gaps). Measured, and set where σ
+/// errs on the cautious side.
 const TURN_WEIGHT: f64 = 10.0;
 
 /// Weak priors of the solve, 1σ. Wide against what the data determine (β to
