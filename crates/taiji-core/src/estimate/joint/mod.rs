@@ -148,6 +148,10 @@ pub struct JointEstimator {
     /// bound in long campaigns; the β state keeps the scale error out of it.
     drift_x: [[f64; 4]; 3],
     drift_p: [[[f64; 4]; 4]; 3],
+    /// Per axis, the drift filter's angle variance times its correlation length in
+    /// samples, summed over the samples the linear statistics took [rad²]: what its
+    /// error weighed in them on average (`white_cov`).
+    drift_noise_sum: [f64; 3],
     /// Linear test: whitened residual rows (5 complement + common mode) of the
     /// current solution's coefficients, their tracks and the last accepted signals.
     gate_c: SMatrix<f64, 6, NS>,
@@ -161,16 +165,14 @@ pub struct JointEstimator {
     star_track: [Track; 3],
 }
 
-/// The drift filter's error as white noise of the linear channels: its variance times
-/// this many correlation lengths. The error is no white noise: an integrated random
-/// walk (the rate steps of bridged ticks) tracked with a bandwidth near the maneuver's
-/// frequencies, where the CoM signal is; one correlation length left r_z's
-/// (err/σ)² at 4.2 with 5 % IS dropouts (30 seeds), 10 gives 0.85–1.2 there and a
-/// conservative 0.06 at 1 % (where 0.5 would give 0.7 but 6.4 at 5 %): the factor
-/// that makes σ honest grows with the number of bridged ticks, so this form is not
-/// the drift error's own (docs/integrity.md, known gaps). Measured, and set where σ
-/// errs on the cautious side.
-const TURN_WEIGHT: f64 = 10.0;
+/// The drift filter's error as white noise of the linear channels: a process of
+/// variance P and correlation time τ has the one-sided spectral density 4 P τ at low
+/// frequencies, and white noise of that density has the variance 2 P τ f_s per
+/// sample: this factor times P τ f_s. (It replaced a measured factor of 10 on the
+/// filter's variance at the solve; averaged over the samples, the error's weight now
+/// follows how long the attitude was uncertain. Measured, 30 seeds: r_z's (err/σ)²
+/// 0.68 with 5 % IS dropouts, 0.09 at 1 %: cautious still, docs/integrity.md.)
+const WHITE_EQUIVALENT: f64 = 2.0;
 
 /// Weak priors of the solve, 1σ. Wide against what the data determine (β to
 /// 10⁻⁵ relative, r to µm), so they only keep the normal equations regular before the

@@ -46,16 +46,16 @@ impl JointEstimator {
         }
         // After bridged ticks the attitude that turns the SRP is uncertain (the drift
         // filter's variance): −δθ × b, common to both IS, slowly varying. It enters as
-        // noise along the SRP's turn directions, its variance times its correlation
-        // length in samples (√(P_θθ/P_θ̇θ̇) f_s), so the common mode across the turn
-        // carries less weight instead of posing δθ × b as a CoM offset.
+        // white noise along the SRP's turn directions with the same spectral density
+        // at low frequencies: its variance times twice its correlation length in
+        // samples (√(P_θθ/P_θ̇θ̇) f_s), averaged over the samples the statistics took
+        // (`drift_noise_sum`), so the common mode across the turn carries less weight
+        // instead of posing δθ × b as a CoM offset.
         let turn = if self.drifted() {
             let b = Vector3::from(self.srp_dc(p));
             let mut t = [[0.0; 3]; 3];
             for a in 0..3 {
-                let pd = &self.drift_p[a];
-                let corr = (pd[1][1] / pd[2][2].max(1e-300)).sqrt() * c.fs;
-                let var = TURN_WEIGHT * pd[1][1].max(0.0) * corr.clamp(1.0, 1e6);
+                let var = WHITE_EQUIVALENT * self.drift_noise_sum[a] / self.n_used.max(1) as f64;
                 let ca = b.cross(&Vector3::ith(a, 1.0));
                 for j in 0..3 {
                     for j2 in 0..3 {
