@@ -233,8 +233,14 @@ impl JointEstimator {
             }
             let mut pp = self.p;
             pp[k] += self.sigma[k];
-            #[allow(clippy::op_ref)]
-            let d = self.gate_w * ((self.coeffs(&pp).lin - &self.gate_c) * sig);
+            let c = self.coeffs(&pp).lin;
+            // (c − gate_c) sig, row by row: no 6 × 35 temporary on the stack.
+            let raw = SVector::<f64, 6>::from_fn(|r, _| {
+                (0..NS)
+                    .map(|m| (c[(r, m)] - self.gate_c[(r, m)]) * sig[m])
+                    .sum()
+            });
+            let d = self.gate_w * raw;
             for (vr, dr) in v.iter_mut().zip(d.iter()) {
                 *vr += dr * dr;
             }
