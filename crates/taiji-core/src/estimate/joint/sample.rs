@@ -318,6 +318,7 @@ impl JointEstimator {
     /// whole level — must be below the fluctuation itself (the SRP model's
     /// stationary variance, [m²/s⁴]): the measured level is then as good as the SRP
     /// model could tell. Until the maneuver has excited the parameters, it is not.
+    #[inline(never)]
     fn srp_change_known(
         &self,
         dv: &[[f64; 3]; 2],
