@@ -80,11 +80,10 @@ impl JointEstimator {
                 }
                 // SRP turning with the attitude: a_srp = R̂ᵀ a − (β1 Φ1 − Φ̂) × a to first
                 // order in β1 − β̂1, i.e. a − (β1 Φ1) × a + W a. The SRP a(t) as IS1
-                // measures it: a level a0 (`srp_level`, in IS1's volts times the parameter k)
-                // turned with the parameter β1,
-                // and its change since, a(t) − a0 (the fluctuation, ~10⁻¹² m/s²),
-                // turned with the running β̂1 (`S_TF`): the running β̂'s error then
-                // multiplies only the change. δ turns with the attitude, up to
+                // measures it: a level a0 (`srp_level`, IS1's volts times the parameter
+                // k) turned with the parameter β1, and its change since, a(t) − a0
+                // (the fluctuation, ~10⁻¹² m/s²), turned with the running β̂1 (`S_TF`):
+                // the running β̂'s error then multiplies only the change. δ turns with the attitude, up to
                 // 5×10⁻¹⁴ m/s² across the sun; taken as white noise it kept r_z at
                 // 1.3× its bound at 10⁴ s and (err/σ)² at 2.2–3.2 at 10⁵–3×10⁵ s.
                 // Before the level is known, the fitted DC (no `S_TF` yet).

@@ -314,8 +314,8 @@ impl JointEstimator {
 
     /// Is the running solution good enough to measure the SRP's fluctuation with
     /// (`srp_change`)? What its uncertainty (σ of the last solve) leaves in IS1's
-    /// channels — the maneuver's A r through r and β, the DC's turn, and k times the
-    /// whole level — must be below the fluctuation itself (the SRP model's
+    /// channels — the maneuver's A r through r and β (and the k that divides it) and
+    /// the DC's turn through β — must be below the fluctuation itself (the SRP model's
     /// stationary variance, [m²/s⁴]): the measured level is then as good as the SRP
     /// model could tell. Until the maneuver has excited the parameters, it is not.
     #[inline(never)]
