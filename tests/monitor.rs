@@ -13,7 +13,7 @@ use common::{estimates, in_process, prefix, report, serial, shm_left};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 const CALIB: &str = env!("CARGO_BIN_EXE_taiji-calib");
@@ -35,12 +35,8 @@ fn supervisor(sc: &Path, out: &Path, pfx: &str) -> Child {
         .unwrap()
 }
 
-fn wait_for(what: &str, timeout: Duration, mut cond: impl FnMut() -> bool) {
-    let t0 = Instant::now();
-    while !cond() {
-        assert!(t0.elapsed() < timeout, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
+fn wait_for(what: &str, timeout: Duration, cond: impl FnMut() -> bool) {
+    common::wait_every(Duration::from_millis(50), what, timeout, cond);
 }
 
 /// A private tmux server (its own socket), killed when dropped.

@@ -63,12 +63,8 @@ fn signal_mid_run(out: &Path, pfx: &str, exe: &str, sig: i32) {
     signal(victims[0], sig);
 }
 
-fn wait_for(what: &str, timeout: Duration, mut cond: impl FnMut() -> bool) {
-    let t0 = Instant::now();
-    while !cond() {
-        assert!(t0.elapsed() < timeout, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(2));
-    }
+fn wait_for(what: &str, timeout: Duration, cond: impl FnMut() -> bool) {
+    common::wait_every(Duration::from_millis(2), what, timeout, cond);
 }
 
 /// Node directories holding a file of this prefix: the nodes of one run, alive or dead

@@ -11,7 +11,7 @@ mod tmpdir;
 use common::{estimates, pids_with, prefix, report, serial};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 const CALIB: &str = env!("CARGO_BIN_EXE_taiji-calib");
@@ -39,12 +39,8 @@ fn supervisor(scenario: &Path, out: &Path, pfx: &str, scale: &str) -> std::proce
         .unwrap()
 }
 
-fn wait_for(what: &str, timeout: Duration, mut cond: impl FnMut() -> bool) {
-    let t0 = Instant::now();
-    while !cond() {
-        assert!(t0.elapsed() < timeout, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+fn wait_for(what: &str, timeout: Duration, cond: impl FnMut() -> bool) {
+    common::wait_every(Duration::from_millis(20), what, timeout, cond);
 }
 
 /// An h5py reader in SWMR mode: opens `file` as soon as its writer allows, then

@@ -87,3 +87,18 @@ pub fn shm_left(prefix: &str) -> Vec<String> {
         .filter(|n| n.starts_with(prefix))
         .collect()
 }
+
+/// Poll `cond` every `poll` until it holds; fail naming `what` after `timeout`.
+#[allow(dead_code)] // the tests that wait on a running set use it
+pub fn wait_every(
+    poll: std::time::Duration,
+    what: &str,
+    timeout: std::time::Duration,
+    mut cond: impl FnMut() -> bool,
+) {
+    let t0 = std::time::Instant::now();
+    while !cond() {
+        assert!(t0.elapsed() < timeout, "timed out waiting for {what}");
+        std::thread::sleep(poll);
+    }
+}

@@ -270,18 +270,12 @@ impl JointEstimator {
         }
         s[S_ONE] = 1.0;
         s[S_T] = t;
-        if self.srp_level_set == 1 || self.srp_change_known(dv, psi_mid, phi_mid) {
+        // The SRP's change since its level, in m/s² with the running k̂ (none before
+        // the level is fixed: the turn then uses the fitted DC alone).
+        if self.srp_level_set == 1 {
             let eps = self.srp_change(&s, phi_mid);
-            // The change since the level, in m/s² with the running k̂ (0 on the sample
-            // that sets the level).
             let change = Vector3::from_fn(|m, _| {
-                let v = self.sum_ref[0][m] + eps[m];
-                let v0 = if self.srp_level_set == 1 {
-                    self.srp_level[m]
-                } else {
-                    v
-                };
-                self.k_of(&self.p, 0, m) * (v - v0)
+                self.k_of(&self.p, 0, m) * (self.sum_ref[0][m] + eps[m] - self.srp_level[m])
             });
             let theta = Vector3::from_fn(|a, _| self.p[P_BETA + a] * phi_mid[0][a]);
             let tf = theta.cross(&change);
@@ -293,7 +287,7 @@ impl JointEstimator {
     }
 
     /// The SRP level the turn uses from now on, once the running solution can tell
-    /// it: from this accepted sample's signals `sig` (which then had `S_TF` = 0).
+    /// it: from this accepted sample's signals `sig`.
     fn fix_srp_level(
         &mut self,
         sig: &Sig,
