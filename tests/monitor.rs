@@ -29,6 +29,7 @@ fn supervisor(sc: &Path, out: &Path, pfx: &str) -> Child {
         .arg("--out")
         .arg(out)
         .args(["--bus-prefix", pfx, "--realtime", "--time-scale", "100"])
+        .env("TAIJI_ALLOC_TRACE", common::alloc_trace_file(out))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -335,7 +336,8 @@ fn a_monitor_in_tmux_shows_the_run_and_stalled_or_detaching_monitors_change_noth
     assert!(screen.contains("missed deadlines"), "{screen}");
     assert!(
         screen.contains("estimator") && screen.contains("alloc 0"),
-        "{screen}"
+        "{screen}\n{}",
+        common::alloc_trace(&out)
     );
     // A monitor stopped mid-run (SIGSTOP) while the run goes on: snapshots taken
     // meanwhile show it advancing at its pace (×100 at 10 Hz: 1000 ticks/s).
@@ -358,7 +360,12 @@ fn a_monitor_in_tmux_shows_the_run_and_stalled_or_detaching_monitors_change_noth
     // 1500 s misses the β requirement (exit 1, as in-process); it must run to the end.
     assert!(matches!(o.status.code(), Some(0 | 1)), "{stderr}");
     let r = report(&out);
-    assert_eq!(r["estimator_loop_allocations"], 0, "{stderr}");
+    assert_eq!(
+        r["estimator_loop_allocations"],
+        0,
+        "{stderr}\n{}",
+        common::alloc_trace(&out)
+    );
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(estimates(&r), in_process(&sc, 5));
     // The resumed monitor saw the run end and keeps its last screen.
@@ -497,7 +504,12 @@ fn a_monitor_left_attached_does_not_keep_the_next_run_from_starting() {
     let o = finish(supervisor(&sc, &dir.join("b"), &pfx));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(matches!(o.status.code(), Some(0 | 1)), "{stderr}");
-    assert_eq!(report(&dir.join("b"))["estimator_loop_allocations"], 0);
+    assert_eq!(
+        report(&dir.join("b"))["estimator_loop_allocations"],
+        0,
+        "{}",
+        common::alloc_trace(&dir.join("b"))
+    );
     signal(pid, libc::SIGCONT);
     tmux.keys("ui", &["q"]);
     wait_for("the monitor to quit", Duration::from_secs(10), || {

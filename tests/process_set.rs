@@ -37,6 +37,7 @@ fn supervisor(scenario: &Path, out: &Path, prefix: &str, extra: &[&str]) -> Comm
         .arg(out)
         .args(["--bus-prefix", prefix])
         .args(extra)
+        .env("TAIJI_ALLOC_TRACE", common::alloc_trace_file(out))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     c
@@ -140,7 +141,12 @@ fn accelerated_run_is_bit_identical_to_in_process_and_allocation_free() {
     assert_eq!(r["mode"], "multi-process");
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(r["restarts"]["taiji-estimator"], 0);
-    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(
+        r["estimator_loop_allocations"],
+        0,
+        "{}",
+        common::alloc_trace(&out)
+    );
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
     // The estimator's crash-restart checkpoint is not left in the user's folder.
@@ -212,7 +218,12 @@ fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     );
     assert!(0.0 < p50 && p50 <= p99 && p99 <= max, "{e2e}");
     assert!(String::from_utf8_lossy(&o.stdout).contains("End-to-end latency"));
-    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(
+        r["estimator_loop_allocations"],
+        0,
+        "{}",
+        common::alloc_trace(&out)
+    );
 }
 
 /// Every dataset of the layout holds the same values in both files.
@@ -647,7 +658,12 @@ fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
         String::from_utf8_lossy(&o.stderr)
     );
     let r = report(&out);
-    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(
+        r["estimator_loop_allocations"],
+        0,
+        "{}",
+        common::alloc_trace(&out)
+    );
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(estimates(&r), in_process(&sc, 5));
 }

@@ -118,6 +118,7 @@ impl Hosts {
             .args(["--bus-prefix", "tjhil_"])
             .args(extra)
             .env("RUST_LOG", "warn")
+            .env("TAIJI_ALLOC_TRACE", common::alloc_trace_file(out))
             .envs(env.iter().copied())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -494,6 +495,7 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
         .args(["--bus-prefix", &pfx])
         .env("RUST_LOG", "warn")
         .env("TAIJI_FAULT_DROP_FINAL", "1")
+        .env("TAIJI_ALLOC_TRACE", common::alloc_trace_file(&out))
         .env(k, v)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -524,7 +526,12 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(r["samples_used"], 30000);
     assert_eq!(estimates(&r), in_process(&sc, 11));
-    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(
+        r["estimator_loop_allocations"],
+        0,
+        "{}",
+        common::alloc_trace(&out)
+    );
 }
 
 #[test]
@@ -623,7 +630,12 @@ fn a_monitor_on_either_host_shows_the_whole_set_and_changes_nothing() {
     assert!(so.status.success(), "sim: {}", text(&so));
     assert!(fo.status.success(), "flight: {}", text(&fo));
     let r = report(&dir.join("sim"));
-    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(
+        r["estimator_loop_allocations"],
+        0,
+        "{}",
+        common::alloc_trace(&dir.join("flight"))
+    );
     assert_eq!(r["timing"]["samples_lost"], 0);
     assert_eq!(estimates(&r), in_process(&sc, 11));
 }

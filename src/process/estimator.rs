@@ -250,6 +250,7 @@ impl Service for EstimatorService {
         }
         self.last_input = monotonic_ns();
         if self.allocs_before.is_none() {
+            alloc_count::trace_from_here();
             self.allocs_before = alloc_count::thread_allocations();
         }
         link.progress.state = STATE_RUNNING;
@@ -290,6 +291,7 @@ impl Service for EstimatorService {
     }
 
     fn stop(&mut self, link: &mut Link, _exit: Exit) -> Result<(), ProcessError> {
+        alloc_count::trace_stop();
         match self.allocs_before {
             Some(a) => log::info!(
                 "taiji-estimator: heap allocations in the filter loop: {}",

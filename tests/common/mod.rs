@@ -102,3 +102,15 @@ pub fn wait_every(
         std::thread::sleep(poll);
     }
 }
+
+/// Where a run's estimator writes a backtrace of each allocation in its filter loop
+/// (`TAIJI_ALLOC_TRACE`, set on the supervisor: the stages inherit it).
+pub fn alloc_trace_file(dir: &Path) -> std::path::PathBuf {
+    dir.join("alloc-trace.txt")
+}
+
+/// The backtraces written there, for an assertion's message.
+pub fn alloc_trace(dir: &Path) -> String {
+    std::fs::read_to_string(alloc_trace_file(dir))
+        .unwrap_or_else(|_| "no allocation traced".to_string())
+}
