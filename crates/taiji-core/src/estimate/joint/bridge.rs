@@ -18,6 +18,7 @@ impl JointEstimator {
         for a in 0..3 {
             self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
             self.drift_bridged(a);
+            self.forget_jerk(a);
         }
         let (psi_mid, _) = self.integrate(&dv);
         self.propagate_model(&psi_mid);
@@ -190,7 +191,8 @@ impl JointEstimator {
     }
 
     /// A tick without angular data on axis `a`: the propagated rate is off by dt times
-    /// the unknown change of ω̇, which the drift filter must allow.
+    /// ω̇'s departure from the line later drawn across the gap, which the drift filter
+    /// must allow.
     pub(super) fn drift_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
         self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
@@ -217,14 +219,54 @@ impl JointEstimator {
         }
     }
 
-    /// Learn the spread of the sample-to-sample change of ω̇ (prior β).
+    /// The maneuver's angular frequency [rad/s]: the spread of ω̇ over the spread of ω,
+    /// both summed over the axes (IS1's voltage and its integral, so β cancels); 0
+    /// before they spread.
+    pub(super) fn excitation_rate(&self) -> f64 {
+        let n = self.n_used.div_ceil(MOMENT_EVERY) as f64;
+        let (mut var_w, mut var_wdot) = (0.0, 0.0);
+        for m in &self.rate_moments {
+            var_w += m[1] / n - (m[0] / n).powi(2);
+            var_wdot += m[3] / n - (m[2] / n).powi(2);
+        }
+        let w = (var_wdot / var_w).sqrt();
+        if w.is_finite() {
+            w
+        } else {
+            0.0
+        }
+    }
+
+    /// Learn the spread of ω̇'s departure from the line through its neighbours (prior
+    /// β): half the change of the sample-to-sample change, for the previous sample.
+    /// White ω̇ noise of variance σ² gives 1.5 σ², what a one-tick gap bridged by the
+    /// line is off by; the maneuver's own change cancels but at its edges, which
+    /// `close_bridge` measures instead and which are clipped here at 4σ.
     pub(super) fn learn_jerk(&mut self, a: usize, dv: &[[f64; 3]; 2], last: &[[f64; 3]; 2]) {
-        let mut d = 0.0;
+        let mut change = 0.0;
         for l in 0..self.n_is() {
-            d += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - last[l][a]);
+            change += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - last[l][a]);
         }
-        if d.is_finite() {
-            self.jerk_var[a] += ALPHA_JERK * (d * d - self.jerk_var[a]);
+        if !change.is_finite() {
+            self.forget_jerk(a);
+            return;
         }
+        if self.jerk_last_ok & (1 << a) != 0 {
+            let d = 0.5 * (change - self.jerk_last[a]);
+            let v = &mut self.jerk_var[a];
+            if *v > 0.0 {
+                *v += ALPHA_JERK * ((d * d).min(16.0 * *v) - *v);
+            } else {
+                // The running mean starts at its first value.
+                *v = d * d;
+            }
+        }
+        self.jerk_last[a] = change;
+        self.jerk_last_ok |= 1 << a;
+    }
+
+    /// The sample on axis `a` was not clean: the next change starts a new pair.
+    pub(super) fn forget_jerk(&mut self, a: usize) {
+        self.jerk_last_ok &= !(1 << a);
     }
 }

@@ -131,9 +131,15 @@ pub struct JointEstimator {
     stuck: [Stuck; 2],
     /// Cross-IS angular test: fitted β2/β1 voltage ratio per axis.
     ratio: [RatioFit; 3],
-    /// Variance of the sample-to-sample change of ω̇ per axis [rad²/s⁴]: the error of
-    /// bridging a sample with the previous ω̇ (the star filter's process noise then).
+    /// Per axis, the variance of ω̇'s departure from the straight line through its
+    /// neighbours [rad²/s⁴] (learned on clean samples, edges clipped): the error a
+    /// bridged tick leaves once the line is drawn across it (`interpolate_bridge`),
+    /// the filters' process noise then (0 until learned). With the last clean
+    /// sample-to-sample change it is learned from.
     jerk_var: [f64; 3],
+    jerk_last: [f64; 3],
+    /// Bit a: `jerk_last[a]` is the change into the previous sample, both clean.
+    jerk_last_ok: u64,
     /// Consecutive ticks bridged without any angular data, and the last ω̇ voltages
     /// measured before them: when data return, a jump between the two (a torque edge
     /// inside the gap) leaves an unknown rate error that the star filter must allow.
@@ -152,6 +158,11 @@ pub struct JointEstimator {
     /// samples, summed over the samples the linear statistics took [rad²]: what its
     /// error weighed in them on average (`white_cov`).
     drift_noise_sum: [f64; 3],
+    /// Per axis, IS1's integrated angular voltage ψ and its voltage over every
+    /// `MOMENT_EVERY`th sample the linear statistics took: Σψ, Σψ², Σv, Σv² [V s, V² s²,
+    /// V, V²]. Their spreads' ratio is the excitation's angular frequency
+    /// (`excitation_rate`).
+    rate_moments: [[f64; 4]; 3],
     /// Linear test: whitened residual rows (5 complement + common mode) of the
     /// current solution's coefficients, their tracks and the last accepted signals.
     gate_c: SMatrix<f64, 6, NS>,
@@ -166,13 +177,19 @@ pub struct JointEstimator {
 }
 
 /// The drift filter's error as white noise of the linear channels: a process of
-/// variance P and correlation time τ has the one-sided spectral density 4 P τ at low
-/// frequencies, and white noise of that density has the variance 2 P τ f_s per
-/// sample: this factor times P τ f_s. (It replaced a measured factor of 10 on the
-/// filter's variance at the solve; averaged over the samples, the error's weight now
-/// follows how long the attitude was uncertain. Measured, 30 seeds: r_z's (err/σ)²
-/// 0.68 with 5 % IS dropouts, 0.09 at 1 %: cautious still, docs/integrity.md.)
+/// variance P and correlation time τ has the one-sided spectral density
+/// 4 P τ / (1 + (ω τ)²) at angular frequency ω, and white noise of that density has
+/// the variance 2 P τ f_s / (1 + (ω τ)²) per sample: this factor times the rest,
+/// ω the maneuver's (`excitation_rate`). (It replaced a measured factor of 10 on the
+/// filter's variance at the solve. Taken at zero frequency it left r_z's σ 3×
+/// cautious with 1 % IS dropouts, (err/σ)² 0.09; at the maneuver's it is 0.9,
+/// docs/integrity.md.)
 const WHITE_EQUIVALENT: f64 = 2.0;
+
+/// The excitation's spreads take every this many linear samples (`rate_moments`; a
+/// power of two: a 64-bit remainder is a library call on a 32-bit CPU).
+const MOMENT_EVERY: u64 = 8;
+const _: () = assert!(MOMENT_EVERY.is_power_of_two());
 
 /// Weak priors of the solve, 1σ. Wide against what the data determine (β to
 /// 10⁻⁵ relative, r to µm), so they only keep the normal equations regular before the
@@ -574,5 +591,60 @@ mod tests {
         e.update(&quiet(10 + BRIDGE_PER_UPDATE));
         assert_eq!(e.next_tick(), 11 + BRIDGE_PER_UPDATE);
         assert_eq!(e.causes[CAUSE_TICK_MISSING], BRIDGE_PER_UPDATE);
+    }
+
+    /// The bridge's process noise is what the line through a gap's neighbours misses:
+    /// for white ω̇ of variance σ², 1.5 σ², whatever the maneuver's edges.
+    #[test]
+    fn the_bridge_noise_is_what_the_line_misses_edges_apart() {
+        let mut e = JointEstimator::new(test_config());
+        let sigma = 1e-10; // rad/s²
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut last = [[0.0; 3]; 2];
+        for k in 0..200_000u32 {
+            // Box–Muller; a square wave of 10⁴ σ with an edge every 1000 samples.
+            let g = (-2.0 * uniform().ln()).sqrt() * (core::f64::consts::TAU * uniform()).cos();
+            let level = if (k / 1000) % 2 == 0 { 1e4 } else { -1e4 };
+            let x = sigma * (g + level);
+            let mut dv = [[0.0; 3]; 2];
+            for (l, row) in dv.iter_mut().enumerate() {
+                row[0] = x / e.cfg.beta_prior[l][0];
+            }
+            if k > 0 {
+                e.learn_jerk(0, &dv, &last);
+            }
+            last = dv;
+        }
+        let ratio = e.jerk_var[0] / (1.5 * sigma * sigma);
+        assert!((ratio - 1.0).abs() < 0.15, "{ratio}");
+    }
+
+    /// The excitation's angular frequency from the spreads of ω̇ and ω: a sinusoid's.
+    #[test]
+    fn the_excitation_rate_of_a_sinusoid_is_its_angular_frequency() {
+        let mut e = JointEstimator::new(test_config());
+        let w = core::f64::consts::TAU * 6e-4;
+        let n = 100_000u64;
+        for k in 1..=n {
+            let t = k as f64 / e.cfg.fs;
+            if k & (MOMENT_EVERY - 1) == 1 {
+                let (psi, v) = (3.0 + (w * t).sin() / w, (w * t).cos());
+                e.rate_moments[1] = [
+                    e.rate_moments[1][0] + psi,
+                    e.rate_moments[1][1] + psi * psi,
+                    e.rate_moments[1][2] + v,
+                    e.rate_moments[1][3] + v * v,
+                ];
+            }
+        }
+        e.n_used = n;
+        let ratio = e.excitation_rate() / w;
+        assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
     }
 }

@@ -19,7 +19,8 @@ impl JointEstimator {
                 q += self.w(l).powi(2) * (c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2));
             }
             if n_valid[a] == 0 {
-                // Bridged with the previous ω̇: off by this sample's change of ω̇.
+                // Bridged (the line drawn once data return): off by ω̇'s departure
+                // from that line.
                 q += self.jerk_var[a];
             } else {
                 // Borrowed voltages carry the other IS's noise in full.

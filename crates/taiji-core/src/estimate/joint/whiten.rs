@@ -47,8 +47,9 @@ impl JointEstimator {
         // After bridged ticks the attitude that turns the SRP is uncertain (the drift
         // filter's variance): −δθ × b, common to both IS, slowly varying. It enters as
         // white noise along the SRP's turn directions with the same spectral density
-        // at low frequencies: its variance times twice its correlation length in
-        // samples (√(P_θθ/P_θ̇θ̇) f_s), averaged over the samples the statistics took
+        // where the maneuver excites the parameters: a process of variance P and
+        // correlation time τ = √(P_θθ/P_θ̇θ̇) taken at the excitation's frequency
+        // (`excitation_rate`), averaged over the samples the statistics took
         // (`drift_noise_sum`), so the common mode across the turn carries less weight
         // instead of posing δθ × b as a CoM offset.
         let turn = if self.drifted() {
