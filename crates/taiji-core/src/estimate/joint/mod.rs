@@ -182,7 +182,7 @@ pub struct JointEstimator {
 /// the variance 2 P τ f_s / (1 + (ω τ)²) per sample: this factor times the rest,
 /// ω the maneuver's (`excitation_rate`). (It replaced a measured factor of 10 on the
 /// filter's variance at the solve. Taken at zero frequency it left r_z's σ 3×
-/// cautious with 1 % IS dropouts, (err/σ)² 0.09; at the maneuver's it is 0.9,
+/// cautious with 1 % IS dropouts, (err/σ)² 0.10; at the maneuver's 0.78,
 /// docs/integrity.md.)
 const WHITE_EQUIVALENT: f64 = 2.0;
 
