@@ -151,6 +151,54 @@ fn before_the_first_solve_the_status_says_there_is_no_solution() {
     assert_ne!(e.status & ST_NO_SOLUTION, 0);
 }
 
+/// A strong written maneuver (10 mHz, 1500 s): the first solve's one iteration from the
+/// priors leaves the data inconsistent (r_z 41σ off before this was caught). It says
+/// so (`not_converged`) and solves again after the next sample, which fits.
+#[test]
+fn an_unconverged_first_solve_says_so_and_is_solved_again_at_once() {
+    let s = Scenario::from_toml_str(
+        "name = \"strong\"\nseed = 5\nduration_s = 1500.0\n[maneuver]\nfrequency_hz = 1e-2\n",
+    )
+    .unwrap();
+    let st = taiji::campaign::Stages::new(&s, s.seed, Method::Joint);
+    let mut est = st.estimator;
+    let mut solves = Vec::new();
+    taiji::campaign::samples(
+        &s,
+        st.commander,
+        st.plant,
+        st.fee,
+        taiji::campaign::Threads::One,
+        |m| {
+            let e = est.step(m);
+            if solves
+                .last()
+                .is_none_or(|(t, _): &(u64, EstimateMsg)| *t != e.solved_tick)
+                && e.status & ST_NO_SOLUTION == 0
+                && solves.len() < 3
+            {
+                solves.push((e.solved_tick, e));
+            }
+        },
+    );
+    let worst = |e: &EstimateMsg| {
+        let mut w: f64 = 0.0;
+        for (i, is) in s.inertial_sensor.iter().enumerate() {
+            for a in 0..3 {
+                w = w.max(((e.r_b[i][a] - is.com_offset_m[a]) / e.r_sigma[i][a]).abs());
+                w = w.max(((e.beta[i][a] - is.beta[a]) / e.beta_sigma[i][a]).abs());
+            }
+        }
+        w
+    };
+    let (t0, first) = &solves[0];
+    assert_ne!(first.status & ST_NOT_CONVERGED, 0, "{:#x}", first.status);
+    let (t1, second) = &solves[1];
+    assert_eq!(*t1, t0 + 1);
+    assert_eq!(second.status, 0, "{:#x}", second.status);
+    assert!(worst(second) < 4.0, "{}", worst(second));
+}
+
 /// Arbitrary sample content and tick orders: no panic, every estimate finite. Clean
 /// samples from a real campaign are mixed with random bytes, flipped bits, specials
 /// (NaN, ±∞, subnormals, ±f64::MAX) and duplicated, late, jumping and wild ticks.

@@ -210,6 +210,14 @@ const PRIOR_DRIFT_V_S: f64 = 1e-3;
 /// 2–3, the rest is margin) and of a scheduled solve (one, warm-started).
 const FINISH_ITERATIONS: usize = 20;
 const SCHEDULED_ITERATIONS: usize = 1;
+
+/// A solve has converged when no parameter moved by more than this fraction of its σ.
+const CONVERGED_STEP: f64 = 1e-4;
+
+/// Solves that may follow the first scheduled one, one per update, while its step moved
+/// some parameter by more than its σ and left the data inconsistent (`solve_now_with`).
+/// `solve_due[0]` counts them: 1 for the scheduled solve, 2… for the follow-ups.
+const FOLLOW_UPS: u64 = 3;
 /// A gap longer than this [s] may have let the propagated attitude step away from the
 /// star tracker's: the star test then learns its offset anew (in ticks: × fs).
 const STAR_RELEARN_GAP_S: f64 = 1.0;
@@ -286,7 +294,7 @@ impl JointEstimator {
             && self.bank.n <= MAX_POLES as u64
             && self.started <= 1
             && self.q_ref_set <= 1
-            && self.solve_due[0] <= 1
+            && self.solve_due[0] <= 1 + FOLLOW_UPS
     }
 
     /// Every tick below this one has been processed or bridged.
@@ -380,7 +388,8 @@ impl JointEstimator {
         self.tick_mask
     }
 
-    /// Has `solve_every` ticks' worth of data come in since the last due solve?
+    /// Has `solve_every` ticks' worth of data come in since the last due solve, or does
+    /// an unconverged solve ask for another (`FOLLOW_UPS`)?
     pub fn solve_due(&self) -> bool {
         self.solve_due[0] != 0
     }
@@ -411,12 +420,26 @@ impl JointEstimator {
         } else {
             self.next_tick.saturating_sub(1)
         };
+        let round = self.solve_due[0];
         self.solve_due = [0; 2];
         if self.started == 0 {
             return false;
         }
-        self.solve(SCHEDULED_ITERATIONS, true, w);
+        let first = self.status & ST_NO_SOLUTION != 0;
+        let moved = self.solve(SCHEDULED_ITERATIONS, true, w);
         self.solved_tick = tick;
+        // The first iteration, from the priors, can leave the data looking
+        // inconsistent that the next one fits (a strong maneuver): then solve again
+        // from it after the next sample (one solve per update, at most `FOLLOW_UPS`
+        // times), and say meanwhile that it has not converged.
+        let unconverged = moved.is_some_and(|m| m > 1.0) && self.status & ST_INCONSISTENT != 0;
+        let chain = (round == 1 && first) || (2..=FOLLOW_UPS).contains(&round);
+        if unconverged && chain {
+            self.status |= ST_NOT_CONVERGED;
+            self.solve_due = [round + 1, self.next_tick];
+        } else {
+            self.status &= !ST_NOT_CONVERGED;
+        }
         self.status & ST_SOLVE_FAILED == 0
     }
 
@@ -433,7 +456,10 @@ impl JointEstimator {
         self.tick_mask = 0;
         let last = self.next_tick.saturating_sub(1);
         if self.started != 0 {
-            if self.solve(FINISH_ITERATIONS, true, w) {
+            if self
+                .solve(FINISH_ITERATIONS, true, w)
+                .is_some_and(|m| m < CONVERGED_STEP)
+            {
                 self.status &= !ST_NOT_CONVERGED;
             } else {
                 self.status |= ST_NOT_CONVERGED;

@@ -437,10 +437,13 @@ impl JointEstimator {
         var.iter().all(|v| v.is_finite()).then_some(var)
     }
 
-    /// Gauss–Newton iterations from the current solution; true when converged. A
-    /// failed step (singular normal equations, a non-finite step) keeps the previous
-    /// solution and says so in the status word.
-    pub fn solve(&mut self, iterations: usize, priors: bool, w: &mut SolveWork) -> bool {
+    /// Gauss–Newton iterations from the current solution, until converged (no
+    /// parameter moved by `CONVERGED_STEP` of its σ). Returns the last step's largest
+    /// move in σ of its parameter; None when a step failed (singular normal equations,
+    /// a non-finite step), which keeps the previous solution and says so in the status
+    /// word.
+    pub fn solve(&mut self, iterations: usize, priors: bool, w: &mut SolveWork) -> Option<f64> {
+        let mut moved = f64::INFINITY;
         for _ in 0..iterations {
             self.normal_equations(&self.p, priors, w);
             let step = Self::newton_step(&w.n.hm, &w.n.g, &mut w.hs, &mut w.hinv)
@@ -448,7 +451,7 @@ impl JointEstimator {
                 .and_then(|d| Some((d, Self::sandwich_var(&w.n, &w.hinv)?)));
             let Some((delta, var)) = step else {
                 self.status |= ST_SOLVE_FAILED;
-                return false;
+                return None;
             };
             self.p += delta;
             self.sigma = var.map(|v| v.max(0.0).sqrt());
@@ -456,12 +459,14 @@ impl JointEstimator {
             let cost = self.group_costs(&self.p, &mut w.gram);
             self.judge_consistency(&cost);
             self.refresh_gate();
-            let converged = (0..NP).all(|k| delta[k].abs() < 1e-4 * self.sigma[k].max(1e-300));
-            if converged {
-                return true;
+            moved = (0..NP)
+                .map(|k| delta[k].abs() / self.sigma[k].max(1e-300))
+                .fold(0.0, f64::max);
+            if moved < CONVERGED_STEP {
+                break;
             }
         }
-        false
+        Some(moved)
     }
 
     /// Each group's χ² at `p`, with the rows `normal_equations` uses.
