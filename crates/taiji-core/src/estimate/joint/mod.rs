@@ -428,10 +428,17 @@ impl JointEstimator {
         let first = self.status & ST_NO_SOLUTION != 0;
         let moved = self.solve(SCHEDULED_ITERATIONS, true, w);
         self.solved_tick = tick;
-        // The first iteration, from the priors, can leave the data looking
-        // inconsistent that the next one fits (a strong maneuver): then solve again
-        // from it after the next sample (one solve per update, at most `FOLLOW_UPS`
-        // times), and say meanwhile that it has not converged.
+        self.follow_up(round, first, moved);
+        self.status & ST_SOLVE_FAILED == 0
+    }
+
+    /// The first iteration, from the priors, can leave the data looking inconsistent
+    /// that the next one fits (a strong maneuver): then solve again from it after the
+    /// next sample (one solve per update, at most `FOLLOW_UPS` times), and say
+    /// meanwhile that it has not converged. Out of line: the solve's frames are the
+    /// deepest stack.
+    #[inline(never)]
+    fn follow_up(&mut self, round: u64, first: bool, moved: Option<f64>) {
         let unconverged = moved.is_some_and(|m| m > 1.0) && self.status & ST_INCONSISTENT != 0;
         let chain = (round == 1 && first) || (2..=FOLLOW_UPS).contains(&round);
         if unconverged && chain {
@@ -440,7 +447,6 @@ impl JointEstimator {
         } else {
             self.status &= !ST_NOT_CONVERGED;
         }
-        self.status & ST_SOLVE_FAILED == 0
     }
 
     /// Final solution: iterate to convergence, with the weak priors (as in the run).
