@@ -566,6 +566,17 @@ fn add_scaled(h: &mut SMatrix<f64, NP, NP>, x: &SMatrix<f64, NP, NP>, w: f64) {
     }
 }
 
+/// The step's largest move of a parameter in its σ (out of line: the solve's frames
+/// are the deepest stack).
+#[inline(never)]
+fn largest_move(delta: &Par, sigma: &Par) -> f64 {
+    let mut moved: f64 = 0.0;
+    for k in 0..NP {
+        moved = moved.max(delta[k].abs() / sigma[k].max(1e-300));
+    }
+    moved
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -696,15 +707,4 @@ mod tests {
         sing.set_row(3, &Par::zeros().transpose());
         assert!(step(&sing, &g).is_none());
     }
-}
-
-/// The step's largest move of a parameter in its σ (out of line: the solve's frames
-/// are the deepest stack).
-#[inline(never)]
-fn largest_move(delta: &Par, sigma: &Par) -> f64 {
-    let mut moved: f64 = 0.0;
-    for k in 0..NP {
-        moved = moved.max(delta[k].abs() / sigma[k].max(1e-300));
-    }
-    moved
 }
