@@ -219,6 +219,23 @@ impl JointEstimator {
         }
     }
 
+    /// Add this linear sample to the excitation's spreads (`excitation_rate`), on every
+    /// `MOMENT_EVERY`th: the maneuver is slow against any sample rate, and an update on
+    /// a flight CPU then pays for a branch, not for 12 software floating-point
+    /// operations.
+    pub(super) fn note_excitation(&mut self, dv: &[[f64; 3]; 2]) {
+        if self.n_used & (MOMENT_EVERY - 1) != 1 {
+            return;
+        }
+        for (a, m) in self.rate_moments.iter_mut().enumerate() {
+            let (psi, v) = (self.psi[0][a], dv[0][a]);
+            m[0] += psi;
+            m[1] += psi * psi;
+            m[2] += v;
+            m[3] += v * v;
+        }
+    }
+
     /// The maneuver's angular frequency [rad/s]: the spread of ω̇ over the spread of ω,
     /// both summed over the axes (IS1's voltage and its integral, so β cancels); 0
     /// before they spread.

@@ -113,41 +113,8 @@ impl JointEstimator {
         if let Some(sig) = lin_sig {
             self.n_used += 1;
             self.update_linear(&sig, &dv);
-            // The excitation's spreads (`excitation_rate`), on every 8th sample: the
-            // maneuver is slow against any sample rate, and an update on a flight CPU
-            // then pays for a branch, not for 12 software floating-point operations.
-            if self.n_used & (MOMENT_EVERY - 1) == 1 {
-                for a in 0..3 {
-                    let m = &mut self.rate_moments[a];
-                    let (psi, v) = (self.psi[0][a], dv[0][a]);
-                    m[0] += psi;
-                    m[1] += psi * psi;
-                    m[2] += v;
-                    m[3] += v * v;
-                }
-            }
-            // What the drift filter's error weighs in this sample (`white_cov`; only
-            // once ticks were bridged, as there: before, it is nothing the clean
-            // campaign does not have, and three square roots in software on a flight
-            // CPU are 3 % of an update).
-            if self.drifted() {
-                let w = self.excitation_rate();
-                for a in 0..3 {
-                    let pd = &self.drift_p[a];
-                    let corr = (pd[1][1] / pd[2][2].max(1e-300)).sqrt() * self.cfg.fs;
-                    let corr = corr.clamp(1.0, 1e6);
-                    // Its spectral density where the maneuver excites the parameters,
-                    // not at zero frequency (correlation time τ: 1 + (ω τ)² lower). A
-                    // bridged tick widens the filter's rate variance and so shortens
-                    // its memory: τ is at most the mean time between bridged ticks.
-                    let between = self.n_ticks as f64 / self.n_bridged.max(1) as f64;
-                    let wt = w * corr.min(between) / self.cfg.fs;
-                    let v = pd[1][1].max(0.0) * corr / (1.0 + wt * wt);
-                    if v.is_finite() {
-                        self.drift_noise_sum[a] += v;
-                    }
-                }
-            }
+            self.note_excitation(&dv);
+            self.note_drift_noise();
             self.fix_srp_level(&sig, &dv, &psi_mid, &phi_mid);
             self.gate_s = sig;
         } else {

@@ -48,9 +48,9 @@ impl JointEstimator {
         // filter's variance): −δθ × b, common to both IS, slowly varying. It enters as
         // white noise along the SRP's turn directions with the same spectral density
         // where the maneuver excites the parameters: a process of variance P and
-        // correlation time τ = √(P_θθ/P_θ̇θ̇) taken at the excitation's frequency
-        // (`excitation_rate`), averaged over the samples the statistics took
-        // (`drift_noise_sum`), so the common mode across the turn carries less weight
+        // correlation time τ = √(P_θθ/P_θ̇θ̇), at most the time between bridged ticks,
+        // taken at the excitation's frequency (`excitation_rate`), averaged over the
+        // samples the statistics took (`drift_noise_sum`, `note_drift_noise`), so the common mode across the turn carries less weight
         // instead of posing δθ × b as a CoM offset.
         let turn = if self.drifted() {
             let b = Vector3::from(self.srp_dc(p));
@@ -91,6 +91,30 @@ impl JointEstimator {
             }
         }
         r
+    }
+
+    /// What the drift filter's error weighs in this linear sample (`white_cov`), per
+    /// axis: its variance P times its correlation time τ in samples, at the maneuver's
+    /// frequency ω (1 + (ωτ)² below its zero-frequency density). Only once ticks were
+    /// bridged, as there: before, it is nothing the clean campaign does not have, and
+    /// three square roots in software on a flight CPU are 3 % of an update.
+    pub(super) fn note_drift_noise(&mut self) {
+        if !self.drifted() {
+            return;
+        }
+        let w = self.excitation_rate();
+        // A bridged tick widens the filter's rate variance and so shortens its memory:
+        // τ is at most the mean time between bridged ticks.
+        let between = self.n_ticks as f64 / self.n_bridged.max(1) as f64;
+        for a in 0..3 {
+            let pd = &self.drift_p[a];
+            let corr = ((pd[1][1] / pd[2][2].max(1e-300)).sqrt() * self.cfg.fs).clamp(1.0, 1e6);
+            let wt = w * corr.min(between) / self.cfg.fs;
+            let v = pd[1][1].max(0.0) * corr / (1.0 + wt * wt);
+            if v.is_finite() {
+                self.drift_noise_sum[a] += v;
+            }
+        }
     }
 
     /// Whitening rows: `L⁻¹` of the white covariance, and the unit direction of the
