@@ -9,7 +9,7 @@
  *        symbol that exists nowhere, and the link succeeds (a CI test; with --probe, a
  *        deliberately reachable panic, the same link fails).
  *
- * MEMORY The state: taiji_estimator_size() bytes (64 376) aligned to
+ * MEMORY The state: taiji_estimator_size() bytes (64 520) aligned to
  *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
  *        alignment. solve and finish also take scratch: taiji_solve_work_size() bytes
  *        (128 432), 8-aligned, not overlapping the state; its contents do not matter

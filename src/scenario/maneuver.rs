@@ -63,8 +63,9 @@ impl Timeline {
         match mv.schedule {
             Schedule::Sequential => {
                 let f = mv.frequency_hz;
-                // As many periods per axis as fit, one axis after the other.
-                let mut n = (usable_s * f / 3.0).floor().max(0.0) as u64;
+                // As many periods per axis as fit, one axis after the other (`whole`:
+                // 6×10⁻⁴ Hz over 10⁴ s is 2 periods an axis, not 1.999… → 1).
+                let mut n = whole(usable_s * f / 3.0);
                 loop {
                     if n == 0 {
                         let axis = s.axis_order()[0];
@@ -97,7 +98,7 @@ impl Timeline {
             }
             Schedule::Simultaneous => {
                 for axis in 0..3 {
-                    let mut n = (usable_s * freq[axis]).floor().max(0.0) as u64;
+                    let mut n = whole(usable_s * freq[axis]);
                     loop {
                         if n == 0 {
                             return Err(NoFit {
@@ -335,6 +336,14 @@ pub fn round_down_4(x: f64) -> f64 {
 }
 
 /// Each axis's square-wave frequency [Hz].
+/// Whole periods in `x` periods, forgiving the last bits of rounding: a window and a
+/// frequency written as round numbers (10⁴ s at 6×10⁻⁴ Hz) multiply to 5.999…, which
+/// floored lost a period an axis. Whether the periods fit in whole ticks is `place`'s
+/// to say.
+fn whole(x: f64) -> u64 {
+    (x + 1e-9).floor().max(0.0) as u64
+}
+
 pub fn axis_frequencies(s: &Scenario) -> [f64; 3] {
     let mv = &s.maneuver;
     match mv.schedule {
@@ -454,6 +463,17 @@ mod tests {
             assert_eq!(tl.stretches[a][0].start_tick, k as u64 * ticks);
             assert_eq!(tl.stretches[a][0].ticks, ticks);
         }
+    }
+
+    #[test]
+    fn a_round_frequency_gets_every_period_that_fits() {
+        // 10⁴ s × 6×10⁻⁴ Hz / 3 is 1.999… in floating point: 2 periods an axis.
+        let mut s = Scenario::default();
+        s.maneuver.frequency_hz = 6e-4;
+        assert_eq!(Timeline::new(&s).unwrap().periods(), [2; 3]);
+        s.maneuver.schedule = Schedule::Simultaneous;
+        s.maneuver.frequency_ratio = [1.0, 2.0, 4.0];
+        assert_eq!(Timeline::new(&s).unwrap().periods(), [6, 12, 24]);
     }
 
     #[test]

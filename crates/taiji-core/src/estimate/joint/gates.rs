@@ -259,7 +259,14 @@ impl JointEstimator {
         let raw = &self.gate_c * sig;
         let z = self.gate_w * raw;
         let gate = self.cfg.gate_sigma;
-        let mut ok = (0..6).all(|k| self.lin_track[k].check(z[k], 1.0, gate));
+        // Each row's white variance at this sample's drive (1 at the first sample's).
+        // A corrupted voltage widens its own test only by the ripple's share of it:
+        // an error passes only if below gate × ripple (~10⁻⁴) of the whole drive. (The
+        // last accepted sample's drive instead refused 10 clean samples a run at the
+        // torque edges, with 10× the default ripple.)
+        let drive = self.drive(sig);
+        let var: [f64; 6] = core::array::from_fn(|k| self.white_var_of_row(k, &drive));
+        let mut ok = (0..6).all(|k| self.lin_track[k].check(z[k], var[k], gate));
         if !ok {
             // Before calling it an outlier: could the solution's own uncertainty
             // explain it? (When the maneuver starts exciting a parameter, the residual
@@ -267,7 +274,7 @@ impl JointEstimator {
             // row until the track starts over — refused exactly the samples that
             // determine it: r_z 5× its bound without thruster noise.)
             let v = self.parameter_spread(sig);
-            ok = (0..6).all(|k| self.lin_track[k].check_wider(z[k], 1.0, v[k], gate));
+            ok = (0..6).all(|k| self.lin_track[k].check_wider(z[k], var[k], v[k], gate));
         }
         for k in 0..6 {
             if ok {

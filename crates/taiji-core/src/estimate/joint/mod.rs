@@ -167,6 +167,11 @@ pub struct JointEstimator {
     /// current solution's coefficients, their tracks and the last accepted signals.
     gate_c: SMatrix<f64, 6, NS>,
     gate_w: SMatrix<f64, 6, 6>,
+    /// Per row of `gate_w` (the last one `t_u`: the common-mode channel) and axis a,
+    /// its lever on the noise of ω̇_a (the row on ω̇ × r / k at the priors)
+    /// [V⁻¹ m s⁻² per rad s⁻²]: with the drive ripple, each row's white variance
+    /// follows the sample's drive (`white_var_of_row`).
+    gate_lever: [[f64; 3]; 6],
     gate_s: Sig,
     lin_track: [Track; 6],
     /// Lone-IS test: residual of each IS's linear channel (row 3 i + j of `gate_c`, in

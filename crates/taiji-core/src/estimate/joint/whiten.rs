@@ -21,6 +21,13 @@ pub(super) fn rank1_upper<const N: usize>(m: &mut SMatrix<f64, N, N>, v: &SVecto
     }
 }
 
+/// A sample's drive against the first sample's (`JointEstimator::drive`).
+#[derive(Default)]
+pub(super) struct Drive {
+    sum_sq: [f64; 6],
+    wdot_sq: [f64; 3],
+}
+
 pub(super) fn symmetric<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
     SMatrix::from_fn(|i, j| if i <= j { m[(i, j)] } else { m[(j, i)] })
 }
@@ -91,6 +98,63 @@ impl JointEstimator {
             }
         }
         r
+    }
+
+    /// Each row of `gate_w`'s lever on ω̇'s noise per axis (`gate_lever`): Σ over the
+    /// slots of the row times that slot's row of ω̇ × r / k, at the priors, as
+    /// `white_cov` builds the angular term (so the row's variance of it is
+    /// Σ_a lever_a² v_a).
+    pub(super) fn row_levers(&self) -> [[f64; 3]; 6] {
+        let p = &self.p;
+        core::array::from_fn(|k| {
+            core::array::from_fn(|a| {
+                let mut g = 0.0;
+                for s in 0..3 * self.n_is() {
+                    let (i, j) = ((s / 3).min(1), s % 3);
+                    let xi = -skew(&Vector3::from_fn(|b, _| p[P_R + 3 * i + b]));
+                    g += self.gate_w[(k, s)] * xi[(j, a)] / self.k_of(p, i, j);
+                }
+                g
+            })
+        })
+    }
+
+    /// How far this sample's drive is from the first sample's, which the rows of
+    /// `gate_w` whiten: per slot ΣV² − ΣV²_ref [V²] (signals `s`), per axis the mean
+    /// angular acceleration's square Σ_l w_l² (β_l,prior ΔV_l)² [rad² s⁻⁴].
+    pub(super) fn drive(&self, s: &Sig) -> Drive {
+        let c = &self.cfg;
+        let n = self.n_is();
+        let mut d = Drive::default();
+        for slot in 0..3 * n {
+            let rf = self.sum_ref[(slot / 3).min(1)][slot % 3];
+            let sum = s[S_SUM + slot] + rf;
+            d.sum_sq[slot.min(5)] = sum * sum - rf * rf;
+        }
+        for (a, w2) in d.wdot_sq.iter_mut().enumerate() {
+            for l in 0..n {
+                *w2 += (self.w(l) * c.beta_prior[l][a] * s[S_DV + 3 * l + a]).powi(2);
+            }
+        }
+        d
+    }
+
+    /// White variance of row `k` of `gate_w` (5: the common-mode channel) at a
+    /// sample's `drive`, in units of the first sample's (to which the rows whiten):
+    /// the drive ripple scales with the drive, so its share grows with the linear and
+    /// angular voltages. Held at the first sample's, a maneuver that drives a slot of
+    /// little white noise (a sunless axis) made the common-mode χ²/dof 2–16 with 10×
+    /// the default ripple.
+    pub(super) fn white_var_of_row(&self, k: usize, d: &Drive) -> f64 {
+        let k = k.min(5);
+        let mut v = 0.0;
+        for (slot, sq) in d.sum_sq.iter().enumerate() {
+            v += self.gate_w[(k, slot)].powi(2) * sq;
+        }
+        for (lever, w2) in self.gate_lever[k].iter().zip(&d.wdot_sq) {
+            v += lever.powi(2) * w2;
+        }
+        1.0 + self.cfg.sigma_ripple.powi(2) * v
     }
 
     /// What the drift filter's error weighs in this linear sample (`white_cov`), per
@@ -198,7 +262,7 @@ impl JointEstimator {
         for pgi in &pg[..nb] {
             ptot += *pgi;
         }
-        let sv = hn * hn * ptot + 1.0;
+        let sv = hn * hn * ptot + self.white_var_of_row(5, &self.drive(&s));
         let inv_sqrt = 1.0 / sv.sqrt();
         let mut sf = Sig::zeros();
         // Slices of the `nb` poles in use: the loops below vectorise (element by
