@@ -45,7 +45,7 @@ impl JointEstimator {
         let n = self.n_is();
         let wdot = Vector3::from_fn(|a, _| {
             (0..n)
-                .map(|l| self.w(l) * p[P_BETA + 3 * l + a] * data[l].dv[a])
+                .map(|l| self.w(l) * p[P_BETA + (3 * l + a).min(5)] * data[l.min(1)].dv[a])
                 .sum::<f64>()
         });
         let mut bc = Vector3::<f64>::zeros();
@@ -59,7 +59,7 @@ impl JointEstimator {
         let g0 = bc.norm().max(1e-30);
         let mut h = SVector::<f64, 6>::zeros();
         for s in 0..3 * n {
-            h[s] = bc[s % 3] / self.k_of(p, s / 3, s % 3) / g0;
+            h[s.min(5)] = bc[s % 3] / self.k_of(p, s / 3, s % 3) / g0;
         }
         h
     }

@@ -106,17 +106,19 @@ impl JointEstimator {
     /// Σ_a lever_a² v_a).
     pub(super) fn row_levers(&self) -> [[f64; 3]; 6] {
         let p = &self.p;
-        core::array::from_fn(|k| {
-            core::array::from_fn(|a| {
-                let mut g = 0.0;
-                for s in 0..3 * self.n_is() {
-                    let (i, j) = ((s / 3).min(1), s % 3);
-                    let xi = -skew(&Vector3::from_fn(|b, _| p[P_R + 3 * i + b]));
-                    g += self.gate_w[(k, s)] * xi[(j, a)] / self.k_of(p, i, j);
+        let mut out = [[0.0; 3]; 6];
+        for s in 0..3 * self.n_is() {
+            let (i, j) = ((s / 3).min(1), s % 3);
+            let xi = -skew(&Vector3::from_fn(|b, _| p[P_R + 3 * i + b]));
+            let k_ij = self.k_of(p, i, j);
+            // Plain loops with clamped indices: no index check is linked.
+            for (k, lever) in out.iter_mut().enumerate() {
+                for (a, g) in lever.iter_mut().enumerate() {
+                    *g += self.gate_w[(k.min(5), s.min(5))] * xi[(j.min(2), a.min(2))] / k_ij;
                 }
-                g
-            })
-        })
+            }
+        }
+        out
     }
 
     /// How far this sample's drive is from the first sample's, which the rows of
@@ -128,12 +130,13 @@ impl JointEstimator {
         let mut d = Drive::default();
         for slot in 0..3 * n {
             let rf = self.sum_ref[(slot / 3).min(1)][slot % 3];
-            let sum = s[S_SUM + slot] + rf;
+            let sum = s[S_SUM + slot.min(5)] + rf;
             d.sum_sq[slot.min(5)] = sum * sum - rf * rf;
         }
         for (a, w2) in d.wdot_sq.iter_mut().enumerate() {
             for l in 0..n {
-                *w2 += (self.w(l) * c.beta_prior[l][a] * s[S_DV + 3 * l + a]).powi(2);
+                let l = l.min(1);
+                *w2 += (self.w(l) * c.beta_prior[l][a] * s[S_DV + (3 * l + a).min(5)]).powi(2);
             }
         }
         d
