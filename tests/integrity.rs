@@ -440,7 +440,7 @@ fn priors_off_in_opposite_directions_do_not_lock_out_the_cross_is_test() {
 #[test]
 fn ten_times_the_drive_ripple_is_modelled_not_flagged() {
     // The ripple scales with the drive, and the sun lies in the x–z plane: the y slots
-    // carry almost no drive, so their white noise is ~10³× below the others'. The
+    // carry almost no drive, so their white noise is ~400× below the others'. The
     // common-mode channel, fixed at the first sample, then leaned on y: the first
     // sample's torque noise times the 0.2 m CoM offset tilted the SRP direction
     // towards it, and the maneuver's ripple there was not in the channel's variance.

@@ -335,7 +335,6 @@ pub fn round_down_4(x: f64) -> f64 {
     (x * scale * (1.0 - 1e-12)).floor() / scale
 }
 
-/// Each axis's square-wave frequency [Hz].
 /// Whole periods in `x` periods, forgiving the last bits of rounding: a window and a
 /// frequency written as round numbers (10⁴ s at 6×10⁻⁴ Hz) multiply to 5.999…, which
 /// floored lost a period an axis. Whether the periods fit in whole ticks is `place`'s
@@ -344,6 +343,7 @@ fn whole(x: f64) -> u64 {
     (x + 1e-9).floor().max(0.0) as u64
 }
 
+/// Each axis's square-wave frequency [Hz].
 pub fn axis_frequencies(s: &Scenario) -> [f64; 3] {
     let mv = &s.maneuver;
     match mv.schedule {
