@@ -445,7 +445,7 @@ fn ten_times_the_drive_ripple_is_modelled_not_flagged() {
     // sample's torque noise times the 0.2 m CoM offset tilted the SRP direction
     // towards it, and the maneuver's ripple there was not in the channel's variance.
     // With 10× the default ripple 28 of 30 runs were flagged inconsistent (common-mode
-    // χ²/dof 1.3–17, σ inflated up to ×4) and the linear test refused ~20 clean
+    // χ²/dof up to 7.2, σ inflated up to ×2.7) and the linear test refused 3–31 clean
     // samples a run.
     let s = planned("[front_end]\nripple_rthz = 8e-5\n");
     for seed in 1..=3 {

@@ -146,7 +146,7 @@ impl JointEstimator {
     /// sample's `drive`, in units of the first sample's (to which the rows whiten):
     /// the drive ripple scales with the drive, so its share grows with the linear and
     /// angular voltages. Held at the first sample's, a maneuver that drives a slot of
-    /// little white noise (a sunless axis) made the common-mode χ²/dof 1.3–17 with 10×
+    /// little white noise (a sunless axis) made the common-mode χ²/dof up to 7.2 with 10×
     /// the default ripple.
     pub(super) fn white_var_of_row(&self, k: usize, d: &Drive) -> f64 {
         let k = k.min(5);
