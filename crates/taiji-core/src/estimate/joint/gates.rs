@@ -252,20 +252,18 @@ impl JointEstimator {
 
     /// The linear group's whitened residuals at the current solution, each against
     /// its track (widened by the solution's uncertainty); every one must pass.
-    pub(super) fn linear_consistent(&mut self, sig: &Sig) -> bool {
+    pub(super) fn linear_consistent(&mut self, sig: &Sig, var: &[f64; 6]) -> bool {
         // By reference: the owned matrices would be copied (gate_c is 1.5 kB) every
         // sample, which the lint does not know.
         #[allow(clippy::op_ref)]
         let raw = &self.gate_c * sig;
         let z = self.gate_w * raw;
         let gate = self.cfg.gate_sigma;
-        // Each row's white variance at this sample's drive (1 at the first sample's).
-        // A corrupted voltage widens its own test only by the ripple's share of it:
-        // an error passes only if below gate × ripple (~10⁻⁴) of the whole drive. (The
-        // last accepted sample's drive instead refused 10 clean samples a run at the
-        // torque edges, with 10× the default ripple.)
-        let drive = self.drive(sig);
-        let var: [f64; 6] = core::array::from_fn(|k| self.white_var_of_row(k, &drive));
+        // `var`: each row's white variance at this sample's drive (1 at the first
+        // sample's). A corrupted voltage widens its own test only by the ripple's
+        // share of it: an error passes only if below gate × ripple (~10⁻⁴) of the
+        // whole drive. (The last accepted sample's drive instead refused 10 clean
+        // samples a run at the torque edges, with 10× the default ripple.)
         let mut ok = (0..6).all(|k| self.lin_track[k].check(z[k], var[k], gate));
         if !ok {
             // Before calling it an outlier: could the solution's own uncertainty

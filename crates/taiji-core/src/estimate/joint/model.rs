@@ -42,13 +42,27 @@ impl JointEstimator {
     /// Direction of the coloured SRP noise in volts per slot, from the fitted DC: the
     /// reference sample alone also holds the maneuver's A r at the first tick (≈1 %).
     pub(super) fn srp_direction(&self, p: &Par) -> SVector<f64, 6> {
-        let bc = self.srp_dc(p);
-        let g0 = Vector3::from(bc).norm().max(1e-30);
+        self.direction_in_volts(p, &Vector3::from(self.srp_dc(p)))
+    }
+
+    /// An acceleration's direction in volts per slot (unit norm of `bc` [m/s²]), each
+    /// slot through its k at `p`.
+    pub(super) fn direction_in_volts(&self, p: &Par, bc: &Vector3<f64>) -> SVector<f64, 6> {
+        let g0 = bc.norm().max(1e-30);
         let mut h = SVector::<f64, 6>::zeros();
         for s in 0..3 * self.n_is() {
-            h[s] = bc[s % 3] / self.k_of(p, s / 3, s % 3) / g0;
+            h[s.min(5)] = bc[s % 3] / self.k_of(p, s / 3, s % 3) / g0;
         }
         h
+    }
+
+    /// ω̇ at `p` [rad/s²]: the IS average of β ΔV (angular voltages `dv`).
+    pub(super) fn omega_dot(&self, p: &Par, dv: &[[f64; 3]; 2]) -> Vector3<f64> {
+        Vector3::from_fn(|a, _| {
+            (0..self.n_is())
+                .map(|l| self.w(l) * p[P_BETA + (3 * l + a).min(5)] * dv[l.min(1)][a])
+                .sum::<f64>()
+        })
     }
 
     pub(super) fn coeffs(&self, p: &Par) -> Coeffs {

@@ -43,11 +43,7 @@ impl JointEstimator {
     fn first_srp_direction(&self, data: &[IsData; 2]) -> SVector<f64, 6> {
         let p = &self.p;
         let n = self.n_is();
-        let wdot = Vector3::from_fn(|a, _| {
-            (0..n)
-                .map(|l| self.w(l) * p[P_BETA + (3 * l + a).min(5)] * data[l.min(1)].dv[a])
-                .sum::<f64>()
-        });
+        let wdot = self.omega_dot(p, &[data[0].dv, data[1].dv]);
         let mut bc = Vector3::<f64>::zeros();
         for i in 0..n {
             let i = i.min(1);
@@ -56,12 +52,7 @@ impl JointEstimator {
                 bc[j] += (self.k_of(p, i, j) * self.sum_ref[i][j] - ar[j]) / n as f64;
             }
         }
-        let g0 = bc.norm().max(1e-30);
-        let mut h = SVector::<f64, 6>::zeros();
-        for s in 0..3 * n {
-            h[s.min(5)] = bc[s % 3] / self.k_of(p, s / 3, s % 3) / g0;
-        }
-        h
+        self.direction_in_volts(p, &bc)
     }
 
     /// A tick processed or bridged: solve on schedule.
@@ -111,8 +102,11 @@ impl JointEstimator {
         if all_valid {
             let turn = self.srp_turn(&psi_mid);
             let sig = self.signals(&data, &dv, &psi_mid, &phi_mid, &turn, t);
-            if self.linear_consistent(&sig) {
-                lin_sig = Some(sig);
+            // Each residual row's white variance at this sample's drive: for the
+            // linear test now and the common-mode filter once accepted.
+            let var = self.row_white_vars(&sig);
+            if self.linear_consistent(&sig, &var) {
+                lin_sig = Some((sig, var[5]));
             } else {
                 self.reject(CAUSE_LINEAR_OUTLIER);
                 if n == 1 {
@@ -141,9 +135,9 @@ impl JointEstimator {
                 self.forget_jerk(a);
             }
         }
-        if let Some(sig) = lin_sig {
+        if let Some((sig, cm_var)) = lin_sig {
             self.n_used += 1;
-            self.update_linear(&sig, &dv);
+            self.update_linear(&sig, &dv, cm_var);
             self.note_excitation(&dv);
             self.note_drift_noise();
             self.fix_srp_level(&sig, &dv, &psi_mid, &phi_mid);
@@ -342,11 +336,7 @@ impl JointEstimator {
     ) -> bool {
         let (p, sg) = (&self.p, &self.sigma);
         let n = self.n_is();
-        let wdot = Vector3::from_fn(|a, _| {
-            (0..n)
-                .map(|l| self.w(l) * p[P_BETA + 3 * l + a] * dv[l][a])
-                .sum::<f64>()
-        });
+        let wdot = self.omega_dot(p, dv);
         let omega = Vector3::from_fn(|a, _| p[P_BETA + a] * psi_mid[0][a]);
         let r = Vector3::from_fn(|a, _| p[P_R + a]);
         let bc = Vector3::from(self.srp_dc(p));

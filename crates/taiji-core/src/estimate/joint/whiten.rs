@@ -121,10 +121,18 @@ impl JointEstimator {
         out
     }
 
+    /// Each row of `gate_w`'s white variance at this sample's drive (signals `s`), in
+    /// units of the first sample's (`white_var_of_row`); the last is the common-mode
+    /// channel's.
+    pub(super) fn row_white_vars(&self, s: &Sig) -> [f64; 6] {
+        let d = self.drive(s);
+        core::array::from_fn(|k| self.white_var_of_row(k, &d))
+    }
+
     /// How far this sample's drive is from the first sample's, which the rows of
     /// `gate_w` whiten: per slot ΣV² − ΣV²_ref [V²] (signals `s`), per axis the mean
     /// angular acceleration's square Σ_l w_l² (β_l,prior ΔV_l)² [rad² s⁻⁴].
-    pub(super) fn drive(&self, s: &Sig) -> Drive {
+    fn drive(&self, s: &Sig) -> Drive {
         let c = &self.cfg;
         let n = self.n_is();
         let mut d = Drive::default();
@@ -148,7 +156,7 @@ impl JointEstimator {
     /// angular voltages. Held at the first sample's, a maneuver that drives a slot of
     /// little white noise (a sunless axis) made the common-mode χ²/dof up to 7.2 with 10×
     /// the default ripple.
-    pub(super) fn white_var_of_row(&self, k: usize, d: &Drive) -> f64 {
+    fn white_var_of_row(&self, k: usize, d: &Drive) -> f64 {
         let k = k.min(5);
         let mut v = 0.0;
         for (slot, sq) in d.sum_sq.iter().enumerate() {
@@ -219,26 +227,28 @@ impl JointEstimator {
     /// Where the CPU has AVX2 the same code runs compiled for it: 4 lanes instead of 2,
     /// the same operations on every element, so the same bits (no fused multiply-add:
     /// Rust never contracts `a * b + c`).
-    pub(super) fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+    /// `cm_var`: the common-mode channel's white variance at this sample
+    /// (`row_white_vars`).
+    pub(super) fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2], cm_var: f64) {
         #[cfg(target_arch = "x86_64")]
         if crate::simd::has_avx2() {
             // SAFETY: the CPU has AVX2, checked just now.
-            unsafe { self.update_linear_avx2(s, dv) };
+            unsafe { self.update_linear_avx2(s, dv, cm_var) };
             return;
         }
-        self.update_linear_portable(s, dv);
+        self.update_linear_portable(s, dv, cm_var);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     /// # Safety
     /// The CPU must support AVX2 (`simd::has_avx2`).
-    pub(super) unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
-        self.update_linear_portable(s, dv);
+    pub(super) unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2], cm_var: f64) {
+        self.update_linear_portable(s, dv, cm_var);
     }
 
     #[inline(always)]
-    pub(super) fn update_linear_portable(&mut self, s: &Sig, dv: &[[f64; 3]; 2]) {
+    pub(super) fn update_linear_portable(&mut self, s: &Sig, dv: &[[f64; 3]; 2], cm_var: f64) {
         let s = *s;
         let bp = self.cfg.beta_prior[0];
         let mut reg = 0;
@@ -265,7 +275,7 @@ impl JointEstimator {
         for pgi in &pg[..nb] {
             ptot += *pgi;
         }
-        let sv = hn * hn * ptot + self.white_var_of_row(5, &self.drive(&s));
+        let sv = hn * hn * ptot + cm_var;
         let inv_sqrt = 1.0 / sv.sqrt();
         let mut sf = Sig::zeros();
         // Slices of the `nb` poles in use: the loops below vectorise (element by
