@@ -281,6 +281,28 @@ pub fn samples(
     debug_assert!(all.is_ok());
 }
 
+/// [`samples`] with the data the campaign at `seed` loses: its IS and star-tracker
+/// dropouts and the ticks the bus never delivers, the same ticks as its run loses
+/// (`Injector::losses_only`).
+pub fn samples_losing(
+    s: &Scenario,
+    seed: u64,
+    commander: Commander,
+    plant: Plant,
+    fee: FrontEnd,
+    threads: Threads,
+    mut take: impl FnMut(&SensorSample),
+) {
+    let mut sim = Sim::clean(commander, plant, fee, s.n_samples());
+    sim.inj = Some(Injector::new(s, seed).losses_only());
+    sim.faults = true;
+    let all: Result<(), TelemetryError> = drive(threads, sim, |b| {
+        b.delivered.iter().for_each(|(m, ..)| take(m));
+        Ok(())
+    });
+    debug_assert!(all.is_ok());
+}
+
 /// Simulate batch after batch and hand each to `take`, on the calling thread, until
 /// the end or `take`'s first error.
 fn drive(

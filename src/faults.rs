@@ -203,6 +203,28 @@ impl Injector {
         }
     }
 
+    /// This injector's data losses alone: IS and star-tracker dropouts and ticks the
+    /// bus never delivers, at the same draws (every random number is still drawn, so
+    /// the same ticks are lost), the faults that corrupt data left out. The Cramér–Rao
+    /// bound's stream of a campaign with losses (`crlb`).
+    pub fn losses_only(mut self) -> Self {
+        self.outliers.clear();
+        self.stuck.clear();
+        self.held.clear();
+        self.jumps.clear();
+        self.garbage.clear();
+        self.cfg.upset_rate = 0.0;
+        self.cfg.duplicate_rate = 0.0;
+        self.cfg.reorder_rate = 0.0;
+        self
+    }
+
+    /// Does the scenario lose data (dropouts, missing ticks)?
+    pub fn loses_data(s: &Scenario) -> bool {
+        let f = &s.faults;
+        f.is_dropout_rate > 0.0 || f.star_dropout_rate > 0.0 || f.missing_rate > 0.0
+    }
+
     pub fn enabled(&self) -> bool {
         self.cfg.any()
     }
@@ -508,6 +530,53 @@ mod tests {
         inj.corrupt(&mut sample, &mut |_| panic!("no fault expected"));
         assert_eq!(sample, before);
         assert_eq!(&inj.deliveries(5)[..], &[Delivery::This]);
+    }
+
+    #[test]
+    fn losses_only_loses_the_same_ticks_and_corrupts_nothing() {
+        // The bound of a campaign with losses must lose the ticks its run loses, also
+        // when other faults draw from the same random stream.
+        let s = Scenario::from_toml_str(
+            "[faults]\nis_dropout_rate = 0.05\nstar_dropout_rate = 0.05\nmissing_rate = 0.02\n\
+             upset_rate = 0.3\noutliers = 20\nstuck_channels = 2\nstar_jumps = 3\n\
+             duplicate_rate = 0.05\nreorder_rate = 0.05\ngarbage_headers = 5\n",
+        )
+        .unwrap();
+        let mut all = Injector::new(&s, 4);
+        let mut losses = Injector::new(&s, 4).losses_only();
+        let lost = |r: &FaultRecord| matches!(r.kind, KIND_IS_DROPOUT | KIND_STAR_DROPOUT);
+        let (mut n_lost, mut n_missing) = (0, 0);
+        for tick in 0..s.n_samples() {
+            let mut sample = SensorSample::default();
+            sample.header.tick = tick;
+            sample.is[0].volts = [[1.5, -2.5], [0.25, 3.0], [7.0, -1.0]];
+            sample.is[1].volts = sample.is[0].volts;
+            sample.star.valid = 1;
+            sample.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+            let (mut a, mut b) = (sample, sample);
+            let (mut ra, mut rb) = (Vec::new(), Vec::new());
+            all.corrupt(&mut a, &mut |r| ra.push(r));
+            losses.corrupt(&mut b, &mut |r| rb.push(r));
+            ra.retain(lost);
+            assert_eq!(ra, rb, "tick {tick}");
+            n_lost += rb.len();
+            // Nothing but the losses: every IS that did not drop out is untouched.
+            for i in 0..2 {
+                if b.is[i].flags & FLAG_DROPOUT == 0 {
+                    assert_eq!(b.is[i], sample.is[i], "tick {tick}");
+                }
+            }
+            assert_eq!(b.star.q_bn, sample.star.q_bn);
+            // The bus: what is missing in the run is missing here; nothing else.
+            let d: Vec<Delivery> = losses.deliveries(tick).to_vec();
+            if all.bus_active(tick) && all.missing(tick) {
+                assert!(d.is_empty(), "tick {tick}");
+                n_missing += 1;
+            } else {
+                assert_eq!(d, [Delivery::This], "tick {tick}");
+            }
+        }
+        assert!(n_lost > 1000 && n_missing > 100, "{n_lost} {n_missing}");
     }
 
     #[test]

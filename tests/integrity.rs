@@ -493,12 +493,10 @@ fn other_sample_rates_and_dropouts_stay_honest_a_few_cells_of_the_matrix() {
         assert_eq!(mc.runs_meeting_requirements, 6, "{name}\n{}", mc.table());
         assert_eq!(mc.runs_verified, 6, "{name}\n{}", mc.table());
         assert!(mc.worst_normalized < 4.5, "{name}\n{}", mc.table());
-        // Accuracy at the bound (loosely: 6 seeds), but with dropouts (the bound is the
-        // clean campaign's).
-        if !name.contains("dropouts") {
-            for p in &mc.params {
-                assert!(p.crlb_ratio < 1.8, "{name}, {}\n{}", p.name, mc.table());
-            }
+        // Accuracy at the bound (loosely: 6 seeds); with dropouts, the bound of each
+        // seed's own losses (against the clean campaign's, r_z was 1.6–1.9× it).
+        for p in &mc.params {
+            assert!(p.crlb_ratio < 1.8, "{name}, {}\n{}", p.name, mc.table());
         }
         // β and k always; r's σ is cautious with dropouts (the matrix's known gap).
         let groups = if name.contains("dropouts") { 2 } else { 3 };

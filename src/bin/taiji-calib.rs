@@ -447,7 +447,8 @@ fn run_campaign(
     let t0 = std::time::Instant::now();
     // The bound's noise-free campaign runs beside the campaign itself.
     let crlb = {
-        let s = s.clone();
+        // At the run's seed: a campaign that loses data has the bound of its losses.
+        let s = Scenario { seed, ..s.clone() };
         std::thread::spawn(move || crlb_of(&s))
     };
     let bar = Bar::new(1000, "campaign");
@@ -591,6 +592,7 @@ fn replay(
     // The bound and the requirements of the samples replayed: a truncated recording's
     // campaign ends at its last row.
     let mut s = rec.scenario.clone();
+    s.seed = rec.seed;
     if let Some(t) = rec.truncation() {
         if how.follow.is_some() {
             truncated(telemetry, t, how.complete)?;

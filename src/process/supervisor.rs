@@ -94,7 +94,16 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
         return Outcome::UserError(UserError::RecordOverHosts);
     }
     // The bound as the campaign goes, for monitors; its last point is the report's.
-    let curve = crate::crlb::crlb_curve(&s, BOUND_POINTS, crate::campaign::Threads::available());
+    // At the run's seed: a campaign that loses data has the bound of its losses.
+    let at_seed = Scenario {
+        seed: args.seed.unwrap_or(s.seed),
+        ..s.clone()
+    };
+    let curve = crate::crlb::crlb_curve(
+        &at_seed,
+        BOUND_POINTS,
+        crate::campaign::Threads::available(),
+    );
     let Some(crlb) = curve.last().and_then(|(_, c)| *c) else {
         return Outcome::UserError(UserError::SingularFisher);
     };
