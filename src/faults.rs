@@ -532,6 +532,17 @@ mod tests {
         assert_eq!(&inj.deliveries(5)[..], &[Delivery::This]);
     }
 
+    /// Both IS and the star tracker delivering, at `tick`.
+    fn valid_sample(tick: u64) -> SensorSample {
+        let mut sample = SensorSample::default();
+        sample.header.tick = tick;
+        sample.is[0].volts = [[1.5, -2.5], [0.25, 3.0], [7.0, -1.0]];
+        sample.is[1].volts = sample.is[0].volts;
+        sample.star.valid = 1;
+        sample.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+        sample
+    }
+
     #[test]
     fn losses_only_loses_the_same_ticks_and_corrupts_nothing() {
         // The bound of a campaign with losses must lose the ticks its run loses, also
@@ -547,12 +558,7 @@ mod tests {
         let lost = |r: &FaultRecord| matches!(r.kind, KIND_IS_DROPOUT | KIND_STAR_DROPOUT);
         let (mut n_lost, mut n_missing) = (0, 0);
         for tick in 0..s.n_samples() {
-            let mut sample = SensorSample::default();
-            sample.header.tick = tick;
-            sample.is[0].volts = [[1.5, -2.5], [0.25, 3.0], [7.0, -1.0]];
-            sample.is[1].volts = sample.is[0].volts;
-            sample.star.valid = 1;
-            sample.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+            let sample = valid_sample(tick);
             let (mut a, mut b) = (sample, sample);
             let (mut ra, mut rb) = (Vec::new(), Vec::new());
             all.corrupt(&mut a, &mut |r| ra.push(r));
@@ -585,12 +591,7 @@ mod tests {
         let mut inj = Injector::new(&s, 2);
         let mut n = 0;
         for tick in 0..200 {
-            let mut sample = SensorSample::default();
-            sample.header.tick = tick;
-            sample.is[0].volts = [[1.5, -2.5], [0.25, 3.0], [7.0, -1.0]];
-            sample.is[1].volts = sample.is[0].volts;
-            sample.star.valid = 1;
-            sample.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+            let mut sample = valid_sample(tick);
             let clean = sample;
             let mut recs = Vec::new();
             inj.corrupt(&mut sample, &mut |r| recs.push(r));

@@ -177,6 +177,37 @@ fn crlb_prints_readable_numbers_and_the_planners_warning_once() {
     assert_eq!(err.matches("flying the best maneuver").count(), 1, "{err}");
 }
 
+/// With dropouts `crlb` is the bound of the data a run at the scenario's seed keeps,
+/// says so, and is looser than the clean campaign's (it was the clean one's, and
+/// dropout runs came out at 1.4–1.9× it).
+#[test]
+fn crlb_with_dropouts_says_whose_data_it_bounds() {
+    let dir = tmpdir::TmpDir::new("cli-drop");
+    let lossy = dir.join("lossy.toml");
+    std::fs::write(
+        &lossy,
+        "name = \"lossy\"\nseed = 7\n[faults]\nis_dropout_rate = 0.05\n",
+    )
+    .unwrap();
+    let beta_x = |text: &str| -> f64 {
+        let line = text.lines().find(|l| l.starts_with("IS1")).unwrap();
+        let inside = line.split('[').nth(1).unwrap();
+        inside.split(',').next().unwrap().trim().parse().unwrap()
+    };
+    let clean = calib().arg("crlb").output().unwrap();
+    let clean = String::from_utf8_lossy(&clean.stdout).to_string();
+    let o = calib()
+        .args(["crlb", "--scenario"])
+        .arg(&lossy)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("a run at seed 7 keeps"), "{text}");
+    assert!(!clean.contains("keeps"), "{clean}");
+    assert!(beta_x(&text) > 1.2 * beta_x(&clean), "{clean}\n{text}");
+}
+
 /// `tools/launch --help` prints at once, before any build, and names every way to
 /// launch (it ran cargo first and left out --two-hosts and --host).
 #[test]

@@ -681,6 +681,12 @@ fn print_crlb(scenario: Option<&std::path::Path>) -> Result<ExitCode, CliError> 
         s.maneuver.frequency_hz * 1e3,
         torque.join(", ")
     );
+    if taiji::faults::Injector::loses_data(&s) {
+        println!(
+            "(the bound of the data a run at seed {} keeps: the ticks its [faults] dropouts and missing ticks lose are left out)",
+            s.seed
+        );
+    }
     for (i, is) in s.inertial_sensor.iter().enumerate() {
         let rel: Vec<String> = (0..3)
             .map(|a| format!("{:.2e}", c.beta[i][a] / is.beta[a]))
