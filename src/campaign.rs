@@ -271,14 +271,13 @@ pub fn samples(
     plant: Plant,
     fee: FrontEnd,
     threads: Threads,
-    mut take: impl FnMut(&SensorSample),
+    take: impl FnMut(&SensorSample),
 ) {
-    let sim = Sim::clean(commander, plant, fee, s.n_samples());
-    let all: Result<(), TelemetryError> = drive(threads, sim, |b| {
-        b.delivered.iter().for_each(|(m, ..)| take(m));
-        Ok(())
-    });
-    debug_assert!(all.is_ok());
+    deliver(
+        Sim::clean(commander, plant, fee, s.n_samples()),
+        threads,
+        take,
+    );
 }
 
 /// [`samples`] with the data the campaign at `seed` loses: its IS and star-tracker
@@ -291,11 +290,17 @@ pub fn samples_losing(
     plant: Plant,
     fee: FrontEnd,
     threads: Threads,
-    mut take: impl FnMut(&SensorSample),
+    take: impl FnMut(&SensorSample),
 ) {
     let mut sim = Sim::clean(commander, plant, fee, s.n_samples());
     sim.inj = Some(Injector::new(s, seed).losses_only());
     sim.faults = true;
+    deliver(sim, threads, take);
+}
+
+/// Every message `sim` delivers, handed to `take` in order (nothing is recorded, so
+/// nothing can fail).
+fn deliver(sim: Sim, threads: Threads, mut take: impl FnMut(&SensorSample)) {
     let all: Result<(), TelemetryError> = drive(threads, sim, |b| {
         b.delivered.iter().for_each(|(m, ..)| take(m));
         Ok(())

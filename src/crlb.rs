@@ -6,7 +6,6 @@ use crate::campaign::Threads;
 use crate::commander::Commander;
 use crate::estimate::joint::{P_BETA, P_R};
 use crate::estimate::JointEstimator;
-use crate::faults::Injector;
 use crate::fee::FrontEnd;
 use crate::model::plant::{Plant, PlantNoise};
 use crate::msg::SensorSample;
@@ -127,15 +126,15 @@ fn noise_free_estimator(s: &Scenario) -> JointEstimator {
 fn noise_free_samples(s: &Scenario, threads: Threads, take: impl FnMut(&SensorSample)) {
     let cmd = Commander::new(s);
     let fee = FrontEnd::new(s, s.seed, false);
-    if Injector::loses_data(s) {
-        let torque = PlantNoise {
-            torque: true,
-            ..PlantNoise::NONE
-        };
-        let plant = Plant::new(s, s.seed, torque);
+    let losing = s.faults.loses_data();
+    let noise = PlantNoise {
+        torque: losing,
+        ..PlantNoise::NONE
+    };
+    let plant = Plant::new(s, s.seed, noise);
+    if losing {
         crate::campaign::samples_losing(s, s.seed, cmd, plant, fee, threads, take);
     } else {
-        let plant = Plant::new(s, s.seed, PlantNoise::NONE);
         crate::campaign::samples(s, cmd, plant, fee, threads, take);
     }
 }

@@ -219,12 +219,6 @@ impl Injector {
         self
     }
 
-    /// Does the scenario lose data (dropouts, missing ticks)?
-    pub fn loses_data(s: &Scenario) -> bool {
-        let f = &s.faults;
-        f.is_dropout_rate > 0.0 || f.star_dropout_rate > 0.0 || f.missing_rate > 0.0
-    }
-
     pub fn enabled(&self) -> bool {
         self.cfg.any()
     }

@@ -3,7 +3,6 @@
 use crate::campaign::{self, Threads};
 use crate::crlb::crlb;
 use crate::estimate::Method;
-use crate::faults::Injector;
 use crate::report::Report;
 use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::Scenario;
@@ -202,7 +201,9 @@ pub fn run_seeds(
                         let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
                         // A campaign that loses data has the bound of the ticks this
                         // seed lost (`crlb`): one more noise-free campaign a seed.
-                        let own = Injector::loses_data(&sc)
+                        let own = sc
+                            .faults
+                            .loses_data()
                             .then(|| crate::crlb::crlb_on(&sc, Threads::One))
                             .flatten();
                         let b = own.as_ref().unwrap_or(bound);

@@ -681,7 +681,7 @@ fn print_crlb(scenario: Option<&std::path::Path>) -> Result<ExitCode, CliError> 
         s.maneuver.frequency_hz * 1e3,
         torque.join(", ")
     );
-    if taiji::faults::Injector::loses_data(&s) {
+    if s.faults.loses_data() {
         println!(
             "(the bound of the data a run at seed {} keeps: the ticks its [faults] dropouts and missing ticks lose are left out)",
             s.seed

@@ -71,6 +71,12 @@ impl FaultsConfig {
             || self.bus_any()
     }
 
+    /// Does the campaign lose data (dropouts, ticks the bus never delivers)? Its
+    /// Cramér–Rao bound is then that of the data a run keeps (`crlb`).
+    pub fn loses_data(&self) -> bool {
+        self.is_dropout_rate > 0.0 || self.star_dropout_rate > 0.0 || self.missing_rate > 0.0
+    }
+
     /// Any bus fault?
     pub fn bus_any(&self) -> bool {
         self.duplicate_rate > 0.0
