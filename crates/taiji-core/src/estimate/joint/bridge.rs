@@ -10,7 +10,7 @@ impl JointEstimator {
     pub(super) fn bridge(&mut self, tick: u64) {
         self.reject(CAUSE_TICK_MISSING);
         self.n_rejected += 1;
-        if self.started == 0 {
+        if self.started == START_NONE {
             return;
         }
         let dv = self.dv_last;

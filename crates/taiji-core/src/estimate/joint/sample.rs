@@ -28,13 +28,13 @@ impl JointEstimator {
             self.gate_lever = self.row_levers();
         }
         self.gate_c = self.coeffs(&self.p).lin;
-        self.started = 1;
+        self.started = START_FULL;
     }
 
     /// Direction of the SRP at the first sample, in volts per slot (unit), at the
     /// priors: each IS's acceleration with the maneuver's A r̂ of this sample taken
-    /// out (its ω̇; ω is 0, as the integrals start here), averaged over the IS, and in
-    /// volts with the same prior k as the noise model, so that it lies in that model's
+    /// out (its ω̇; ω is ~0: the integrals start here or a few ticks before), averaged
+    /// over the IS, and in volts with the same prior k as the noise model, so that it lies in that model's
     /// common-mode subspace. It fixes the common-mode channel for the whole campaign,
     /// where a slot of little white noise weighs its share of the direction by the
     /// inverse of that noise: the thrusters' torque noise times a CoM offset of
@@ -75,10 +75,23 @@ impl JointEstimator {
         };
         let data = [is_data(&s.is[0]), is_data(&s.is[1])];
         let all_valid = (0..n).all(|i| ok[i]);
-        if self.started == 0 {
+        if self.started != START_FULL {
+            // Angular data on every axis, from either IS (plain loops: no index check
+            // is linked).
+            let mut angular = true;
+            for a in 0..3 {
+                let mut any = false;
+                for row in axis_ok.iter().take(n) {
+                    any |= row[a];
+                }
+                angular &= any;
+            }
             if all_valid {
                 self.start(&data);
-            } else {
+            } else if angular {
+                // The integrals start here; the linear data wait for the references.
+                self.started = START_ANGULAR;
+            } else if self.started == START_NONE {
                 self.n_rejected += 1;
                 return;
             }
