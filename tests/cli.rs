@@ -62,6 +62,50 @@ fn run_writes_the_documented_report() {
     }
 }
 
+/// `run --seed N` is the Monte Carlo's run of seed N, bit for bit: `--seed` overrides
+/// the scenario's seed for the priors' ground-calibration draw too (it drew them at the
+/// file's seed, so a Monte Carlo outlier could not be run again alone).
+#[test]
+fn run_at_a_seed_is_the_monte_carlos_run_of_that_seed() {
+    let dir = tmpdir::TmpDir::new("cli-seed");
+    let (one, mc) = (dir.join("run"), dir.join("mc"));
+    for (args, out) in [
+        (["run", "--seed", "3"], &one),
+        (["montecarlo", "--seed", "3"], &mc),
+    ] {
+        let mut c = calib();
+        c.args(args);
+        if args[0] == "montecarlo" {
+            c.args(["--runs", "1"]);
+        }
+        let o = c.arg("--out").arg(out).output().unwrap();
+        assert!(
+            o.status.code().is_some_and(|c| c <= 1),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let read = |p: std::path::PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let run = read(one.join("report.json"));
+    let mc = read(mc.join("montecarlo.json"));
+    let theirs = &mc["reports"][0];
+    assert_eq!(theirs["seed"], 3);
+    for (a, b) in run["inertial_sensors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(theirs["inertial_sensors"].as_array().unwrap())
+    {
+        for q in ["beta", "com_offset"] {
+            for f in ["truth", "estimate", "sigma"] {
+                assert_eq!(a[q][f], b[q][f], "{q}.{f}");
+            }
+        }
+    }
+}
+
 #[test]
 fn montecarlo_with_no_runs_or_seeds_past_the_end_is_a_user_error() {
     let out = calib()

@@ -443,12 +443,16 @@ fn run_campaign(
 ) -> Result<ExitCode, CliError> {
     check_out(out)?;
     let (s, plan) = load_planned(scenario)?;
+    // `--seed` is the scenario's seed from here on: every noise stream and the priors'
+    // ground-calibration draw, as in the Monte Carlo's run of that seed (the maneuver
+    // stays the one planned for the file).
     let seed = seed.unwrap_or(s.seed);
+    let s = Scenario { seed, ..s };
     let t0 = std::time::Instant::now();
-    // The bound's noise-free campaign runs beside the campaign itself.
+    // The bound's noise-free campaign runs beside the campaign itself (at the run's
+    // seed: a campaign that loses data has the bound of its losses).
     let crlb = {
-        // At the run's seed: a campaign that loses data has the bound of its losses.
-        let s = Scenario { seed, ..s.clone() };
+        let s = s.clone();
         std::thread::spawn(move || crlb_of(&s))
     };
     let bar = Bar::new(1000, "campaign");

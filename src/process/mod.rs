@@ -181,10 +181,15 @@ pub struct BusArgs {
 impl StageArgs {
     /// The stage's scenario. The supervisor hands every stage the scenario with its
     /// maneuver planned (`PLANNED_SCENARIO_FILE`); a stage started by hand on a
-    /// scenario without one plans it itself (deterministic: the same plan).
+    /// scenario without one plans it itself (deterministic: the same plan). `--seed`
+    /// is its seed then, as everywhere.
     pub fn scenario(&self) -> Result<Scenario, ProcessError> {
         let s = Scenario::load_or_default(self.scenario.as_deref())?;
-        Ok(crate::plan::resolve(s).map(|(s, _)| s)?)
+        let (s, _) = crate::plan::resolve(s)?;
+        Ok(Scenario {
+            seed: self.seed(&s),
+            ..s
+        })
     }
 
     pub fn seed(&self, s: &Scenario) -> u64 {

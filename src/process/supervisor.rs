@@ -71,6 +71,13 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
         Ok(x) => x,
         Err(e) => return Outcome::UserError(e.into()),
     };
+    // `--seed` is the scenario's seed from here on: every noise stream and the priors'
+    // ground-calibration draw, as `run` and the Monte Carlo's run of that seed (the
+    // maneuver stays the one planned for the file).
+    let s = Scenario {
+        seed: args.seed.unwrap_or(s.seed),
+        ..s
+    };
     let launch = match LaunchDescription::load_or_default(args.launch.as_deref()) {
         Ok(l) => l,
         Err(e) => return Outcome::UserError(e.into()),
@@ -95,24 +102,15 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     }
     // The bound as the campaign goes, for monitors; its last point is the report's.
     // At the run's seed: a campaign that loses data has the bound of its losses.
-    let at_seed = Scenario {
-        seed: args.seed.unwrap_or(s.seed),
-        ..s.clone()
-    };
-    let curve = crate::crlb::crlb_curve(
-        &at_seed,
-        BOUND_POINTS,
-        crate::campaign::Threads::available(),
-    );
+    let curve = crate::crlb::crlb_curve(&s, BOUND_POINTS, crate::campaign::Threads::available());
     let Some(crlb) = curve.last().and_then(|(_, c)| *c) else {
         return Outcome::UserError(UserError::SingularFisher);
     };
     match supervise(args, &s, &launch, me.as_deref(), curve) {
         Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
         Ok(Supervised::Done(final_est, members, wall, hosts)) => {
-            let seed = args.seed.unwrap_or(s.seed);
             let mut report =
-                Report::new(&s, seed, "multi-process", &args.method, &final_est, &crlb);
+                Report::new(&s, s.seed, "multi-process", &args.method, &final_est, &crlb);
             if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
                 m.search = Some(p.search_json());
             }

@@ -33,8 +33,10 @@ pub fn estimates(r: &Value) -> Vec<Value> {
 /// In-process estimates (`taiji-calib run`) of the same scenario and seed, serialised
 /// the same way.
 pub fn in_process(scenario: &Path, seed: u64) -> Vec<Value> {
-    // Planned as the supervisor plans it, when the file gives no maneuver.
+    // Planned as the supervisor plans it, when the file gives no maneuver; the seed is
+    // the scenario's from there on, as `--seed` makes it.
     let (s, _) = taiji::plan::resolve(Scenario::load(scenario).unwrap()).unwrap();
+    let s = Scenario { seed, ..s };
     let res = taiji::campaign::run(&s, seed, Method::Joint, |_| {});
     let crlb = taiji::crlb::crlb(&s).unwrap();
     let r = taiji::report::Report::new(&s, seed, "in-process", "joint", &res.estimate, &crlb);
