@@ -154,6 +154,24 @@ fn accelerated_run_is_bit_identical_to_in_process_and_allocation_free() {
     assert!(!out.join("estimator.ckpt.tmp").exists());
 }
 
+/// `--seed` is the scenario's seed for every stage and for the priors' draw, as in
+/// `run --seed` and the Monte Carlo's run of that seed (it drew the priors at the
+/// file's seed).
+#[test]
+fn a_seed_on_the_command_line_draws_the_priors_too() {
+    let _serial = serial();
+    let dir = tmp("seed");
+    let sc = write_scenario(&dir, SHORT);
+    let out = dir.join("out");
+    let o = supervisor(&sc, &out, &prefix("s"), &["--seed", "3"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    assert_eq!(r["seed"], 3);
+    assert_eq!(estimates(&r), in_process(&sc, 3));
+}
+
 #[test]
 fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     let _serial = serial();
