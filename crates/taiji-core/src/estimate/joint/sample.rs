@@ -34,8 +34,8 @@ impl JointEstimator {
     /// Direction of the SRP at the first sample, in volts per slot (unit), at the
     /// priors: each IS's acceleration with the maneuver's A r̂ of this sample taken
     /// out (its ω̇; ω is ~0: the integrals start here or a few ticks before), averaged
-    /// over the IS, and in volts with the same prior k as the noise model, so that it lies in that model's
-    /// common-mode subspace. It fixes the common-mode channel for the whole campaign,
+    /// over the IS, and in volts with the same prior k as the noise model, so that it
+    /// lies in that model's common-mode subspace. It fixes the common-mode channel for the whole campaign,
     /// where a slot of little white noise weighs its share of the direction by the
     /// inverse of that noise: the thrusters' torque noise times a CoM offset of
     /// 0.2 m, left in, tilted it by 10⁻³ towards the sunless axis and made that axis
