@@ -169,13 +169,18 @@ fn bound_of(s: &Scenario, est: &JointEstimator) -> Option<Crlb> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_campaign_that_loses_data_has_the_bound_of_its_own_losses() {
-        let clean = crate::scenario::Scenario {
-            duration_s: 4000.0,
+    /// The default scenario, `duration_s` long, its maneuver planned.
+    fn planned(duration_s: f64) -> Scenario {
+        let s = Scenario {
+            duration_s,
             ..Default::default()
         };
-        let (clean, _) = crate::plan::resolve(clean).unwrap();
+        crate::plan::resolve(s).unwrap().0
+    }
+
+    #[test]
+    fn a_campaign_that_loses_data_has_the_bound_of_its_own_losses() {
+        let clean = planned(4000.0);
         let mut lossy = clean.clone();
         lossy.faults.is_dropout_rate = 0.05;
         let b0 = crlb_on(&clean, Threads::One).unwrap();
@@ -204,11 +209,7 @@ mod tests {
 
     #[test]
     fn the_bound_shrinks_as_the_campaign_goes_and_ends_at_the_campaigns() {
-        let s = crate::scenario::Scenario {
-            duration_s: 3000.0,
-            ..Default::default()
-        };
-        let (s, _) = crate::plan::resolve(s).unwrap();
+        let s = planned(3000.0);
         let curve = crlb_curve(&s, 10, Threads::One);
         assert_eq!(curve.len(), 10);
         assert_eq!(curve.last().unwrap().0, s.n_samples());

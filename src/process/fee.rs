@@ -16,7 +16,7 @@ pub const RING: u64 = 8192;
 
 pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let s = args.scenario()?;
-    let seed = args.seed(&s);
+    let seed = s.seed;
     let mut link = Link::new(<FrontEnd as Stage>::PROCESS, args)?;
     let mut service = FeeService {
         input: bus::subscriber::<TruthState>(&link.node, bus::SVC_TRUTH)?,

@@ -187,13 +187,9 @@ impl StageArgs {
         let s = Scenario::load_or_default(self.scenario.as_deref())?;
         let (s, _) = crate::plan::resolve(s)?;
         Ok(Scenario {
-            seed: self.seed(&s),
+            seed: self.seed.unwrap_or(s.seed),
             ..s
         })
-    }
-
-    pub fn seed(&self, s: &Scenario) -> u64 {
-        self.seed.unwrap_or(s.seed)
     }
 
     /// Real-time tick period [ns] (0 in accelerated mode).

@@ -11,7 +11,7 @@ use crate::timing::monotonic_ns;
 
 pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let s = args.scenario()?;
-    let seed = args.seed(&s);
+    let seed = s.seed;
     let mut link = Link::new(<Plant as Stage>::PROCESS, args)?;
     let mut service = PlantService {
         input: bus::subscriber::<TorqueCommand>(&link.node, bus::SVC_TORQUE)?,

@@ -49,7 +49,7 @@ impl Cursor {
 
 pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let s = args.scenario()?;
-    let seed = args.seed(&s);
+    let seed = s.seed;
     let method = args.method()?;
     std::fs::create_dir_all(&args.run_dir).map_err(|source| ProcessError::CreateDir {
         path: args.run_dir.clone(),
