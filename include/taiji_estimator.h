@@ -9,24 +9,24 @@
  *        symbol that exists nowhere, and the link succeeds (a CI test; with --probe, a
  *        deliberately reachable panic, the same link fails).
  *
- * MEMORY The state: taiji_estimator_size() bytes (64 520) aligned to
+ * MEMORY The state: taiji_estimator_size() bytes (50 000) aligned to
  *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
  *        alignment. solve and finish also take scratch: taiji_solve_work_size() bytes
- *        (128 432), 8-aligned, not overlapping the state; its contents do not matter
+ *        (137 960), 8-aligned, not overlapping the state; its contents do not matter
  *        before or after a call, so one buffer serves every estimator of a task. In all
- *        192 624 bytes, fixed at start-up. Stack per call, measured by painting
- *        (docs/flight.md, every call): update 6.6 KB (7.0 KB on a LEON3, 7.3 KB on
+ *        187 960 bytes, fixed at start-up. Stack per call, measured by painting
+ *        (docs/flight.md, every call): update 7.4 KB (7.8 KB on a LEON3, 8.0 KB on
  *        x86-64); init 3.3 KB and restore 1.2 KB (they build the state in place);
- *        checkpoint 0.3 KB; solve and finish 11.5 / 12.0 KB on a Cortex-M7, 11.4 / 11.9
- *        KB on a LEON3, 11.6 / 12.1 KB on x86-64. A 16 KB task stack holds every call.
+ *        checkpoint 0.3 KB; solve and finish 11.7 / 12.3 KB on a Cortex-M7, 11.7 / 12.3
+ *        KB on a LEON3, 11.9 / 12.4 KB on x86-64. A 16 KB task stack holds every call.
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
- *        update 97 300 typical, 111 500 worst (the first sample; each includes the
- *        upset check and reseal, UPSETS below); solve 6.92 M worst; finish 20.6 M. On a
- *        LEON3 (--cpu leon3): update 147 400 typical, 166 600 worst; solve 10.1 M;
- *        finish 30.1 M.
+ *        update 94 600 typical, 108 000 worst (the first sample; each includes the
+ *        upset check and reseal, UPSETS below); solve 11.0 M worst; finish 32.8 M. On a
+ *        LEON3 (--cpu leon3): update 134 300 typical, 154 000 worst; solve 13.1 M;
+ *        finish 39.0 M.
  *        After a gap, update bridges at most 8 missing ticks (about 7 500 instructions
- *        each): the worst update after a 5 999-tick gap is 159 440. Longer gaps are
+ *        each): the worst update after a 5 999-tick gap was 159 440 (35 signals). Longer gaps are
  *        caught up over the next updates, 7 ticks gained a call; the samples that
  *        arrive meanwhile are bridged too (a 600 s gap costs about 86 s of data). No
  *        input makes a call cost more.

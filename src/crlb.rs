@@ -113,7 +113,9 @@ fn noise_free_estimator(s: &Scenario) -> JointEstimator {
     let priors = s.priors();
     let mut cfg = s.estimator_config(&priors);
     cfg.solve_every = u64::MAX;
-    JointEstimator::new(cfg)
+    let mut est = JointEstimator::new(cfg);
+    est.level_at_end();
+    est
 }
 
 /// The scenario's samples without noise. A campaign that loses data (dropouts, ticks

@@ -349,6 +349,21 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
         taiji_estimator_estimate(q, &mut b);
     }
     assert_eq!(a, b);
+    // An intact checkpoint of a state of another size (another build's layout: the
+    // state grew or shrank) is another version, not a corrupted one.
+    for delta in [-8i64, 8] {
+        let state_len = (n - 32) as i64 + delta;
+        let mut other = ck[..32].to_vec();
+        other.extend((0..state_len).map(|k| (k * 7 % 251) as u8));
+        other[16..24].copy_from_slice(&(state_len as u64).to_le_bytes());
+        let sum = taiji::estimate::snapshot::fnv1a(&other[32..]);
+        other[24..32].copy_from_slice(&sum.to_le_bytes());
+        // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed.
+        let rc = unsafe {
+            taiji_estimator_restore(q, mem2.len() * 8, other.as_ptr(), other.len(), &config())
+        };
+        assert_eq!(rc, TAIJI_ERR_VERSION, "a state {delta:+} B");
+    }
     // Every torn or flipped checkpoint is refused, and the memory is left unusable.
     for k in 0..200 {
         let mut bad = ck.clone();

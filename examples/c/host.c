@@ -24,7 +24,7 @@ static uint64_t state_mem[STATE_WORDS];
 #define CKPT_BYTES (96u * 1024u)
 static uint8_t ckpt_buf[CKPT_BYTES];
 /* The solve's scratch (the Jacobian, the normal equations): static too, any contents. */
-#define WORK_WORDS (128u * 1024u / 8u)
+#define WORK_WORDS (160u * 1024u / 8u)
 static uint64_t work_mem[WORK_WORDS];
 
 /* Stack painting: a region below the caller's frame is filled with a pattern before a

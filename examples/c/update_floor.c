@@ -15,7 +15,7 @@
 #include "taiji_estimator.h"
 
 static uint64_t state_mem[96u * 1024u / 8u];
-static uint64_t work_mem[128u * 1024u / 8u];
+static uint64_t work_mem[160u * 1024u / 8u];
 
 static double now_us(void) {
     struct timespec ts;

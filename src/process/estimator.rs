@@ -186,8 +186,11 @@ impl EstimatorService {
         // A new incarnation makes the front-end resend from `next`, and what is still in
         // flight under the old one is dropped (`turn`): nothing lost, nothing twice.
         let now = monotonic_ns();
+        // Before the first sample too: between hosts the first window can go out
+        // before the link's far side has subscribed, and the set then stalled at tick 0
+        // (a new incarnation before any sample only makes the front-end start again).
         let resync = self.resync_ns > 0 && now > self.last_input + self.resync_ns;
-        if resync && self.allocs_before.is_some() && self.final_msg.is_none() {
+        if resync && self.final_msg.is_none() {
             super::warn_without_alloc(format_args!(
                 "taiji-estimator: no sample for {} ms; asking the front-end to resend from tick {}",
                 self.resync_ns / 1_000_000,

@@ -473,7 +473,7 @@ pub unsafe extern "C" fn taiji_estimator_restore(
         st.magic = 0;
         // SAFETY: non-null, `len` readable bytes.
         let bytes = unsafe { core::slice::from_raw_parts(buf, len) };
-        // In place: the state is read straight into `mem` (no 64 kB value on the stack).
+        // In place: the state is read straight into `mem` (no state-sized value on the stack).
         snapshot::read_into(bytes, &mut st.est).map_err(|e| match e {
             snapshot::SnapshotError::TooSmall => TAIJI_ERR_SIZE,
             snapshot::SnapshotError::Version => TAIJI_ERR_VERSION,

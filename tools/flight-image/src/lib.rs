@@ -66,7 +66,7 @@ pub trait Input {
 const STATE_WORDS: usize = 96 * 1024 / 8;
 static mut STATE: [u64; STATE_WORDS] = [0; STATE_WORDS];
 /// The solve's scratch (`taiji_solve_work_size()`, checked at start).
-const WORK_WORDS: usize = 128 * 1024 / 8;
+const WORK_WORDS: usize = 160 * 1024 / 8;
 static mut WORK: [u64; WORK_WORDS] = [0; WORK_WORDS];
 const CKPT_BYTES: usize = 96 * 1024;
 static mut CKPT: [u8; CKPT_BYTES] = [0; CKPT_BYTES];

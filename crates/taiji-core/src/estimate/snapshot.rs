@@ -21,7 +21,8 @@ pub enum SnapshotError {
     TooSmall,
     /// Not a checkpoint: wrong magic.
     Magic,
-    /// Written by a build with another message/state layout.
+    /// Written by a build with another message/state layout (another layout version,
+    /// or an intact checkpoint of a state of another size).
     Version,
     /// Wrong state size or checksum: truncated or corrupted.
     Corrupt,
@@ -73,7 +74,7 @@ pub fn read(buf: &[u8]) -> Result<JointEstimator, SnapshotError> {
     Ok(est)
 }
 
-/// `read` into `dst` in place (the C ABI's caller-owned memory: no 64 kB value on the
+/// `read` into `dst` in place (the C ABI's caller-owned memory: no 50 kB value on the
 /// stack). On an error `dst` may hold part of the checkpoint; the caller treats it as
 /// uninitialised.
 pub fn read_into(buf: &[u8], dst: &mut JointEstimator) -> Result<(), SnapshotError> {
@@ -87,7 +88,18 @@ pub fn read_into(buf: &[u8], dst: &mut JointEstimator) -> Result<(), SnapshotErr
         return Err(SnapshotError::Version);
     }
     let len = core::mem::size_of::<JointEstimator>();
-    if word(buf, 2) != len as u64 || buf.len() < HEADER + len {
+    if word(buf, 2) != len as u64 {
+        // Intact under its own length and checksum: a build with another state layout
+        // wrote it (the state's size is part of its layout), not a torn checkpoint.
+        let own = usize::try_from(word(buf, 2))
+            .ok()
+            .and_then(|n| buf.get(HEADER..HEADER.checked_add(n)?));
+        return Err(match own {
+            Some(state) if fnv1a(state) == word(buf, 3) => SnapshotError::Version,
+            _ => SnapshotError::Corrupt,
+        });
+    }
+    if buf.len() < HEADER + len {
         return Err(SnapshotError::Corrupt);
     }
     let state = &buf[HEADER..HEADER + len];

@@ -234,6 +234,10 @@ impl JointEstimator {
             m[2] += v;
             m[3] += v * v;
         }
+        let v = &dv[0];
+        self.rate_cross[0] += v[0] * v[1];
+        self.rate_cross[1] += v[0] * v[2];
+        self.rate_cross[2] += v[1] * v[2];
     }
 
     /// The maneuver's angular frequency [rad/s]: the spread of ω̇ over the spread of ω,

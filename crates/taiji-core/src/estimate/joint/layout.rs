@@ -4,7 +4,7 @@
 use super::*;
 
 /// Signals of the linear group.
-pub const NS: usize = 35;
+pub const NS: usize = 38;
 /// Parameters.
 pub const NP: usize = 30;
 /// Noise regimes of the linear channels (by the dominant rotation axis).
@@ -28,6 +28,9 @@ pub(super) const S_W: usize = 23;
 /// small (the fluctuation, ~10⁻¹² m/s², and what the reference sample's own A r left,
 /// ≲10⁻⁹) and turned by ≲10⁻³ rad, so the running β̂, k̂ in it err by ≲10⁻¹⁷ m/s².
 pub(super) const S_TF: usize = 32;
+/// Φ1_a at `S_PHI0 + a` before the SRP's level is fixed, 0 after [V s²]: those
+/// samples turn the fitted DC, not the level.
+pub(super) const S_PHI0: usize = 35;
 
 pub const P_BETA: usize = 0; // + 3 i + a
 pub const P_R: usize = 6; // + 3 i + a
@@ -39,6 +42,67 @@ pub(super) const P_AL: usize = 24; // + 3 i + j
 pub(super) type Sig = SVector<f64, NS>;
 pub(super) type Par = SVector<f64, NP>;
 pub(super) type Gram = SMatrix<f64, NS, NS>;
+
+/// Elements of a symmetric NS × NS matrix's upper triangle.
+pub(super) const NS_PACKED: usize = NS * (NS + 1) / 2;
+
+/// A Gram matrix of the state: its upper triangle alone, column by column ((i, j),
+/// i ≤ j, at j (j + 1)/2 + i), half the bytes of the full matrix (and of the seal's
+/// passes over it), with the same numbers in the same columns as the full matrix's
+/// upper triangle, so every sum takes the same operations in the same order.
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub(super) struct Packed([f64; NS_PACKED]);
+
+impl Packed {
+    /// Column j's part above and on the diagonal: rows 0..=j.
+    pub(super) fn column_mut(&mut self, j: usize) -> &mut [f64] {
+        let start = j * (j + 1) / 2;
+        let end = (start + j + 1).min(NS_PACKED);
+        &mut self.0[start.min(end)..end]
+    }
+
+    /// Element (i, j) of the symmetric matrix.
+    pub(super) fn get(&self, i: usize, j: usize) -> f64 {
+        let (i, j) = (i.min(j), i.max(j));
+        self.0[(j * (j + 1) / 2 + i).min(NS_PACKED - 1)]
+    }
+}
+
+/// Serde for a `Packed` (serde derives arrays up to 32 elements): a tuple of its
+/// elements, as a derive would write an array.
+impl serde::Serialize for Packed {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        let mut t = s.serialize_tuple(NS_PACKED)?;
+        for x in &self.0 {
+            t.serialize_element(x)?;
+        }
+        t.end()
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Packed {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Packed;
+            fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+                write!(f, "{NS_PACKED} elements of a packed Gram matrix")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut a: A) -> Result<Packed, A::Error> {
+                let mut out = [0.0; NS_PACKED];
+                for (i, x) in out.iter_mut().enumerate() {
+                    *x = a
+                        .next_element()?
+                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                Ok(Packed(out))
+            }
+        }
+        d.deserialize_tuple(NS_PACKED, V)
+    }
+}
 
 pub(super) fn prod(a: usize, b: usize) -> usize {
     match (a.min(b), a.max(b)) {
@@ -56,4 +120,14 @@ pub(super) const PERM: [usize; 3] = [2, 0, 1];
 
 /// The signals whose coefficients carry the SRP's turn with β1 Φ1: Φ1 and the
 /// measured SRP's change.
-pub(super) const TURN_COLS: [usize; 6] = [S_PHI, S_PHI + 1, S_PHI + 2, S_TF, S_TF + 1, S_TF + 2];
+pub(super) const TURN_COLS: [usize; 9] = [
+    S_PHI,
+    S_PHI + 1,
+    S_PHI + 2,
+    S_TF,
+    S_TF + 1,
+    S_TF + 2,
+    S_PHI0,
+    S_PHI0 + 1,
+    S_PHI0 + 2,
+];

@@ -77,11 +77,17 @@ pub struct JointEstimator {
     jump_candidate: [u64; 2],
     sum_ref: [[f64; 3]; 2],
     /// The SRP the attitude turns, as IS1 measured it (inertial, the maneuver's A r̂
-    /// out) at the first sample whose running solution could tell (`srp_change_known`)
-    /// [V, IS1's linear channels], and 1 once set: the turn's constant part (on Φ1, with the parameter β1)
-    /// and the origin of its measured change (`S_TF`, with the running β̂1).
+    /// out) at the first sample whose running solution could tell (`every_axis_rocked`,
+    /// `srp_change_known`) [V, IS1's linear channels], and 1 once set: the turn's
+    /// constant part for the samples from then on (on Φ1, with the parameter β1) and the
+    /// origin of their measured change (`S_TF`, with the running β̂1); the samples before
+    /// it turn the fitted DC (`S_PHI0`).
     srp_level: [f64; 3],
+    /// `LEVEL_NONE`, `LEVEL_SET` or `LEVEL_AT_END` (the bound's statistics).
     srp_level_set: u64,
+    /// One past the tick where real motion first dominated IS1's readout noise on
+    /// every axis (`every_axis_rocked`), 0 before.
+    rocked_tick: u64,
     q_ref: UnitQuaternion<f64>,
     q_ref_set: u64,
     psi: [[f64; 3]; 2],
@@ -98,8 +104,8 @@ pub struct JointEstimator {
     st_x: [[[f64; 2]; 5]; 3],
     st_p: [[[f64; 2]; 2]; 3],
     m_ang: [SMatrix<f64, 2, 2>; 3],
-    m_raw: [Gram; N_REG],
-    m_filt: Gram,
+    m_raw: [Packed; N_REG],
+    m_filt: Packed,
     bank: PowerLawBank,
     wp: SMatrix<f64, MAX_POLES, MAX_POLES>,
     #[serde(with = "poles_serde")]
@@ -164,6 +170,9 @@ pub struct JointEstimator {
     /// V, V²]. Their spreads' ratio is the excitation's angular frequency
     /// (`excitation_rate`).
     rate_moments: [[f64; 4]; 3],
+    /// IS1's angular voltages' cross products on the same samples: Σ v_x v_y, Σ v_x v_z,
+    /// Σ v_y v_z [V²] (`every_axis_rocked`).
+    rate_cross: [f64; 3],
     /// Linear test: whitened residual rows (5 complement + common mode) of the
     /// current solution's coefficients, their tracks and the last accepted signals.
     gate_c: SMatrix<f64, 6, NS>,
@@ -204,6 +213,21 @@ const START_FULL: u64 = 1;
 /// SRP's turn carries θ̇₀ (t − t_k), a kink no line takes (r_z up to 46σ off in 1 to
 /// 2 % of runs with 1 % IS dropouts, every one of them with an IS missing at tick 0).
 const START_ANGULAR: u64 = 2;
+
+/// The SRP's level is not fixed yet: the samples turn the fitted DC (`S_PHI0`).
+const LEVEL_NONE: u64 = 0;
+/// The level is fixed: the samples turn it, and its measured change (`S_TF`).
+const LEVEL_SET: u64 = 1;
+/// The level will be fixed after the last sample (`fix_srp_level_at`), and every
+/// sample turns it: the bound's statistics, of the model most of a run's samples have.
+const LEVEL_AT_END: u64 = 2;
+
+/// Real motion dominates the angular readout noise on an axis once ω̇'s variance is
+/// this many times the noise's (`every_axis_rocked`): the errors in variables then
+/// leave r̂ off by that share of r, 10⁻⁴ of a 5 cm offset (5 µm), and the maneuver's
+/// A r by ~10⁻¹⁴ m/s², below the SRP fluctuation the level is measured against.
+/// The thrusters' torque noise alone gives ~10⁸ (default scenario).
+const ROCKED_VAR_RATIO: f64 = 1e4;
 
 /// The excitation's spreads take every this many linear samples (`rate_moments`; a
 /// power of two: a 64-bit remainder is a library call on a 32-bit CPU).
@@ -264,7 +288,7 @@ impl JointEstimator {
     }
 
     /// Builds the estimator in place (the C ABI's caller-owned memory): zeroed, then
-    /// every field that does not start at zero set, so no 64 kB value is built on the
+    /// every field that does not start at zero set, so no 50 kB value is built on the
     /// stack of `taiji_estimator_init`. Whatever the memory held before, the same bytes
     /// result (a unit test).
     pub fn init_in_place(dst: &mut Self, cfg: EstimatorConfig) {
@@ -721,6 +745,82 @@ mod tests {
         }
         let ratio = e.jerk_var[0] / (1.5 * sigma * sigma);
         assert!((ratio - 1.0).abs() < 0.15, "{ratio}");
+    }
+
+    /// The SRP's level waits for motion of its own on every axis: one axis rocked, and
+    /// what the inertia's cross terms couple from it into the others (the same
+    /// direction), with readout noise around it, is not that; three independent motions
+    /// are. And then a solve must run before the level is measured.
+    #[test]
+    fn the_level_waits_for_independent_motion_on_every_axis() {
+        let mut e = JointEstimator::new(test_config());
+        let noise = e.cfg.sigma_angular;
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64 - 0.5
+        };
+        let square = |k: u64, period: u64| if (k / period) % 2 == 0 { 1.0 } else { -1.0 };
+        let mut feed = |e: &mut JointEstimator, k: u64, independent: bool| {
+            // x rocked at 10⁴ × the noise, y and z 1 % and 2 % of it (coupled), or
+            // rocked on their own.
+            let x = 1e4 * noise * square(k, 600);
+            let (y, z) = match independent {
+                false => (0.01 * x, 0.02 * x),
+                true => (1e3 * noise * square(k, 900), 1e3 * noise * square(k, 1300)),
+            };
+            let w = [x, y, z];
+            let mut dv = [[0.0; 3]; 2];
+            for a in 0..3 {
+                dv[0][a] = (w[a] + noise * uniform()) / e.cfg.beta_prior[0][a];
+            }
+            e.n_used = k;
+            e.note_excitation(&dv);
+        };
+        for k in 1..=20_000 {
+            feed(&mut e, k, false);
+            assert!(!e.every_axis_rocked());
+        }
+        assert_eq!(e.rocked_tick, 0, "coupled motion counted as rocking");
+        for k in 20_001..=40_000 {
+            feed(&mut e, k, true);
+            assert!(!e.every_axis_rocked(), "no solve has run yet");
+        }
+        assert_ne!(e.rocked_tick, 0, "independent motion not counted");
+        e.status &= !ST_NO_SOLUTION;
+        e.solved_tick = e.rocked_tick - 1;
+        assert!(!e.every_axis_rocked(), "the solve ran before the motion");
+        e.solved_tick = e.rocked_tick;
+        assert!(e.every_axis_rocked());
+    }
+
+    /// Once the SRP's level is fixed, a sample taken before it still turns the fitted
+    /// DC (its Φ1 on `S_PHI` and `S_PHI0`), one taken after it the level (`S_PHI`
+    /// alone): a level off by the running solution's error reaches only the samples
+    /// whose measured change cancels it.
+    #[test]
+    fn the_samples_before_the_level_turn_the_fitted_dc() {
+        let mut e = JointEstimator::new(test_config());
+        e.sum_ref = [[3e-3, -1e-3, 2e-3], [2.9e-3, -1.1e-3, 2.1e-3]];
+        let p = e.p;
+        let before = e.coeffs(&p).lin;
+        e.srp_level = [3.1e-3, -0.8e-3, 2.3e-3];
+        e.srp_level_set = LEVEL_SET;
+        let after = e.coeffs(&p).lin;
+        for row in 0..6 {
+            for a in 0..3 {
+                assert_eq!(before[(row, S_PHI0 + a)], 0.0);
+                let pre = after[(row, S_PHI + a)] + after[(row, S_PHI0 + a)];
+                let dc = before[(row, S_PHI + a)];
+                assert!(
+                    (pre - dc).abs() <= 1e-12 * dc.abs(),
+                    "row {row} axis {a}: {pre} {dc}"
+                );
+            }
+        }
+        assert_ne!(after.column(S_PHI), before.column(S_PHI));
     }
 
     /// The excitation's angular frequency from the spreads of ω̇ and ω: a sinusoid's.

@@ -45,16 +45,22 @@ impl JointEstimator {
         p
     }
 
+    /// The bound's statistics: every sample will turn the level fixed after the last
+    /// (`fix_srp_level_at`), as most of a run's samples turn the level it fixes once its
+    /// solution can tell it (`fix_srp_level`). Called before the first sample.
+    pub fn level_at_end(&mut self) {
+        self.srp_level_set = LEVEL_AT_END;
+    }
+
     /// Turn the SRP level IS1's channels hold at `p` (reference sample plus bias, in
-    /// volts) from now on, as a run fixes it once its solution can tell the level
-    /// (`fix_srp_level`). For the bound: its noise-free statistics never solve, so
+    /// volts) from now on. For the bound: its noise-free statistics never solve, so
     /// never fix the level themselves, and the bound is that of the model a run ends
     /// with.
     pub fn fix_srp_level_at(&mut self, p: &Par) {
         for m in 0..3 {
             self.srp_level[m] = self.sum_ref[0][m] + p[P_B + m];
         }
-        self.srp_level_set = 1;
+        self.srp_level_set = LEVEL_SET;
     }
 
     /// Parameter vector with β, r set (nuisances at their reference values).

@@ -292,6 +292,9 @@ impl JointEstimator {
         }
         for a in 0..3 {
             s[S_PHI + a] = phi_mid[0][a];
+            if self.srp_level_set == LEVEL_NONE {
+                s[S_PHI0 + a] = phi_mid[0][a];
+            }
             for m in 0..3 {
                 s[S_W + 3 * a + m] = w_turn[(a, m)];
             }
@@ -300,7 +303,7 @@ impl JointEstimator {
         s[S_T] = t;
         // The SRP's change since its level, in m/s² with the running k̂ (none before
         // the level is fixed: the turn then uses the fitted DC alone).
-        if self.srp_level_set == 1 {
+        if self.srp_level_set == LEVEL_SET {
             let eps = self.srp_change(&s, phi_mid);
             let change = Vector3::from_fn(|m, _| {
                 self.k_of(&self.p, 0, m) * (self.sum_ref[0][m] + eps[m] - self.srp_level[m])
@@ -323,15 +326,61 @@ impl JointEstimator {
         psi_mid: &[[f64; 3]; 2],
         phi_mid: &[[f64; 3]; 2],
     ) {
-        if self.srp_level_set == 1 || !self.srp_change_known(dv, psi_mid, phi_mid) {
+        if self.srp_level_set != LEVEL_NONE
+            || !self.every_axis_rocked()
+            || !self.srp_change_known(dv, psi_mid, phi_mid)
+        {
             return;
         }
         let eps = self.srp_change(sig, phi_mid);
         let a: [f64; 3] = core::array::from_fn(|m| self.sum_ref[0][m] + eps[m]);
         if a.iter().all(|v| v.is_finite()) {
             self.srp_level = a;
-            self.srp_level_set = 1;
+            self.srp_level_set = LEVEL_SET;
         }
+    }
+
+    /// Has real motion dominated IS1's angular readout noise on every axis
+    /// (`ROCKED_VAR_RATIO`), and has a solve run since? Until then the running solution
+    /// is not one to measure the SRP's level with, whatever its σ says: on an axis whose
+    /// ω̇ is readout noise alone (a thruster without torque noise, before the maneuver
+    /// rocks that axis) the fit's errors in variables pull r towards 0 with a σ that
+    /// counts that noise as excitation (docs/integrity.md), and a level measured with
+    /// r̂ a millimetre off carries its A r error, which the measured change then turns.
+    /// The samples before the level turn the fitted DC (`S_PHI0`) and lose only the turn
+    /// of the SRP's fluctuation by waiting (without thruster noise, two thirds of the
+    /// planned campaign: r_z 1.4× its bound there, docs/integrity.md).
+    pub(super) fn every_axis_rocked(&mut self) -> bool {
+        if self.rocked_tick != 0 {
+            return self.solved_tick >= self.rocked_tick && self.status & ST_NO_SOLUTION == 0;
+        }
+        let n = self.n_used.div_ceil(MOMENT_EVERY) as f64;
+        if n < 2.0 {
+            return false;
+        }
+        // ω̇'s covariance [rad²/s⁴] at the prior β; its smallest eigenvalue is at
+        // least 4 det / trace² (the other two at most trace / 2 each).
+        let c = &self.cfg;
+        let mut cov = Matrix3::<f64>::zeros();
+        for a in 0..3 {
+            let (ma, ba) = (&self.rate_moments[a], c.beta_prior[0][a]);
+            for b in 0..3 {
+                let (mb, bb) = (&self.rate_moments[b], c.beta_prior[0][b]);
+                let prod = match a + b {
+                    _ if a == b => ma[3],
+                    1 => self.rate_cross[0],
+                    2 => self.rate_cross[1],
+                    _ => self.rate_cross[2],
+                };
+                cov[(a, b)] = ba * bb * (prod / n - (ma[2] / n) * (mb[2] / n));
+            }
+        }
+        let tr = cov.trace();
+        let all = 4.0 * cov.determinant() > ROCKED_VAR_RATIO * c.sigma_angular.powi(2) * tr * tr;
+        if all {
+            self.rocked_tick = self.next_tick + 1;
+        }
+        false
     }
 
     /// Is the running solution good enough to measure the SRP's fluctuation with

@@ -5,8 +5,24 @@
 use super::*;
 
 /// Symmetric rank-one update of the upper triangle: m += w v vᵀ. The hot loop of
-/// every sample: columns as slices (column-major, no index checks) so that the
-/// compiler vectorises it; each element gets the same one product and sum as before.
+/// every sample: columns as slices (no index checks) so that the compiler vectorises
+/// it; each element gets the same one product and sum as before.
+#[inline(always)]
+pub(super) fn rank1_packed(m: &mut Packed, v: &Sig, w: f64) {
+    let v = v.as_slice();
+    for (j, &vj) in v.iter().enumerate() {
+        let vj = vj * w;
+        if vj == 0.0 {
+            continue;
+        }
+        for (mij, vi) in m.column_mut(j).iter_mut().zip(v) {
+            *mij += vi * vj;
+        }
+    }
+}
+
+/// The same update of a small matrix's upper triangle (the star-tracker and angular
+/// groups).
 #[inline(always)]
 pub(super) fn rank1_upper<const N: usize>(m: &mut SMatrix<f64, N, N>, v: &SVector<f64, N>, w: f64) {
     let v = v.as_slice();
@@ -257,7 +273,7 @@ impl JointEstimator {
                 reg = a;
             }
         }
-        rank1_upper(&mut self.m_raw[reg], &s, 1.0);
+        rank1_packed(&mut self.m_raw[reg], &s, 1.0);
 
         // Innovations filter of the common-mode SRP channel, applied to every signal.
         let nb = self.bank.poles();
@@ -300,7 +316,7 @@ impl JointEstimator {
                 *xk = ak * (*xk + pk * g);
             }
         }
-        rank1_upper(&mut self.m_filt, &sf, 1.0);
+        rank1_packed(&mut self.m_filt, &sf, 1.0);
         let c = hn * hn / sv;
         // Column by column (wp is column-major); row i of column j as before:
         // (wp_ij − c pg_i pg_j) a_i a_j.
@@ -377,18 +393,28 @@ mod tests {
     }
 
     #[test]
-    fn rank1_upper_adds_w_v_v_transposed_to_the_upper_triangle() {
-        let v = SVector::<f64, 5>::from_fn(|i, _| [0.5, 0.0, -2.0, 3.25, 1e-3][i]);
-        let m0 = SMatrix::<f64, 5, 5>::from_fn(|i, j| (i * 5 + j) as f64);
-        let mut m = m0;
-        rank1_upper(&mut m, &v, 0.75);
-        let direct = m0 + v * v.transpose() * 0.75;
-        for j in 0..5 {
-            for i in 0..5 {
-                let want = if i <= j { direct[(i, j)] } else { m0[(i, j)] };
-                assert!((m[(i, j)] - want).abs() < 1e-15, "({i}, {j})");
+    fn rank1_packed_adds_w_v_v_transposed_to_the_upper_triangle() {
+        let v = Sig::from_fn(|i, _| [0.5, 0.0, -2.0, 3.25, 1e-3][i % 5] * (1.0 + i as f64));
+        let mut m0 = <Packed as bytemuck::Zeroable>::zeroed();
+        for j in 0..NS {
+            for (i, x) in m0.column_mut(j).iter_mut().enumerate() {
+                *x = (i * NS + j) as f64;
             }
         }
-        assert_eq!(symmetric(&m), symmetric(&m).transpose());
+        let mut m = m0;
+        rank1_packed(&mut m, &v, 0.75);
+        for j in 0..NS {
+            for i in 0..NS {
+                let want = m0.get(i, j) + v[i] * v[j] * 0.75;
+                assert!(
+                    (m.get(i, j) - want).abs() < 1e-12 * want.abs().max(1.0),
+                    "({i}, {j})"
+                );
+                assert_eq!(m.get(i, j), m.get(j, i));
+            }
+        }
+        // Column j holds rows 0..=j, one after another.
+        assert_eq!(m0.get(2, 5), (2 * NS + 5) as f64);
+        assert_eq!(m0.column_mut(NS - 1).len(), NS);
     }
 }
