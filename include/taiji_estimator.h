@@ -22,9 +22,9 @@
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
  *        update 94 600 typical, 108 000 worst (the first sample; each includes the
- *        upset check and reseal, UPSETS below); solve 11.0 M worst; finish 32.8 M. On a
- *        LEON3 (--cpu leon3): update 134 300 typical, 154 000 worst; solve 13.1 M;
- *        finish 39.0 M.
+ *        upset check and reseal, UPSETS below); solve 5.91 M worst; finish 17.6 M. On a
+ *        LEON3 (--cpu leon3): update 134 300 typical, 154 000 worst; solve 9.52 M;
+ *        finish 28.4 M.
  *        After a gap, update bridges at most 8 missing ticks (about 7 500 instructions
  *        each): the worst update after a 5 999-tick gap was 159 440 (35 signals). Longer gaps are
  *        caught up over the next updates, 7 ticks gained a call; the samples that
