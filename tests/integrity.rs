@@ -525,3 +525,29 @@ fn other_sample_rates_and_dropouts_stay_honest_a_few_cells_of_the_matrix() {
         }
     }
 }
+
+#[test]
+fn the_estimators_state_goes_through_serde_and_back_byte_for_byte() {
+    // Its long arrays (the pole states, the packed Gram matrices) go as tuples
+    // (`array_serde`); a state with statistics in them comes back the same bytes.
+    let s = planned("");
+    let cfg = s.estimator_config(&s.priors());
+    let mut e = taiji::estimate::JointEstimator::new(cfg);
+    let mut n = 0;
+    campaign::samples(
+        &s,
+        taiji::commander::Commander::new(&s),
+        taiji::model::plant::Plant::new(&s, 1, taiji::model::plant::PlantNoise::ALL),
+        taiji::fee::FrontEnd::new(&s, 1, true),
+        campaign::Threads::One,
+        |m| {
+            if n < 700 {
+                e.step(m);
+            }
+            n += 1;
+        },
+    );
+    let text = serde_json::to_string(&e).unwrap();
+    let back: taiji::estimate::JointEstimator = serde_json::from_str(&text).unwrap();
+    assert_eq!(bytemuck::bytes_of(&back), bytemuck::bytes_of(&e));
+}

@@ -50,9 +50,9 @@ pub(super) const NS_PACKED: usize = NS * (NS + 1) / 2;
 /// i ≤ j, at j (j + 1)/2 + i), half the bytes of the full matrix (and of the seal's
 /// passes over it), with the same numbers in the same columns as the full matrix's
 /// upper triangle, so every sum takes the same operations in the same order.
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable, serde::Serialize, serde::Deserialize)]
 #[repr(C)]
-pub(super) struct Packed([f64; NS_PACKED]);
+pub(super) struct Packed(#[serde(with = "super::array_serde")] [f64; NS_PACKED]);
 
 impl Packed {
     /// Column j's part above and on the diagonal: rows 0..=j.
@@ -66,41 +66,6 @@ impl Packed {
     pub(super) fn get(&self, i: usize, j: usize) -> f64 {
         let (i, j) = (i.min(j), i.max(j));
         self.0[(j * (j + 1) / 2 + i).min(NS_PACKED - 1)]
-    }
-}
-
-/// Serde for a `Packed` (serde derives arrays up to 32 elements): a tuple of its
-/// elements, as a derive would write an array.
-impl serde::Serialize for Packed {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeTuple;
-        let mut t = s.serialize_tuple(NS_PACKED)?;
-        for x in &self.0 {
-            t.serialize_element(x)?;
-        }
-        t.end()
-    }
-}
-
-impl<'de> serde::Deserialize<'de> for Packed {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> serde::de::Visitor<'de> for V {
-            type Value = Packed;
-            fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
-                write!(f, "{NS_PACKED} elements of a packed Gram matrix")
-            }
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut a: A) -> Result<Packed, A::Error> {
-                let mut out = [0.0; NS_PACKED];
-                for (i, x) in out.iter_mut().enumerate() {
-                    *x = a
-                        .next_element()?
-                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
-                }
-                Ok(Packed(out))
-            }
-        }
-        d.deserialize_tuple(NS_PACKED, V)
     }
 }
 

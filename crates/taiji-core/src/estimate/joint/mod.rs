@@ -108,7 +108,7 @@ pub struct JointEstimator {
     m_filt: Packed,
     bank: PowerLawBank,
     wp: SMatrix<f64, MAX_POLES, MAX_POLES>,
-    #[serde(with = "poles_serde")]
+    #[serde(with = "array_serde")]
     wx: [[f64; MAX_POLES]; NS],
     /// Gain of the SRP state onto the whitened common-mode channel.
     hn: f64,
@@ -519,33 +519,38 @@ impl JointEstimator {
     }
 }
 
-/// Serde for the whitening filter's per-signal pole states (serde derives arrays up
-/// to 32 elements; there are `NS`): a tuple of `NS` arrays, as a derive would write.
-mod poles_serde {
-    use super::{MAX_POLES, NS};
-    use serde::de::{Error, SeqAccess, Visitor};
-    use serde::ser::SerializeTuple;
+/// Serde for arrays longer than serde derives (32 elements): a tuple of the elements,
+/// as a derive would write an array. For the whitening filter's per-signal pole states
+/// (`NS` of them) and the packed Gram matrices (`layout::Packed`).
+pub(super) mod array_serde {
+    use serde::de::{Deserialize, Error, SeqAccess, Visitor};
+    use serde::ser::{Serialize, SerializeTuple};
     use serde::{Deserializer, Serializer};
 
-    type Poles = [[f64; MAX_POLES]; NS];
-
-    pub fn serialize<S: Serializer>(v: &Poles, s: S) -> Result<S::Ok, S::Error> {
-        let mut t = s.serialize_tuple(NS)?;
+    pub fn serialize<S: Serializer, T: Serialize, const N: usize>(
+        v: &[T; N],
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_tuple(N)?;
         for x in v {
             t.serialize_element(x)?;
         }
         t.end()
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Poles, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Poles;
+    pub fn deserialize<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de> + Copy + Default,
+    {
+        struct V<T, const N: usize>(core::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de> + Copy + Default, const N: usize> Visitor<'de> for V<T, N> {
+            type Value = [T; N];
             fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
-                write!(f, "{NS} arrays of {MAX_POLES} pole states")
+                write!(f, "an array of {N} elements")
             }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut a: A) -> Result<Poles, A::Error> {
-                let mut out = [[0.0; MAX_POLES]; NS];
+            fn visit_seq<A: SeqAccess<'de>>(self, mut a: A) -> Result<[T; N], A::Error> {
+                let mut out = [T::default(); N];
                 for (i, x) in out.iter_mut().enumerate() {
                     *x = a
                         .next_element()?
@@ -554,7 +559,7 @@ mod poles_serde {
                 Ok(out)
             }
         }
-        d.deserialize_tuple(NS, V)
+        d.deserialize_tuple(N, V::<T, N>(core::marker::PhantomData))
     }
 }
 
