@@ -199,13 +199,13 @@ pub fn run_seeds(
                         let mut sc = s.clone();
                         sc.seed = seed;
                         let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
-                        // Each run has the bound of its own motion and of the ticks it
-                        // lost (`crlb`): one more noise-free campaign a seed, but where
-                        // neither torque noise nor losses make the seed matter.
-                        let own = (sc.thruster.torque_noise_nm_rthz > 0.0
-                            || sc.faults.loses_data())
-                        .then(|| crate::crlb::crlb_on(&sc, Threads::One))
-                        .flatten();
+                        // A campaign that loses data has the bound of the ticks this
+                        // seed lost (`crlb`): one more noise-free campaign a seed.
+                        let own = sc
+                            .faults
+                            .loses_data()
+                            .then(|| crate::crlb::crlb_on(&sc, Threads::One))
+                            .flatten();
                         let b = own.as_ref().unwrap_or(bound);
                         let mut rep =
                             Report::new(&sc, seed, "in-process", method.name(), &r.estimate, b);
@@ -253,8 +253,8 @@ pub fn summarise(
         for (g, name) in ["β", "k", "r"].iter().enumerate() {
             for a in 0..3 {
                 let (mut se, mut worst, mut sz) = (0.0, 0.0f64, 0.0);
-                // The bound's RMS over the runs (each run has the bound of its own
-                // motion and losses; without torque noise or losses, one bound).
+                // The bound's RMS over the runs (the same in each but with data
+                // lost, where each run has the bound of its own losses).
                 let (mut first, mut crlb_ss, mut same) = (None, 0.0, true);
                 for r in &reports {
                     let is = &r.inertial_sensors[i];
