@@ -21,7 +21,7 @@
  *        KB on a LEON3, 11.9 / 12.4 KB on x86-64. A 16 KB task stack holds every call.
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
- *        update 94 600 typical, 108 000 worst (the first sample; each includes the
+ *        update 94 500 typical, 108 000 worst (the first sample; each includes the
  *        upset check and reseal, UPSETS below); solve 5.91 M worst; finish 17.6 M. On a
  *        LEON3 (--cpu leon3): update 134 300 typical, 154 000 worst; solve 9.52 M;
  *        finish 28.4 M.

@@ -222,7 +222,8 @@ impl JointEstimator {
     /// Add this linear sample to the excitation's spreads (`excitation_rate`), on every
     /// `MOMENT_EVERY`th: the maneuver is slow against any sample rate, and an update on
     /// a flight CPU then pays for a branch, not for 12 software floating-point
-    /// operations.
+    /// operations. The moments change only here, so here too is where the first tick
+    /// with motion of its own on every axis is noted (`rocked_tick`).
     pub(super) fn note_excitation(&mut self, dv: &[[f64; 3]; 2]) {
         if self.n_used & (MOMENT_EVERY - 1) != 1 {
             return;
@@ -238,6 +239,9 @@ impl JointEstimator {
         self.rate_cross[0] += v[0] * v[1];
         self.rate_cross[1] += v[0] * v[2];
         self.rate_cross[2] += v[1] * v[2];
+        if self.rocked_tick == 0 && self.motion_on_every_axis() {
+            self.rocked_tick = self.next_tick + 1;
+        }
     }
 
     /// The maneuver's angular frequency [rad/s]: the spread of ω̇ over the spread of ω,

@@ -350,10 +350,16 @@ impl JointEstimator {
     /// The samples before the level turn the fitted DC (`S_PHI0`) and lose only the turn
     /// of the SRP's fluctuation by waiting (without thruster noise, two thirds of the
     /// planned campaign: r_z 1.4× its bound there, docs/integrity.md).
-    pub(super) fn every_axis_rocked(&mut self) -> bool {
-        if self.rocked_tick != 0 {
-            return self.solved_tick >= self.rocked_tick && self.status & ST_NO_SOLUTION == 0;
-        }
+    pub(super) fn every_axis_rocked(&self) -> bool {
+        self.rocked_tick != 0
+            && self.solved_tick >= self.rocked_tick
+            && self.status & ST_NO_SOLUTION == 0
+    }
+
+    /// Does real motion dominate IS1's angular readout noise on every axis, on its own
+    /// (`ROCKED_VAR_RATIO`)? From the excitation's moments (`note_excitation`, which
+    /// asks when they change and keeps the answer in `rocked_tick`).
+    pub(super) fn motion_on_every_axis(&self) -> bool {
         let n = self.n_used.div_ceil(MOMENT_EVERY) as f64;
         if n < 2.0 {
             return false;
@@ -376,11 +382,7 @@ impl JointEstimator {
             }
         }
         let tr = cov.trace();
-        let all = 4.0 * cov.determinant() > ROCKED_VAR_RATIO * c.sigma_angular.powi(2) * tr * tr;
-        if all {
-            self.rocked_tick = self.next_tick + 1;
-        }
-        false
+        4.0 * cov.determinant() > ROCKED_VAR_RATIO * c.sigma_angular.powi(2) * tr * tr
     }
 
     /// Is the running solution good enough to measure the SRP's fluctuation with
