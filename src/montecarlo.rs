@@ -1,7 +1,6 @@
 //! Monte Carlo over seeds: accuracy, honesty of σ (χ²) and efficiency (ratio to CRLB).
 
 use crate::campaign::{self, Threads};
-use crate::crlb::crlb;
 use crate::estimate::Method;
 use crate::report::Report;
 use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
@@ -138,7 +137,7 @@ pub fn run(
     runs: u64,
     method: Method,
 ) -> Result<MonteCarlo, MonteCarloError> {
-    let bound = crlb(s).ok_or(MonteCarloError::Singular)?;
+    let bound = crate::plan::bounds(s).ok_or(MonteCarloError::Singular)?;
     check_seeds(first_seed, runs)?;
     let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
     let reports = run_seeds(s, &seeds, method, &bound, |_| Ok(()))?;
@@ -169,7 +168,7 @@ pub fn run_seeds(
     s: &Scenario,
     seeds: &[u64],
     method: Method,
-    bound: &crate::crlb::Crlb,
+    bound: &crate::crlb::Bounds,
     done: impl Fn(&Report) -> Result<(), MonteCarloError> + Sync,
 ) -> Result<Vec<Report>, MonteCarloError> {
     let workers = std::thread::available_parallelism()
@@ -199,16 +198,26 @@ pub fn run_seeds(
                         let mut sc = s.clone();
                         sc.seed = seed;
                         let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
-                        // A campaign that loses data has the bound of the ticks this
-                        // seed lost (`crlb`): one more noise-free campaign a seed.
-                        let own = sc
-                            .faults
-                            .loses_data()
+                        // Each run has the bound of its own motion and of the ticks it
+                        // lost (`crlb`): one more noise-free campaign a seed, but where
+                        // neither torque noise nor losses make the seed matter.
+                        // `bound`: the run's at the scenario's seed, and the maneuver's,
+                        // the same for every seed.
+                        let own = crate::crlb::seed_matters(&sc)
                             .then(|| crate::crlb::crlb_on(&sc, Threads::One))
                             .flatten();
-                        let b = own.as_ref().unwrap_or(bound);
-                        let mut rep =
-                            Report::new(&sc, seed, "in-process", method.name(), &r.estimate, b);
+                        let b = crate::crlb::Bounds {
+                            run: own.unwrap_or(bound.run),
+                            maneuver: bound.maneuver,
+                        };
+                        let mut rep = Report::with_bounds(
+                            &sc,
+                            seed,
+                            "in-process",
+                            method.name(),
+                            &r.estimate,
+                            &b,
+                        );
                         rep.faults = r.faults.map(|f| f.summary());
                         if let Err(e) = done(&rep) {
                             if let Ok(mut f) = failed.lock() {
@@ -253,8 +262,8 @@ pub fn summarise(
         for (g, name) in ["β", "k", "r"].iter().enumerate() {
             for a in 0..3 {
                 let (mut se, mut worst, mut sz) = (0.0, 0.0f64, 0.0);
-                // The bound's RMS over the runs (the same in each but with data
-                // lost, where each run has the bound of its own losses).
+                // The bound's RMS over the runs (each run has the bound of its own
+                // motion and losses; without torque noise or losses, one bound).
                 let (mut first, mut crlb_ss, mut same) = (None, 0.0, true);
                 for r in &reports {
                     let is = &r.inertial_sensors[i];

@@ -1,7 +1,7 @@
 //! The run report (every key: docs/report.md) and the result table printed like the
 //! paper's Tables 2–3.
 
-use crate::crlb::Crlb;
+use crate::crlb::{Bounds, Crlb};
 use crate::msg::EstimateMsg;
 pub use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::Scenario;
@@ -149,6 +149,8 @@ fn within(req: f64, sigma: f64) -> f64 {
 }
 
 impl Report {
+    /// The report of a run whose bound is its maneuver's (no torque noise, no data
+    /// lost, or a test that needs no other).
     pub fn new(
         s: &Scenario,
         seed: u64,
@@ -157,6 +159,30 @@ impl Report {
         est: &EstimateMsg,
         crlb: &Crlb,
     ) -> Report {
+        let b = Bounds {
+            run: *crlb,
+            maneuver: Some(*crlb),
+        };
+        Report::with_bounds(s, seed, mode, method, est, &b)
+    }
+
+    /// The report of a run: the parameters against the run's bound, the maneuver and
+    /// the prediction before the run against the maneuver's (`crlb::bounds`).
+    pub fn with_bounds(
+        s: &Scenario,
+        seed: u64,
+        mode: &str,
+        method: &str,
+        est: &EstimateMsg,
+        bounds: &Bounds,
+    ) -> Report {
+        let crlb = &bounds.run;
+        // A maneuver that leaves a parameter unbounded by itself: an infinite bound.
+        let maneuver = bounds.maneuver.unwrap_or(Crlb {
+            beta: [[f64::INFINITY; 3]; 2],
+            k: [[f64::INFINITY; 3]; 2],
+            com_offset_m: [[f64::INFINITY; 3]; 2],
+        });
         let mut iss = Vec::new();
         let mut met = true;
         let priors = s.priors();
@@ -227,27 +253,33 @@ impl Report {
             restarts: None,
             hosts: None,
             estimator_loop_allocations: None,
-            maneuver: Some(crate::plan::describe(s, Some(crlb), None)),
+            maneuver: Some(crate::plan::describe(s, Some(&maneuver), None)),
             predicted_probability_requirements_met: None,
             prior_dominated: Vec::new(),
             warnings: Vec::new(),
         }
-        .with_prior_judgement(s, crlb)
+        .with_prior_judgement(s, &maneuver)
     }
 
-    /// The prediction from the bound, the prior-dominated parameters, and the
-    /// warnings they call for.
-    fn with_prior_judgement(mut self, s: &Scenario, crlb: &Crlb) -> Self {
+    /// The prediction from the maneuver's bound (`maneuver`, with the estimator's
+    /// prior: what could be said before the run), the prior-dominated parameters, and
+    /// the warnings they call for.
+    fn with_prior_judgement(mut self, s: &Scenario, maneuver: &Crlb) -> Self {
         let axes = ["x", "y", "z"];
+        let with_prior = |c: f64, p: f64| 1.0 / (1.0 / (c * c) + 1.0 / (p * p)).sqrt();
         let mut p = 1.0;
-        for is in &self.inertial_sensors {
+        for (i, is) in self.inertial_sensors.iter().enumerate() {
             for a in 0..3 {
                 let b = &is.beta;
                 p *= within(
                     REQ_SCALE_FACTOR_REL * b.truth[a].abs(),
-                    b.crlb_with_prior[a],
+                    with_prior(maneuver.beta[i][a], b.prior_sigma[a]),
                 );
-                p *= within(REQ_COM_M, is.com_offset.crlb_with_prior[a]);
+                let r = &is.com_offset;
+                p *= within(
+                    REQ_COM_M,
+                    with_prior(maneuver.com_offset_m[i][a], r.prior_sigma[a]),
+                );
                 for (name, q) in [("β", &is.beta), ("r", &is.com_offset)] {
                     if q.data_share[a] < PRIOR_DOMINATED_SHARE {
                         self.prior_dominated.push(format!(
@@ -261,10 +293,15 @@ impl Report {
             }
         }
         self.predicted_probability_requirements_met = p.is_finite().then_some(p);
-        let (worst, name) = crate::plan::worst_ratio(s, crlb);
+        let (worst, name) = crate::plan::worst_ratio(s, maneuver);
         if !s.maneuver.planned && worst > 1.0 {
+            let how = if worst.is_finite() {
+                format!("bound is {worst:.1}× the requirement ({name})")
+            } else {
+                format!("bound on {name} is infinite (singular)")
+            };
             self.warnings.push(format!(
-                "the written maneuver's bound is {worst:.1}× the requirement ({name}): the maneuver alone cannot calibrate it{}; `taiji-calib plan` plans a maneuver that does",
+                "the written maneuver's {how}: the maneuver alone cannot calibrate it{}; `taiji-calib plan` plans a maneuver that does",
                 match self.predicted_probability_requirements_met {
                     Some(p) => format!(
                         ", and the bound predicts the requirements met with probability {:.2} %",
@@ -584,6 +621,65 @@ mod prior_tests {
         // The paper's filter has a prior of its own: nothing is judged.
         let p = Report::new(&s, 1, "in-process", "paper", &e, &crlb);
         assert!(p.prior_dominated.is_empty() && p.inertial_sensors[0].beta.data_share[0].is_nan());
+    }
+
+    /// The parameters stand against the run's bound; the maneuver's line, the
+    /// prediction before the run and the written-maneuver warning against the
+    /// maneuver's. A written maneuver whose own bound is 100× the run's (the run's
+    /// random motion informing what the maneuver does not) is warned of, and one
+    /// that bounds nothing by itself too.
+    #[test]
+    fn the_run_and_the_maneuver_have_a_bound_each() {
+        let mut s = Scenario::default();
+        s.maneuver.planned = false;
+        let run = crate::crlb::crlb(&s).unwrap();
+        let mut e = EstimateMsg::default();
+        for (i, is) in s.inertial_sensor.iter().enumerate() {
+            e.beta[i] = is.beta;
+            e.k[i] = is.k();
+            e.r_b[i] = is.com_offset_m;
+            e.beta_sigma[i] = run.beta[i];
+            e.k_sigma[i] = run.k[i];
+            e.r_sigma[i] = run.com_offset_m[i];
+        }
+        let scale = |c: &Crlb, f: f64| Crlb {
+            beta: c.beta.map(|v| v.map(|x| x * f)),
+            k: c.k.map(|v| v.map(|x| x * f)),
+            com_offset_m: c.com_offset_m.map(|v| v.map(|x| x * f)),
+        };
+        let weak = scale(&run, 100.0);
+        let b = Bounds {
+            run,
+            maneuver: Some(weak),
+        };
+        let r = Report::with_bounds(&s, 1, "in-process", "joint", &e, &b);
+        assert_eq!(r.inertial_sensors[1].beta.crlb, run.beta[1]);
+        let (worst, _) = crate::plan::worst_ratio(&s, &weak);
+        let m = r.maneuver.as_ref().unwrap();
+        assert_eq!(m.predicted_worst_ratio, worst);
+        assert!(worst > 1.0);
+        assert!(r.predicted_probability_requirements_met.unwrap() < 0.5);
+        assert!(
+            r.warnings[0].contains("the written maneuver's bound is"),
+            "{:?}",
+            r.warnings
+        );
+        // The same run against its own bound alone: no warning, all but certain.
+        let same = Report::new(&s, 1, "in-process", "joint", &e, &run);
+        assert!(same.warnings.is_empty(), "{:?}", same.warnings);
+        assert!(same.predicted_probability_requirements_met.unwrap() > 0.99);
+        // A maneuver that bounds nothing by itself.
+        let none = Bounds {
+            run,
+            maneuver: None,
+        };
+        let r = Report::with_bounds(&s, 1, "in-process", "joint", &e, &none);
+        assert!(
+            r.warnings[0].contains("is infinite (singular)"),
+            "{:?}",
+            r.warnings
+        );
+        assert!(r.predicted_probability_requirements_met.unwrap() < 1e-3);
     }
 }
 

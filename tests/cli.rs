@@ -208,6 +208,18 @@ fn crlb_prints_readable_numbers_and_the_planners_warning_once() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("maneuver 0.6000 mHz"), "{text}");
     assert!(!text.contains("0.00060002"), "{text}");
+    // The run's bound first, then the maneuver's alone (the thrusters' random motion
+    // left out), looser.
+    let beta_x = |line: &str| -> f64 {
+        let inside = line.split('[').nth(1).unwrap();
+        inside.split(',').next().unwrap().trim().parse().unwrap()
+    };
+    let run = text.lines().find(|l| l.starts_with("IS1")).unwrap();
+    let alone = text
+        .lines()
+        .find(|l| l.starts_with("maneuver alone: IS1"))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(beta_x(alone) > beta_x(run), "{text}");
     let dir = tmpdir::TmpDir::new("cli-warn");
     let short = dir.join("short.toml");
     std::fs::write(&short, "name = \"short\"\nduration_s = 300.0\n").unwrap();

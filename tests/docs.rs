@@ -272,19 +272,12 @@ fn sig2(x: f64) -> String {
     format!("{x:.decimals$}")
 }
 
-/// The numbers the docs quote that a command computes deterministically, by anchor
-/// name: `<!--n:NAME-->value<!--/n-->` in a .md file must read `value`. Computed here
-/// through the library calls `plan --min-duration` and `crlb` make, so a change of the
-/// model, planner or defaults fails this test until the docs say the new number.
-fn computed_numbers() -> std::collections::BTreeMap<&'static str, String> {
-    let s = Scenario::load_or_default(None).unwrap();
-    let shortest = taiji::plan::min_duration(&s, 3.0).unwrap();
-    let (planned, info) = taiji::plan::resolve(s).unwrap();
-    let info = info.expect("the default scenario is planned");
-    let c = taiji::crlb::crlb(&planned).unwrap();
+/// β's bound as "lo–hi×10⁻⁶" (relative, over every IS and axis) and r's worst per axis
+/// as "x / y / z µm".
+fn bound_numbers(s: &Scenario, c: &taiji::crlb::Crlb) -> (String, String) {
     let mut beta = Vec::new();
     let mut r_um = [0.0f64; 3];
-    for (i, is) in planned.inertial_sensor.iter().enumerate() {
+    for (i, is) in s.inertial_sensor.iter().enumerate() {
         for a in 0..3 {
             beta.push(c.beta[i][a] / is.beta[a]);
             r_um[a] = r_um[a].max(c.com_offset_m[i][a] * 1e6);
@@ -294,14 +287,38 @@ fn computed_numbers() -> std::collections::BTreeMap<&'static str, String> {
         .iter()
         .fold((f64::MAX, 0.0f64), |(l, h), b| (l.min(*b), h.max(*b)));
     let r: Vec<String> = r_um.iter().map(|x| sig2(*x)).collect();
+    (
+        format!("{:.1}–{:.1}×10⁻⁶", lo * 1e6, hi * 1e6),
+        format!("{} µm", r.join(" / ")),
+    )
+}
+
+/// The numbers the docs quote that a command computes deterministically, by anchor
+/// name: `<!--n:NAME-->value<!--/n-->` in a .md file must read `value`. Computed here
+/// through the library calls `plan --min-duration` and `crlb` make, so a change of the
+/// model, planner or defaults fails this test until the docs say the new number.
+fn computed_numbers() -> std::collections::BTreeMap<&'static str, String> {
+    let s = Scenario::load_or_default(None).unwrap();
+    let shortest = taiji::plan::min_duration(&s, 3.0).unwrap();
+    let (planned, info) = taiji::plan::resolve(s).unwrap();
+    let info = info.expect("the default scenario is planned");
+    // The run's bound at the scenario's seed (`crlb`), and the maneuver's alone at the
+    // scenario's rate (the planner's tables).
+    let run = taiji::crlb::crlb(&planned).unwrap();
+    let maneuver =
+        taiji::crlb::maneuver_bound_on(&planned, taiji::campaign::Threads::available()).unwrap();
+    let (beta, r) = bound_numbers(&planned, &run);
+    let (beta_m, r_m) = bound_numbers(&planned, &maneuver);
     [
         ("min-duration", format!("{} s", shortest.duration_s)),
         (
             "min-duration-slow",
             format!("{:.2} mHz", shortest.chosen.maneuver.frequency_hz * 1e3),
         ),
-        ("crlb-beta", format!("{:.1}–{:.1}×10⁻⁶", lo * 1e6, hi * 1e6)),
-        ("crlb-r", format!("{} µm", r.join(" / "))),
+        ("crlb-beta", beta),
+        ("crlb-r", r),
+        ("maneuver-crlb-beta", beta_m),
+        ("maneuver-crlb-r", r_m),
         ("crlb-worst", sig2(info.worst_ratio)),
     ]
     .into_iter()

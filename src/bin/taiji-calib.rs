@@ -350,10 +350,6 @@ fn load_planned(
     Ok((s, plan))
 }
 
-fn crlb_of(s: &Scenario) -> Result<taiji::crlb::Crlb, CliError> {
-    taiji::crlb::crlb(s).ok_or(CliError::Unexcited)
-}
-
 /// Write report.json, .md and .html, print the table; exit 0 when the requirements
 /// are met and the estimator verified its result, else 1.
 fn finish(out: &std::path::Path, report: &Report, figures: bool) -> Result<ExitCode, CliError> {
@@ -449,11 +445,11 @@ fn run_campaign(
     let seed = seed.unwrap_or(s.seed);
     let s = Scenario { seed, ..s };
     let t0 = std::time::Instant::now();
-    // The bound's noise-free campaign runs beside the campaign itself (at the run's
-    // seed: a campaign that loses data has the bound of its losses).
-    let crlb = {
+    // The bounds' noise-free campaigns run beside the campaign itself (the run's at its
+    // seed: its torque noise's motion and the data it lost; and the maneuver's alone).
+    let bounds = {
         let s = s.clone();
-        std::thread::spawn(move || crlb_of(&s))
+        std::thread::spawn(move || taiji::plan::bounds(&s).ok_or(CliError::Unexcited))
     };
     let bar = Bar::new(1000, "campaign");
     let tick = |f: f64| bar.set((f * 1000.0) as u64);
@@ -466,10 +462,10 @@ fn run_campaign(
         (res.estimate, None, res.faults)
     };
     bar.finish();
-    let crlb = crlb
+    let bounds = bounds
         .join()
         .unwrap_or_else(|e| std::panic::resume_unwind(e))?;
-    let mut report = Report::new(&s, seed, "in-process", method.name(), &estimate, &crlb);
+    let mut report = Report::with_bounds(&s, seed, "in-process", method.name(), &estimate, &bounds);
     if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
         m.search = Some(p.search_json());
     }
@@ -603,17 +599,27 @@ fn replay(
         }
         s.duration_s = t.rows as f64 / s.sample_rate_hz;
     }
-    let crlb = match (taiji::crlb::crlb(&s), rec.truncation()) {
+    let bounds = match (taiji::plan::bounds(&s), rec.truncation()) {
         (Some(b), _) => b,
         // Too short a piece of the campaign to bound every parameter: no bound.
-        (None, Some(_)) => taiji::crlb::Crlb {
-            beta: [[f64::INFINITY; 3]; 2],
-            k: [[f64::INFINITY; 3]; 2],
-            com_offset_m: [[f64::INFINITY; 3]; 2],
+        (None, Some(_)) => taiji::crlb::Bounds {
+            run: taiji::crlb::Crlb {
+                beta: [[f64::INFINITY; 3]; 2],
+                k: [[f64::INFINITY; 3]; 2],
+                com_offset_m: [[f64::INFINITY; 3]; 2],
+            },
+            maneuver: None,
         },
         (None, None) => return Err(CliError::Unexcited),
     };
-    let mut report = Report::new(&s, rec.seed, "replay", method.name(), &res.estimate, &crlb);
+    let mut report = Report::with_bounds(
+        &s,
+        rec.seed,
+        "replay",
+        method.name(),
+        &res.estimate,
+        &bounds,
+    );
     report.faults = res.faults.map(|f| f.summary());
     report.wall_time_s = Some(t0.elapsed().as_secs_f64());
     finish(out, &report, false)
@@ -691,19 +697,32 @@ fn print_crlb(scenario: Option<&std::path::Path>) -> Result<ExitCode, CliError> 
             s.seed
         );
     }
-    for (i, is) in s.inertial_sensor.iter().enumerate() {
-        let rel: Vec<String> = (0..3)
-            .map(|a| format!("{:.2e}", c.beta[i][a] / is.beta[a]))
-            .collect();
-        let r: Vec<String> = (0..3)
-            .map(|a| format!("{:.3} µm", c.com_offset_m[i][a] * 1e6))
-            .collect();
+    let print = |prefix: &str, c: &taiji::crlb::Crlb| {
+        for (i, is) in s.inertial_sensor.iter().enumerate() {
+            let rel: Vec<String> = (0..3)
+                .map(|a| format!("{:.2e}", c.beta[i][a] / is.beta[a]))
+                .collect();
+            let r: Vec<String> = (0..3)
+                .map(|a| format!("{:.3} µm", c.com_offset_m[i][a] * 1e6))
+                .collect();
+            println!(
+                "{prefix}IS{}  β (relative, = k relative): [{}]   r: [{}]",
+                i + 1,
+                rel.join(", "),
+                r.join(", ")
+            );
+        }
+    };
+    print("", &c);
+    if taiji::crlb::seed_matters(&s) {
         println!(
-            "IS{}  β (relative, = k relative): [{}]   r: [{}]",
-            i + 1,
-            rel.join(", "),
-            r.join(", ")
+            "(a run at seed {}: the maneuver's motion and the random motion its thrusters add; the maneuver's alone, at the planner's search rate, is what it promises before any run:)",
+            s.seed
         );
+        match taiji::plan::maneuver_bound(&s) {
+            Some(m) => print("maneuver alone: ", &m),
+            None => println!("maneuver alone: singular (it leaves a parameter unbounded)"),
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

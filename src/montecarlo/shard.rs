@@ -4,7 +4,6 @@
 //! code (`summarise`), so the statistics agree to the bit. File format: docs/report.md.
 
 use super::{check_seeds, run_seeds, summarise, MonteCarlo, MonteCarloError};
-use crate::crlb::crlb;
 use crate::estimate::snapshot::fnv1a;
 use crate::estimate::Method;
 use crate::report::Report;
@@ -182,7 +181,7 @@ pub fn run_shard(
     if shard.count > runs {
         return Err(MonteCarloError::MoreShardsThanRuns { shard, runs });
     }
-    let bound = crlb(s).ok_or(MonteCarloError::Singular)?;
+    let bound = crate::plan::bounds(s).ok_or(MonteCarloError::Singular)?;
     let scenario_toml = toml::to_string(s).map_err(MonteCarloError::ScenarioToml)?;
     let campaign = Campaign {
         scenario: s.name.clone(),

@@ -3,6 +3,7 @@
 //! report of any run, planned or written by hand.
 
 use super::*;
+use crate::crlb::Bounds;
 
 /// The maneuver a run used, for the report: its waveform and schedule, whether it was
 /// planned, its envelope over the priors' CoM box and the bound it predicts.
@@ -61,6 +62,33 @@ impl ManeuverReport {
             self.predicted_worst_parameter
         )
     }
+}
+
+/// The bound `s`'s maneuver promises before any run: its motion alone, no data lost,
+/// at the planner's search rate (`SEARCH_SAMPLES` over the window, at least
+/// `SEARCH_SAMPLES_PER_PERIOD` a period of its fastest axis), as the planner weighed
+/// it: a few per cent pessimistic, a tenth of a run's bound's work in the default
+/// campaign.
+pub fn maneuver_bound(s: &Scenario) -> Option<Crlb> {
+    let f_fast = axis_frequencies(s).into_iter().fold(0.0, f64::max);
+    let rate = s
+        .sample_rate_hz
+        .min((SEARCH_SAMPLES / s.duration_s).max(SEARCH_SAMPLES_PER_PERIOD * f_fast));
+    crlb_at_rate(s, rate)
+}
+
+/// Both bounds of a run of `s` (`crlb::Bounds`), the maneuver's on a thread of its
+/// own; `None` where the run's is singular.
+pub fn bounds(s: &Scenario) -> Option<Bounds> {
+    std::thread::scope(|sc| {
+        let m = sc.spawn(|| maneuver_bound(s));
+        let run = crate::crlb::crlb(s);
+        let maneuver = m.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+        Some(Bounds {
+            run: run?,
+            maneuver,
+        })
+    })
 }
 
 /// Describe `s`'s maneuver with the bound `crlb` (and the plan that chose it).

@@ -12,7 +12,7 @@
 //! computed again at the scenario's own rate.
 
 use crate::campaign::Threads;
-use crate::crlb::{crlb_at_rate, crlb_on, Crlb};
+use crate::crlb::{crlb_at_rate, maneuver_bound_on, Crlb};
 use crate::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::scenario::maneuver::{
     axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline,
@@ -539,7 +539,7 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
     if final_rate != rate {
         let cs = with_maneuver(&base, &chosen.maneuver);
         let b = if final_rate >= base.sample_rate_hz {
-            crlb_on(&cs, Threads::available())
+            maneuver_bound_on(&cs, Threads::available())
         } else {
             crlb_at_rate(&cs, final_rate)
         };
@@ -796,6 +796,6 @@ pub fn maneuver_toml(m: &Maneuver) -> String {
 
 pub mod cache;
 mod describe;
-pub use describe::{describe, ManeuverReport};
+pub use describe::{bounds, describe, maneuver_bound, ManeuverReport};
 mod output;
 pub use output::write;

@@ -109,8 +109,20 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     match supervise(args, &s, &launch, me.as_deref(), curve) {
         Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
         Ok(Supervised::Done(final_est, members, wall, hosts)) => {
-            let mut report =
-                Report::new(&s, s.seed, "multi-process", &args.method, &final_est, &crlb);
+            // The maneuver's bound (its motion alone) for the maneuver's line and the
+            // prediction before the run.
+            let bounds = crate::crlb::Bounds {
+                run: crlb,
+                maneuver: crate::plan::maneuver_bound(&s),
+            };
+            let mut report = Report::with_bounds(
+                &s,
+                s.seed,
+                "multi-process",
+                &args.method,
+                &final_est,
+                &bounds,
+            );
             if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
                 m.search = Some(p.search_json());
             }
