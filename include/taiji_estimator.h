@@ -198,7 +198,8 @@
 // The last solve failed (singular normal equations); the previous solution is shown.
 #define TAIJI_ST_SOLVE_FAILED 2
 
-// The final Gauss–Newton iterations did not converge.
+// The final Gauss–Newton iterations did not converge (their last step still moved a
+// parameter by over 1 % of its σ).
 #define TAIJI_ST_NOT_CONVERGED 4
 
 // A residual group's χ²/dof says the model does not fit the data; σ inflated.

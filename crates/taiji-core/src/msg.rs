@@ -189,7 +189,8 @@ pub const GROUP_NAMES: [&str; N_GROUPS] = ["linear", "common_mode", "star_tracke
 pub const ST_NO_SOLUTION: u64 = 1;
 /// The last solve failed (singular normal equations); the previous solution is shown.
 pub const ST_SOLVE_FAILED: u64 = 2;
-/// The final Gauss–Newton iterations did not converge.
+/// The final Gauss–Newton iterations did not converge (their last step still moved a
+/// parameter by over 1 % of its σ).
 pub const ST_NOT_CONVERGED: u64 = 4;
 /// A residual group's χ²/dof says the model does not fit the data; σ inflated.
 pub const ST_INCONSISTENT: u64 = 8;

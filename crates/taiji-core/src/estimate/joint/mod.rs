@@ -257,6 +257,19 @@ const SCHEDULED_ITERATIONS: usize = 1;
 /// A solve has converged when no parameter moved by more than this fraction of its σ.
 const CONVERGED_STEP: f64 = 1e-4;
 
+/// The final solve is called unconverged when its last iteration still moved a
+/// parameter by more than this fraction of its σ. Below it the iterations have met
+/// the floating-point floor, not a wrong solution: with the IS's angular noise and
+/// ripple a hundred times smaller over 10⁵ s, σ on r is ~3 nm of a 0.2 m offset, and
+/// 20 iterations end moving by 5×10⁻⁴–3×10⁻³ σ (12 of 30 runs were flagged for it).
+const UNCONVERGED_STEP: f64 = 1e-2;
+
+/// Whether `finish`'s solve converged, from its last step's largest move in σ
+/// (`solve`; `None` when a step failed).
+fn finish_converged(moved: Option<f64>) -> bool {
+    moved.is_some_and(|m| m <= UNCONVERGED_STEP)
+}
+
 /// Solves that may follow the first scheduled one, one per update, while its step moved
 /// some parameter by more than its σ and left the data inconsistent (`solve_now_with`).
 /// `solve_due[0]` counts them: 1 for the scheduled solve, 2… for the follow-ups.
@@ -505,10 +518,7 @@ impl JointEstimator {
         self.tick_mask = 0;
         let last = self.next_tick.saturating_sub(1);
         if self.started == START_FULL {
-            if self
-                .solve(FINISH_ITERATIONS, true, w)
-                .is_some_and(|m| m < CONVERGED_STEP)
-            {
+            if finish_converged(self.solve(FINISH_ITERATIONS, true, w)) {
                 self.status &= !ST_NOT_CONVERGED;
             } else {
                 self.status |= ST_NOT_CONVERGED;
@@ -750,6 +760,20 @@ mod tests {
         }
         let ratio = e.jerk_var[0] / (1.5 * sigma * sigma);
         assert!((ratio - 1.0).abs() < 0.15, "{ratio}");
+    }
+
+    /// The final solve iterates to `CONVERGED_STEP` but is called unconverged only when
+    /// its last step still moved a parameter by more than `UNCONVERGED_STEP` of its σ: a
+    /// floor of floating-point noise a thousandth of σ is no failure.
+    #[test]
+    fn a_final_solve_at_the_floating_point_floor_has_converged() {
+        assert!(finish_converged(Some(0.0)));
+        assert!(finish_converged(Some(3e-3)));
+        assert!(finish_converged(Some(UNCONVERGED_STEP)));
+        assert!(!finish_converged(Some(0.05)));
+        assert!(!finish_converged(Some(f64::INFINITY)));
+        assert!(!finish_converged(Some(f64::NAN)));
+        assert!(!finish_converged(None));
     }
 
     /// The SRP's level waits for motion of its own on every axis: one axis rocked, and
