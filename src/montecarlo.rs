@@ -137,7 +137,7 @@ pub fn run(
     runs: u64,
     method: Method,
 ) -> Result<MonteCarlo, MonteCarloError> {
-    let bound = crate::plan::bounds(s).ok_or(MonteCarloError::Singular)?;
+    let bound = campaign_bounds(s)?;
     check_seeds(first_seed, runs)?;
     let seeds: Vec<u64> = (0..runs).map(|i| first_seed + i).collect();
     let reports = run_seeds(s, &seeds, method, &bound, |_| Ok(()))?;
@@ -159,6 +159,20 @@ fn check_seeds(first_seed: u64, runs: u64) -> Result<(), MonteCarloError> {
         return Err(MonteCarloError::SeedOverflow { first_seed, runs });
     }
     Ok(())
+}
+
+/// The bounds a Monte Carlo campaign shares: the maneuver's, computed once at the
+/// file's seed (its priors: ~10⁻⁵ apart from the one `run --seed N` computes at seed
+/// N), and the run's where the seed does not matter (`crlb::seed_matters`); where it
+/// does, each seed gets its own in `run_seeds`, and `run` here is unused.
+pub(crate) fn campaign_bounds(s: &Scenario) -> Result<crate::crlb::Bounds, MonteCarloError> {
+    if crate::crlb::seed_matters(s) {
+        return Ok(crate::crlb::Bounds {
+            run: crate::crlb::Crlb::INFINITE,
+            maneuver: crate::plan::maneuver_bound(s),
+        });
+    }
+    crate::plan::bounds(s).ok_or(MonteCarloError::Singular)
 }
 
 /// One in-process campaign per seed, on every core; the reports in the order of
@@ -201,13 +215,17 @@ pub fn run_seeds(
                         // Each run has the bound of its own motion and of the ticks it
                         // lost (`crlb`): one more noise-free campaign a seed, but where
                         // neither torque noise nor losses make the seed matter.
-                        // `bound`: the run's at the scenario's seed, and the maneuver's,
-                        // the same for every seed.
-                        let own = crate::crlb::seed_matters(&sc)
-                            .then(|| crate::crlb::crlb_on(&sc, Threads::One))
-                            .flatten();
+                        // `bound` (`campaign_bounds`): the maneuver's, the same for
+                        // every seed, and the run's where the seed does not matter; a
+                        // seed whose own bound is singular has none (infinite).
+                        let run = if crate::crlb::seed_matters(&sc) {
+                            crate::crlb::crlb_on(&sc, Threads::One)
+                                .unwrap_or(crate::crlb::Crlb::INFINITE)
+                        } else {
+                            bound.run
+                        };
                         let b = crate::crlb::Bounds {
-                            run: own.unwrap_or(bound.run),
+                            run,
                             maneuver: bound.maneuver,
                         };
                         let mut rep = Report::with_bounds(

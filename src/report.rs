@@ -178,11 +178,7 @@ impl Report {
     ) -> Report {
         let crlb = &bounds.run;
         // A maneuver that leaves a parameter unbounded by itself: an infinite bound.
-        let maneuver = bounds.maneuver.unwrap_or(Crlb {
-            beta: [[f64::INFINITY; 3]; 2],
-            k: [[f64::INFINITY; 3]; 2],
-            com_offset_m: [[f64::INFINITY; 3]; 2],
-        });
+        let maneuver = bounds.maneuver.unwrap_or(Crlb::INFINITE);
         let mut iss = Vec::new();
         let mut met = true;
         let priors = s.priors();

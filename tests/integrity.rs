@@ -17,7 +17,8 @@ fn with_faults(faults: &str) -> Scenario {
 /// Run in-process and report (with the fault summary).
 fn run(s: &Scenario, seed: u64) -> Report {
     let res = campaign::run(s, seed, Method::Joint, |_| {});
-    let crlb = taiji::crlb::crlb(s).unwrap();
+    // The bound of this seed's run (its thrusters' random motion).
+    let crlb = taiji::crlb::crlb(&Scenario { seed, ..s.clone() }).unwrap();
     let mut r = Report::new(s, seed, "in-process", "joint", &res.estimate, &crlb);
     r.faults = res.faults.map(|f| f.summary());
     r

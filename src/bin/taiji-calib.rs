@@ -603,11 +603,7 @@ fn replay(
         (Some(b), _) => b,
         // Too short a piece of the campaign to bound every parameter: no bound.
         (None, Some(_)) => taiji::crlb::Bounds {
-            run: taiji::crlb::Crlb {
-                beta: [[f64::INFINITY; 3]; 2],
-                k: [[f64::INFINITY; 3]; 2],
-                com_offset_m: [[f64::INFINITY; 3]; 2],
-            },
+            run: taiji::crlb::Crlb::INFINITE,
             maneuver: None,
         },
         (None, None) => return Err(CliError::Unexcited),

@@ -181,7 +181,7 @@ pub fn run_shard(
     if shard.count > runs {
         return Err(MonteCarloError::MoreShardsThanRuns { shard, runs });
     }
-    let bound = crate::plan::bounds(s).ok_or(MonteCarloError::Singular)?;
+    let bound = super::campaign_bounds(s)?;
     let scenario_toml = toml::to_string(s).map_err(MonteCarloError::ScenarioToml)?;
     let campaign = Campaign {
         scenario: s.name.clone(),

@@ -65,10 +65,11 @@ impl ManeuverReport {
 }
 
 /// The bound `s`'s maneuver promises before any run: its motion alone, no data lost,
-/// at the planner's search rate (`SEARCH_SAMPLES` over the window, at least
-/// `SEARCH_SAMPLES_PER_PERIOD` a period of its fastest axis), as the planner weighed
-/// it: a few per cent pessimistic, a tenth of a run's bound's work in the default
-/// campaign.
+/// at the rate the planner would search it at alone (`SEARCH_SAMPLES` over the window,
+/// at least `SEARCH_SAMPLES_PER_PERIOD` a period of its fastest axis; the planner's
+/// search takes the fastest axis of all its candidates, which gives the same rate
+/// unless a candidate rocks faster than 10⁴ samples allow): a few per cent
+/// pessimistic, a tenth of a run's bound's work in the default campaign.
 pub fn maneuver_bound(s: &Scenario) -> Option<Crlb> {
     let f_fast = axis_frequencies(s).into_iter().fold(0.0, f64::max);
     let rate = s

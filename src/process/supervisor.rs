@@ -101,19 +101,27 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
         return Outcome::UserError(UserError::RecordOverHosts);
     }
     // The bound as the campaign goes, for monitors; its last point is the report's.
-    // At the run's seed: a campaign that loses data has the bound of its losses.
-    let curve = crate::crlb::crlb_curve(&s, BOUND_POINTS, crate::campaign::Threads::available());
+    // At the run's seed: a campaign that loses data has the bound of its losses. Beside
+    // it the maneuver's bound (its motion alone), for the maneuver's line and the
+    // prediction before the run.
+    let (curve, maneuver) = std::thread::scope(|sc| {
+        let m = sc.spawn(|| crate::plan::maneuver_bound(&s));
+        let curve =
+            crate::crlb::crlb_curve(&s, BOUND_POINTS, crate::campaign::Threads::available());
+        (
+            curve,
+            m.join().unwrap_or_else(|e| std::panic::resume_unwind(e)),
+        )
+    });
     let Some(crlb) = curve.last().and_then(|(_, c)| *c) else {
         return Outcome::UserError(UserError::SingularFisher);
     };
     match supervise(args, &s, &launch, me.as_deref(), curve) {
         Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
         Ok(Supervised::Done(final_est, members, wall, hosts)) => {
-            // The maneuver's bound (its motion alone) for the maneuver's line and the
-            // prediction before the run.
             let bounds = crate::crlb::Bounds {
                 run: crlb,
-                maneuver: crate::plan::maneuver_bound(&s),
+                maneuver,
             };
             let mut report = Report::with_bounds(
                 &s,
