@@ -65,8 +65,9 @@ pub fn crlb_on(s: &Scenario, threads: Threads) -> Option<Crlb> {
     bound_with(s, threads, Motion::Seed)
 }
 
-/// The bound of the maneuver alone: its motion without the torque noise's, and no data
-/// lost (the same for every seed; the planner's, which chooses a maneuver, not a run).
+/// The bound of the maneuver alone: its motion without the thrusters' random motion,
+/// and no data lost (the same for every seed; the planner's, which chooses a maneuver,
+/// not a run).
 pub fn maneuver_bound_on(s: &Scenario, threads: Threads) -> Option<Crlb> {
     if !s.faults.loses_data() {
         return bound_with(s, threads, Motion::Maneuver);
@@ -76,8 +77,8 @@ pub fn maneuver_bound_on(s: &Scenario, threads: Threads) -> Option<Crlb> {
     bound_with(&d, threads, Motion::Maneuver)
 }
 
-/// Whether the run's bound depends on its seed (torque noise or data lost); without,
-/// it is the maneuver's bound at the scenario's rate, bit for bit.
+/// Whether the run's bound depends on its seed (the thrusters' random motion, or data
+/// lost); without, it is the maneuver's bound at the scenario's rate, bit for bit.
 pub fn seed_matters(s: &Scenario) -> bool {
     let t = &s.thruster;
     t.torque_noise_nm_rthz > 0.0
@@ -180,8 +181,8 @@ fn noise_free_estimator(s: &Scenario) -> JointEstimator {
 
 /// The scenario's samples without noise, with the motion `motion` says. A campaign
 /// that loses data (dropouts, ticks the bus never delivers) loses the same ticks here
-/// as its run at the scenario's seed, and its motion always keeps the thrusters' torque
-/// noise: a lost tick hides real motion, what the estimator allows a bridged tick is
+/// as its run at the scenario's seed, and its motion (`Motion::Seed`) keeps the
+/// thrusters' random motion: a lost tick hides real motion, what the estimator allows a bridged tick is
 /// learned from that motion, and without it the bound would count a lost tick as free
 /// (with 1 % IS dropouts, β's bound 1.01× the clean one with it left out, 1.1–1.4× with
 /// it in, as the runs' errors are).
