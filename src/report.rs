@@ -585,6 +585,20 @@ pub fn fault_line(f: &serde_json::Value) -> String {
 mod prior_tests {
     use super::*;
 
+    /// An estimate at the truth with σ the bound `c`.
+    fn at_truth_with_sigma(s: &Scenario, c: &Crlb) -> EstimateMsg {
+        let mut e = EstimateMsg::default();
+        for (i, is) in s.inertial_sensor.iter().enumerate() {
+            e.beta[i] = is.beta;
+            e.k[i] = is.k();
+            e.r_b[i] = is.com_offset_m;
+            e.beta_sigma[i] = c.beta[i];
+            e.k_sigma[i] = c.k[i];
+            e.r_sigma[i] = c.com_offset_m[i];
+        }
+        e
+    }
+
     /// An estimate whose σ is its prior's: the report names it prior-dominated, and a
     /// requirement met says it was met by the prior only.
     #[test]
@@ -592,15 +606,7 @@ mod prior_tests {
         let s = Scenario::default();
         let crlb = crate::crlb::crlb(&s).unwrap();
         let priors = s.priors();
-        let mut e = EstimateMsg::default();
-        for (i, is) in s.inertial_sensor.iter().enumerate() {
-            e.beta[i] = is.beta;
-            e.k[i] = is.k();
-            e.r_b[i] = is.com_offset_m;
-            e.beta_sigma[i] = crlb.beta[i];
-            e.k_sigma[i] = crlb.k[i];
-            e.r_sigma[i] = crlb.com_offset_m[i];
-        }
+        let mut e = at_truth_with_sigma(&s, &crlb);
         // IS1's βy as uncertain as its prior.
         e.beta_sigma[0][1] = crate::estimate::joint::PRIOR_BETA_REL * priors[0].beta[1];
         let r = Report::new(&s, 1, "in-process", "joint", &e, &crlb);
@@ -629,15 +635,7 @@ mod prior_tests {
         let mut s = Scenario::default();
         s.maneuver.planned = false;
         let run = crate::crlb::crlb(&s).unwrap();
-        let mut e = EstimateMsg::default();
-        for (i, is) in s.inertial_sensor.iter().enumerate() {
-            e.beta[i] = is.beta;
-            e.k[i] = is.k();
-            e.r_b[i] = is.com_offset_m;
-            e.beta_sigma[i] = run.beta[i];
-            e.k_sigma[i] = run.k[i];
-            e.r_sigma[i] = run.com_offset_m[i];
-        }
+        let e = at_truth_with_sigma(&s, &run);
         let scale = |c: &Crlb, f: f64| Crlb {
             beta: c.beta.map(|v| v.map(|x| x * f)),
             k: c.k.map(|v| v.map(|x| x * f)),
