@@ -317,3 +317,31 @@ fn any_truth_within_the_priors_uncertainty_flies_its_plan_and_one_outside_is_nam
     let wider = scenario([0.2214, -0.1301, 0.0052]).replace("0.002\n", "0.005\n");
     planned(&wider);
 }
+
+#[test]
+fn quiet_thrusters_get_a_maneuver_that_rocks_every_axis_from_the_start() {
+    use taiji::scenario::Schedule;
+    // The default thrusters' torque noise rocks every axis on its own, far beyond the
+    // estimator's test, and both schedules are weighed.
+    let s = Scenario::load_or_default(None).unwrap();
+    let rocking = plan::torque_noise_rocking(&s);
+    assert!(rocking > 1e3, "default: {rocking:e}");
+    assert_eq!(plan::schedules(&s).len(), 2);
+    // Without torque noise a sequential maneuver would leave the SRP's level waiting
+    // for its last axis: only simultaneous maneuvers are weighed, and a short
+    // campaign flies honest.
+    let (s, p) = planned("duration_s = 2000.0\n[thruster]\ntorque_noise_nm_rthz = 0.0\n");
+    assert_eq!(plan::torque_noise_rocking(&s), 0.0);
+    assert_eq!(s.maneuver.schedule, Schedule::Simultaneous);
+    assert!(p.best_by_schedule.iter().all(|(s, _)| s == "simultaneous"));
+    assert!(p.shortfall.is_none());
+    let mc = taiji::montecarlo::run(&s, 1, 12, taiji::estimate::Method::Joint).unwrap();
+    assert_eq!(mc.runs_meeting_requirements, 12, "{}", mc.table());
+    for (g, v) in mc.chi2_by_group.iter().enumerate() {
+        assert!(
+            (0.3..3.0).contains(v),
+            "group {g}: mean (err/σ)² {v}\n{}",
+            mc.table()
+        );
+    }
+}

@@ -21,6 +21,8 @@ use crate::scenario::{k_from_beta, Maneuver, Scenario, Schedule};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::time::Instant;
+use taiji_core::estimate::joint::ROCKED_VAR_RATIO;
+use taiji_core::model::noise::white_sigma;
 
 /// Samples per candidate in the search: its sample rate is this over the window.
 const SEARCH_SAMPLES: f64 = 10_000.0;
@@ -240,6 +242,38 @@ pub fn offset_corners(s: &Scenario) -> Vec<Vector3<f64>> {
 
 fn inertia(s: &Scenario) -> Matrix3<f64> {
     Matrix3::from_fn(|i, j| s.spacecraft.inertia_kg_m2[i][j])
+}
+
+/// How well the thrusters' torque noise alone rocks the spacecraft, in units of the
+/// estimator's test for real motion on every axis (`ROCKED_VAR_RATIO` times the angular
+/// readout noise's variance): ω̇'s per-sample variance from that noise along its
+/// least-rocked direction, σ_τ² (f_s/2) / λ_max(I)² [rad²/s⁴] (the smallest eigenvalue
+/// of I⁻¹ Σ_τ I⁻¹). The default scenario's is ~10⁴; 0 without torque noise.
+pub fn torque_noise_rocking(s: &Scenario) -> f64 {
+    let fs = s.sample_rate_hz;
+    let lambda_max = inertia(s).symmetric_eigenvalues().max();
+    let wdot_var = white_sigma(s.thruster.torque_noise_nm_rthz, fs).powi(2) / lambda_max.powi(2);
+    let noise_var = white_sigma(s.front_end.angular_noise_rthz, fs).powi(2);
+    wdot_var / (ROCKED_VAR_RATIO * noise_var)
+}
+
+/// Below this `torque_noise_rocking` the thrusters count as quiet (ten times the
+/// estimator's own threshold: room for its sample covariance's scatter).
+pub(crate) const QUIET_ROCKING: f64 = 10.0;
+
+/// The schedules the planner weighs for `s`: both, unless the thrusters are too quiet
+/// to rock every axis on their own (`torque_noise_rocking`). The estimator then fixes
+/// the SRP's level only once the maneuver has rocked every axis, and a sequential
+/// schedule rocks its last axis from two thirds of the window on: the samples before
+/// turn the SRP without its fluctuation, and r_z's σ is optimistic (by 1.3× at 10⁴ s,
+/// 2× at 10⁵ s; docs/planning.md). Rocking every axis from the start costs no r
+/// accuracy there, and β stays far inside its requirement.
+pub fn schedules(s: &Scenario) -> &'static [Schedule] {
+    if torque_noise_rocking(s) < QUIET_ROCKING {
+        &[Schedule::Simultaneous]
+    } else {
+        &[Schedule::Sequential, Schedule::Simultaneous]
+    }
 }
 
 /// Worst CRLB / requirement over every parameter, and its name.
@@ -563,8 +597,7 @@ pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
 fn coarse_candidates(base: &Scenario) -> Result<Vec<Candidate>, PlanError> {
     let d = base.duration_s;
     let hold = base.spacecraft.attitude_hold_hz;
-    let both = [Schedule::Sequential, Schedule::Simultaneous];
-    let coarse = shapes(base, &PERIODS, &both, &[0]);
+    let coarse = shapes(base, &PERIODS, schedules(base), &[0]);
     if coarse.is_empty() {
         let f_lo = (3.0 / d).max(10.0 * hold);
         let why = if 10.0 * hold > 3.0 / d {

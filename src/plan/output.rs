@@ -82,6 +82,21 @@ pub fn summary(s: &Scenario, p: &Plan, top: usize, margin: Option<f64>) -> Strin
             sch.name()
         );
     }
+    if !super::schedules(s).contains(&Schedule::Sequential) {
+        let rocking = super::torque_noise_rocking(s);
+        let how = if rocking == 0.0 {
+            "have no torque noise".to_string()
+        } else {
+            format!(
+                "rock the spacecraft {rocking:.1e}× the estimator's test for motion on every axis (under {})",
+                super::QUIET_ROCKING
+            )
+        };
+        let _ = writeln!(
+            o,
+            "sequential not weighed: the thrusters {how}, and the estimator would fix the SRP's level only once the last axis rocks (docs/planning.md)"
+        );
+    }
     let c = &p.chosen;
     let _ = writeln!(o, "Chosen, bound at {} Hz:", c.rate_hz);
     if let Some(b) = &c.crlb {

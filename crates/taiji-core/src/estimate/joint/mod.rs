@@ -226,8 +226,10 @@ const LEVEL_AT_END: u64 = 2;
 /// this many times the noise's (`every_axis_rocked`): the errors in variables then
 /// leave r̂ off by that share of r, 10⁻⁴ of a 5 cm offset (5 µm), and the maneuver's
 /// A r by ~10⁻¹⁴ m/s², below the SRP fluctuation the level is measured against.
-/// The thrusters' torque noise alone gives ~10⁸ (default scenario).
-const ROCKED_VAR_RATIO: f64 = 1e4;
+/// The thrusters' torque noise alone gives ~10⁸ (default scenario). The maneuver
+/// planner reads it too: without that noise a sequential schedule leaves the level
+/// waiting for its last axis.
+pub const ROCKED_VAR_RATIO: f64 = 1e4;
 
 /// The excitation's spreads take every this many linear samples (`rate_moments`; a
 /// power of two: a 64-bit remainder is a library call on a 32-bit CPU).
