@@ -364,6 +364,15 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
         };
         assert_eq!(rc, TAIJI_ERR_VERSION, "a state {delta:+} B");
     }
+    // One of the same size whose state means something else (an older STATE_VERSION
+    // in the version word's high half: the angular Gram on ΔV1 and ΔV2) is too.
+    let mut older = ck.clone();
+    older[8..16].copy_from_slice(&(taiji::msg::LAYOUT_VERSION as u64).to_le_bytes());
+    // SAFETY: as above.
+    let rc = unsafe {
+        taiji_estimator_restore(q, mem2.len() * 8, older.as_ptr(), older.len(), &config())
+    };
+    assert_eq!(rc, TAIJI_ERR_VERSION, "a checkpoint of state version 1");
     // Every torn or flipped checkpoint is refused, and the memory is left unusable.
     for k in 0..200 {
         let mut bad = ck.clone();

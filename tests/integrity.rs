@@ -556,3 +556,24 @@ fn the_estimators_state_goes_through_serde_and_back_byte_for_byte() {
     let back: taiji::estimate::JointEstimator = serde_json::from_str(&text).unwrap();
     assert_eq!(bytemuck::bytes_of(&back), bytemuck::bytes_of(&e));
 }
+
+#[test]
+fn a_quiet_is_over_a_long_campaign_keeps_its_angular_chi2_at_one() {
+    // IS angular noise and ripple a hundredth of the default's, 10⁵ s: the angular
+    // group's sum of squares was the difference of sums 10¹³ times larger, and their
+    // rounding put its χ²/dof anywhere in 0.46–1.53 (seeds 4 and 14: 1.36, 1.53,
+    // flagged inconsistent). Its Gram is now kept on ΔV1 − ρ0 ΔV2 and ΔV2.
+    let s = planned(
+        "duration_s = 100000.0\n[front_end]\nangular_noise_rthz = 1.0e-16\nripple_rthz = 8.0e-8\n",
+    );
+    for seed in [4, 14] {
+        let r = run(&s, seed);
+        let st = r.estimator_status.as_ref().unwrap();
+        let ang = st.chi2_per_dof["angular"];
+        assert!(
+            (0.97..1.03).contains(&ang),
+            "seed {seed}: angular χ²/dof {ang}"
+        );
+        assert_honest(&r, &format!("quiet IS, 10⁵ s, seed {seed}"));
+    }
+}

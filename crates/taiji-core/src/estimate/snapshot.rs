@@ -1,7 +1,8 @@
 //! The joint estimator's checkpoint in a caller's buffer, for hosts without files or
 //! heap (the C ABI): the state is plain data, so a checkpoint is a header and the
-//! state's bytes. Layout (little-endian): magic `TJEST001` (8 B) | layout version (u64)
-//! | state size (u64) | FNV-1a 64 of the state bytes (u64) | state bytes.
+//! state's bytes. Layout (little-endian): magic `TJEST001` (8 B) | version (u64: the
+//! message layout version, and `STATE_VERSION` in the high 32 bits) | state size (u64)
+//! | FNV-1a 64 of the state bytes (u64) | state bytes.
 //!
 //! Restoring checks every header field and the checksum, then the table and the
 //! counts inside the state, so a torn, foreign or corrupted buffer is refused with a
@@ -13,6 +14,14 @@ use crate::msg::LAYOUT_VERSION;
 const MAGIC: [u8; 8] = *b"TJEST001";
 /// Bytes before the state.
 pub const HEADER: usize = 32;
+
+/// What the state's bytes mean, where their size stays the same: bumped when a field
+/// changes meaning. 2: the angular group's Gram on ΔV1 − ρ0 ΔV2 and ΔV2 (1: on ΔV1 and
+/// ΔV2), so a checkpoint of the older build is refused rather than misread.
+pub const STATE_VERSION: u32 = 2;
+
+/// The checkpoint's version word.
+const VERSION: u64 = LAYOUT_VERSION as u64 | (STATE_VERSION as u64) << 32;
 
 /// Why a checkpoint cannot be written or restored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,7 +69,7 @@ pub fn write(est: &JointEstimator, buf: &mut [u8]) -> Result<usize, SnapshotErro
         return Err(SnapshotError::TooSmall);
     }
     buf[0..8].copy_from_slice(&MAGIC);
-    buf[8..16].copy_from_slice(&(LAYOUT_VERSION as u64).to_le_bytes());
+    buf[8..16].copy_from_slice(&VERSION.to_le_bytes());
     buf[16..24].copy_from_slice(&(state.len() as u64).to_le_bytes());
     buf[24..32].copy_from_slice(&fnv1a(state).to_le_bytes());
     buf[HEADER..n].copy_from_slice(state);
@@ -84,7 +93,7 @@ pub fn read_into(buf: &[u8], dst: &mut JointEstimator) -> Result<(), SnapshotErr
     if buf[0..8] != MAGIC {
         return Err(SnapshotError::Magic);
     }
-    if word(buf, 1) != LAYOUT_VERSION as u64 {
+    if word(buf, 1) != VERSION {
         return Err(SnapshotError::Version);
     }
     let len = core::mem::size_of::<JointEstimator>();

@@ -65,6 +65,13 @@ impl JointEstimator {
         })
     }
 
+    /// The priors' ratio β2/β1 on axis `a`, the angular group's reference
+    /// (`add_angular_pairs`).
+    pub(super) fn prior_ratio(&self, a: usize) -> f64 {
+        let b = &self.cfg.beta_prior;
+        b[1][a.min(2)] / b[0][a.min(2)]
+    }
+
     pub(super) fn coeffs(&self, p: &Par) -> Coeffs {
         let n = self.n_is();
         let mut lin = SMatrix::<f64, 6, NS>::zeros();
@@ -131,8 +138,10 @@ impl JointEstimator {
                 -self.w(1) * p[P_BETA + 3 + a],
             )
         });
+        // On the signals (ΔV1 − ρ0 ΔV2, ΔV2) (`add_angular_pairs`): the residual
+        // ΔV1 − (β2/β1) ΔV2 is the first plus (ρ0 − β2/β1) times the second.
         let ang = core::array::from_fn(|a| {
-            SVector::<f64, 2>::new(1.0, -p[P_BETA + 3 + a] / p[P_BETA + a])
+            SVector::<f64, 2>::new(1.0, self.prior_ratio(a) - p[P_BETA + 3 + a] / p[P_BETA + a])
         });
         Coeffs { lin, star, ang }
     }

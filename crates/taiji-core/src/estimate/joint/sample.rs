@@ -225,12 +225,16 @@ impl JointEstimator {
             }
             // Residual ΔV1 − (β2/β1) ΔV2 [V], weighted with its noise at the priors
             // (readout and drive ripple), so the group constrains the ratio only and
-            // cannot pull the common scale.
+            // cannot pull the common scale. Its Gram is kept on ΔV1 − ρ0 ΔV2 and ΔV2,
+            // ρ0 the priors' ratio: on ΔV1 and ΔV2 themselves the residual's sum of
+            // squares was the small difference of sums 10¹³ times larger (the signals'
+            // SNR squared with a quiet IS), and their rounding (10⁻¹³ of them over
+            // 10⁶ samples) moved the group's χ²/dof by ±0.5.
             let c = &self.cfg;
-            let rho = c.beta_prior[1][a] / c.beta_prior[0][a];
+            let rho = self.prior_ratio(a);
             let var = 2.0 * (c.sigma_angular / c.beta_prior[0][a]).powi(2)
                 + c.sigma_ripple.powi(2) * (dv[0][a].powi(2) + (rho * dv[1][a]).powi(2));
-            let v = SVector::<f64, 2>::new(dv[0][a], dv[1][a]);
+            let v = SVector::<f64, 2>::new(dv[0][a] - rho * dv[1][a], dv[1][a]);
             rank1_upper(&mut self.m_ang[a], &v, 1.0 / var);
         }
     }
