@@ -248,13 +248,18 @@ fn inertia(s: &Scenario) -> Matrix3<f64> {
 /// estimator's test for real motion on every axis (`ROCKED_VAR_RATIO` times the angular
 /// readout noise's variance): ω̇'s per-sample variance from that noise along its
 /// least-rocked direction, σ_τ² (f_s/2) / λ_max(I)² [rad²/s⁴] (the smallest eigenvalue
-/// of I⁻¹ Σ_τ I⁻¹). The default scenario's is ~10⁴; 0 without torque noise.
+/// of I⁻¹ Σ_τ I⁻¹). The default scenario's is ~8×10³; 0 without torque noise;
+/// infinite without angular readout noise (any motion then dominates it).
 pub fn torque_noise_rocking(s: &Scenario) -> f64 {
     let fs = s.sample_rate_hz;
     let lambda_max = inertia(s).symmetric_eigenvalues().max();
     let wdot_var = white_sigma(s.thruster.torque_noise_nm_rthz, fs).powi(2) / lambda_max.powi(2);
     let noise_var = white_sigma(s.front_end.angular_noise_rthz, fs).powi(2);
-    wdot_var / (ROCKED_VAR_RATIO * noise_var)
+    if noise_var > 0.0 {
+        wdot_var / (ROCKED_VAR_RATIO * noise_var)
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Below this `torque_noise_rocking` the thrusters count as quiet (ten times the
