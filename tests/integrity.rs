@@ -577,3 +577,18 @@ fn a_quiet_is_over_a_long_campaign_keeps_its_angular_chi2_at_one() {
         assert_honest(&r, &format!("quiet IS, 10⁵ s, seed {seed}"));
     }
 }
+
+#[test]
+fn a_final_solve_whose_steps_turn_back_and_shrink_has_converged() {
+    // Without thruster noise and with the sun along z, the final Gauss–Newton steps
+    // turn back each time and shrink by ρ ≈ 0.85 (r_z of IS1, IS2's bias): after 20
+    // iterations the last moved 1.2×10⁻² σ, 5×10⁻³ σ from where the steps meet, and 7
+    // of 30 runs (seeds 3 and 5 among them) were called not converged with honest
+    // estimates.
+    let s = planned(
+        "[srp]\nsun_direction_b = [0.0, 0.0, 1.0]\n[thruster]\ntorque_noise_nm_rthz = 0.0\n",
+    );
+    for seed in [3, 5] {
+        assert_honest(&run(&s, seed), &format!("sun along z, seed {seed}"));
+    }
+}

@@ -268,14 +268,18 @@ const CONVERGED_STEP: f64 = 1e-4;
 /// runs were flagged for it).
 const UNCONVERGED_STEP: f64 = 1e-2;
 
-/// Consecutive steps closer in direction than this cosine are closing in on one
-/// point, not wandering on a floor.
+/// Consecutive steps closer in direction than this cosine (or turning back, closer than
+/// its negative) follow one pattern: closing in on one point from one side, or from
+/// both sides in turn, not wandering on a floor.
 const CLOSING_IN_COS: f64 = 0.5;
 
 /// Whether `finish`'s solve converged, from its last two steps (`solve`: their largest
-/// moves in σ and the cosine between them; `None` when a step failed): the last step
-/// within `UNCONVERGED_STEP`, and where the steps shrink by ρ in one direction, the
-/// distance still to go, the last times ρ/(1 − ρ), within it too.
+/// moves in σ and the cosine between them; `None` when a step failed): where the steps
+/// shrink by ρ, in one direction or turning back each time, the distance still to go
+/// (the last times ρ/(1 − ρ), or ρ/(1 + ρ) when they turn back) within
+/// `UNCONVERGED_STEP`; otherwise the last step within it. Steps that turn back and
+/// shrink slowly (ρ ≈ 0.85 without thruster noise and the sun along z: 1.2×10⁻² σ
+/// after 20 iterations, 5×10⁻³ σ from where they meet) have converged that far.
 fn finish_converged(moved: Option<[f64; 3]>) -> bool {
     let Some([last, before, cos]) = moved else {
         return false;
@@ -283,12 +287,12 @@ fn finish_converged(moved: Option<[f64; 3]>) -> bool {
     if last < CONVERGED_STEP {
         return true;
     }
-    if last.is_nan() || last > UNCONVERGED_STEP {
-        return false;
-    }
     let rho = last / before;
-    let closing_in = cos > CLOSING_IN_COS && rho < 1.0;
-    !closing_in || last * rho / (1.0 - rho) <= UNCONVERGED_STEP
+    if rho < 1.0 && cos.abs() > CLOSING_IN_COS {
+        let to_go = last * rho / (1.0 - rho.copysign(cos));
+        return to_go <= UNCONVERGED_STEP;
+    }
+    last <= UNCONVERGED_STEP
 }
 
 /// Solves that may follow the first scheduled one, one per update, while its step moved
@@ -800,8 +804,13 @@ mod tests {
         // ... or too slowly: 9×10⁻³ σ a step shrinking by 0.9 leaves ~0.08 σ to go.
         assert!(!finish_converged(Some([9e-3, 1e-2, 0.99])));
         assert!(!finish_converged(Some([5e-3, 5.05e-3, 0.9])));
+        // Turning back each step and shrinking: 1.18×10⁻² σ after 1.40×10⁻² leaves
+        // 5.4×10⁻³ σ to where they meet; 2.5×10⁻² after 2.6×10⁻², 1.2×10⁻².
+        assert!(finish_converged(Some([1.18e-2, 1.40e-2, -1.0])));
+        assert!(!finish_converged(Some([2.5e-2, 2.6e-2, -1.0])));
         // Too large a last step, or none.
         assert!(!finish_converged(Some([0.05, 0.04, -1.0])));
+        assert!(!finish_converged(Some([0.05, 0.06, 0.2])));
         assert!(!finish_converged(Some([f64::INFINITY, f64::INFINITY, 0.0])));
         assert!(!finish_converged(Some([f64::NAN, 1.0, 0.0])));
         assert!(!finish_converged(None));
