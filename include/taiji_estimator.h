@@ -109,7 +109,7 @@
 // The checkpoint is not one: wrong magic, size or checksum, or an impossible state.
 #define TAIJI_ERR_CHECKPOINT 6
 
-// The checkpoint was written by a build with another layout version.
+// The checkpoint was written by a build with another layout or state version.
 #define TAIJI_ERR_VERSION 7
 
 // The solve failed (singular normal equations); the previous solution is kept and the
@@ -142,7 +142,8 @@
 // whenever a field changes. It is part of every bus payload's type name
 // (`taiji::v1::EstimateMsg`; a test keeps the two in step) and of every checkpoint,
 // so builds with different layouts refuse each other with a clear error instead of
-// misreading bytes.
+// misreading bytes. A change of what the state's fields mean, at the same layout,
+// bumps `estimate::snapshot::STATE_VERSION` instead (checkpoints only).
 #define TAIJI_LAYOUT_VERSION 1
 
 // Saturation flags of an IS sample: bit j for the linear channel j, bit 3+j angular.
@@ -198,8 +199,8 @@
 // The last solve failed (singular normal equations); the previous solution is shown.
 #define TAIJI_ST_SOLVE_FAILED 2
 
-// The final Gauss–Newton iterations did not converge (their last step still moved a
-// parameter by over 1 % of its σ).
+// The final Gauss–Newton iterations did not converge: they may still be more than 1 %
+// of some parameter's σ from their point (judged from their last two steps).
 #define TAIJI_ST_NOT_CONVERGED 4
 
 // A residual group's χ²/dof says the model does not fit the data; σ inflated.

@@ -13,7 +13,9 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-const MAGIC: [u8; 8] = *b"TJCKPT01";
+/// `TJCKPT` and the state's version (`snapshot::STATE_VERSION`, two digits): a
+/// checkpoint of a build whose state means something else is refused, not resumed.
+const MAGIC: [u8; 8] = *b"TJCKPT02";
 
 /// A checkpoint that could not be written or read; the message names the file.
 #[derive(Debug, thiserror::Error)]
@@ -39,6 +41,8 @@ pub enum CheckpointError {
     },
     #[error("checkpoint {} is not a checkpoint of this software (bad magic)", path.display())]
     BadMagic { path: PathBuf },
+    #[error("checkpoint {} was written by a build whose estimator state means something else (state version {found}, this build's {})", path.display(), crate::estimate::snapshot::STATE_VERSION)]
+    OtherVersion { path: PathBuf, found: String },
     #[error("checkpoint {} is truncated", path.display())]
     Truncated { path: PathBuf },
     #[error("checkpoint {} is corrupt (checksum mismatch)", path.display())]
@@ -243,6 +247,10 @@ pub fn load(path: &Path) -> Result<Option<(Estimator, u64)>, CheckpointError> {
         }
     };
     let path = path.to_path_buf();
+    if bytes.len() >= HEADER && bytes[..6] == MAGIC[..6] && bytes[..8] != MAGIC {
+        let found = String::from_utf8_lossy(&bytes[6..8]).into_owned();
+        return Err(CheckpointError::OtherVersion { path, found });
+    }
     if bytes.len() < HEADER || bytes[..8] != MAGIC {
         return Err(CheckpointError::BadMagic { path });
     }
@@ -349,5 +357,18 @@ mod tests {
         assert!(load(&path).err().unwrap().to_string().contains("checksum"));
         std::fs::write(&path, b"hello").unwrap();
         assert!(load(&path).err().unwrap().to_string().contains("magic"));
+        // An older build's (its state means something else): refused, saying so.
+        let mut older = good.clone();
+        older[..8].copy_from_slice(b"TJCKPT01");
+        std::fs::write(&path, &older).unwrap();
+        let e = load(&path).err().unwrap().to_string();
+        assert!(e.contains("state version 01, this build's 2"), "{e}");
+    }
+
+    /// The magic's two digits are the state's version.
+    #[test]
+    fn the_magic_carries_the_state_version() {
+        let v = crate::estimate::snapshot::STATE_VERSION;
+        assert_eq!(&MAGIC[6..], format!("{v:02}").as_bytes());
     }
 }

@@ -703,6 +703,10 @@ mod prior_tests {
         assert!(!quiet_warning(&s));
         s.thruster.torque_noise_nm_rthz = 0.0;
         assert!(quiet_warning(&s));
+        // The planner's own maneuver is never warned of in this way.
+        s.maneuver.planned = true;
+        assert!(!quiet_warning(&s));
+        s.maneuver.planned = false;
         s.maneuver.schedule = Schedule::Simultaneous;
         assert!(!quiet_warning(&s));
     }

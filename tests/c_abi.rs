@@ -364,15 +364,18 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
         };
         assert_eq!(rc, TAIJI_ERR_VERSION, "a state {delta:+} B");
     }
-    // One of the same size whose state means something else (an older STATE_VERSION
-    // in the version word's high half: the angular Gram on ΔV1 and ΔV2) is too.
+    // One of the same size whose state means something else (an older build's: 0 in
+    // the version word's high half, its angular Gram on ΔV1 and ΔV2) is too.
     let mut older = ck.clone();
     older[8..16].copy_from_slice(&(taiji::msg::LAYOUT_VERSION as u64).to_le_bytes());
     // SAFETY: as above.
     let rc = unsafe {
         taiji_estimator_restore(q, mem2.len() * 8, older.as_ptr(), older.len(), &config())
     };
-    assert_eq!(rc, TAIJI_ERR_VERSION, "a checkpoint of state version 1");
+    assert_eq!(
+        rc, TAIJI_ERR_VERSION,
+        "a checkpoint of an older state version"
+    );
     // Every torn or flipped checkpoint is refused, and the memory is left unusable.
     for k in 0..200 {
         let mut bad = ck.clone();

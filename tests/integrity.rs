@@ -476,6 +476,7 @@ fn without_thruster_noise_the_srp_level_waits_for_a_solution_that_can_tell_it() 
     // tested on the sequential one it planned for them before (the default's plan: the
     // maneuver's bound leaves the torque noise out).
     let mut s = planned("");
+    assert_eq!(s.maneuver.schedule, taiji::scenario::Schedule::Sequential);
     s.thruster.torque_noise_nm_rthz = 0.0;
     for seed in [112, 198, 217, 297] {
         let mc = taiji::montecarlo::run(&s, seed, 1, Method::Joint).unwrap();

@@ -30,7 +30,7 @@ pub const TAIJI_ERR_CONFIG: i32 = 4;
 pub const TAIJI_ERR_STATE: i32 = 5;
 /// The checkpoint is not one: wrong magic, size or checksum, or an impossible state.
 pub const TAIJI_ERR_CHECKPOINT: i32 = 6;
-/// The checkpoint was written by a build with another layout version.
+/// The checkpoint was written by a build with another layout or state version.
 pub const TAIJI_ERR_VERSION: i32 = 7;
 /// The solve failed (singular normal equations); the previous solution is kept and the
 /// estimate's status word says so.

@@ -15,7 +15,8 @@ use crate::math::Real;
 /// whenever a field changes. It is part of every bus payload's type name
 /// (`taiji::v1::EstimateMsg`; a test keeps the two in step) and of every checkpoint,
 /// so builds with different layouts refuse each other with a clear error instead of
-/// misreading bytes.
+/// misreading bytes. A change of what the state's fields mean, at the same layout,
+/// bumps `estimate::snapshot::STATE_VERSION` instead (checkpoints only).
 pub const LAYOUT_VERSION: u32 = 1;
 
 /// Common header of every message.
@@ -189,8 +190,8 @@ pub const GROUP_NAMES: [&str; N_GROUPS] = ["linear", "common_mode", "star_tracke
 pub const ST_NO_SOLUTION: u64 = 1;
 /// The last solve failed (singular normal equations); the previous solution is shown.
 pub const ST_SOLVE_FAILED: u64 = 2;
-/// The final Gauss–Newton iterations did not converge (their last step still moved a
-/// parameter by over 1 % of its σ).
+/// The final Gauss–Newton iterations did not converge: they may still be more than 1 %
+/// of some parameter's σ from their point (judged from their last two steps).
 pub const ST_NOT_CONVERGED: u64 = 4;
 /// A residual group's χ²/dof says the model does not fit the data; σ inflated.
 pub const ST_INCONSISTENT: u64 = 8;

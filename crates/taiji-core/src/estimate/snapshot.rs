@@ -16,8 +16,9 @@ const MAGIC: [u8; 8] = *b"TJEST001";
 pub const HEADER: usize = 32;
 
 /// What the state's bytes mean, where their size stays the same: bumped when a field
-/// changes meaning. 2: the angular group's Gram on ΔV1 − ρ0 ΔV2 and ΔV2 (1: on ΔV1 and
-/// ΔV2), so a checkpoint of the older build is refused rather than misread.
+/// changes meaning (the host's file checkpoint, `TJCKPT` and two digits, with it).
+/// 2: the angular group's Gram on ΔV1 − ρ0 ΔV2 and ΔV2; older builds wrote 0 here
+/// (the Gram on ΔV1 and ΔV2), so their checkpoints are refused rather than misread.
 pub const STATE_VERSION: u32 = 2;
 
 /// The checkpoint's version word.

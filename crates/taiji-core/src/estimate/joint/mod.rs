@@ -274,12 +274,15 @@ const UNCONVERGED_STEP: f64 = 1e-2;
 const CLOSING_IN_COS: f64 = 0.5;
 
 /// Whether `finish`'s solve converged, from its last two steps (`solve`: their largest
-/// moves in σ and the cosine between them; `None` when a step failed): where the steps
-/// shrink by ρ, in one direction or turning back each time, the distance still to go
-/// (the last times ρ/(1 − ρ), or ρ/(1 + ρ) when they turn back) within
-/// `UNCONVERGED_STEP`; otherwise the last step within it. Steps that turn back and
-/// shrink slowly (ρ ≈ 0.85 without thruster noise and the sun along z: 1.2×10⁻² σ
-/// after 20 iterations, 5×10⁻³ σ from where they meet) have converged that far.
+/// moves in σ and the cosine between them; `None` when a step failed). The last step
+/// within `UNCONVERGED_STEP`, and where the steps shrink by ρ in one direction, the
+/// distance still to go within it too; where they turn back each time, shrinking, the
+/// last may be up to twice that (a step that turns back overshoots the point by at most
+/// half of itself) if the distance to go is within it. The distance to go of steps
+/// that shrink by ρ and turn by the angle between them: the last times
+/// ρ/√(1 − 2ρ cos + ρ²), ρ/(1 − ρ) in one direction, ρ/(1 + ρ) turning back. Steps
+/// that turn back and shrink slowly (ρ ≈ 0.85 without thruster noise and the sun along
+/// z: 1.2×10⁻² σ after 20 iterations, 5×10⁻³ σ from where they meet) have converged.
 fn finish_converged(moved: Option<[f64; 3]>) -> bool {
     let Some([last, before, cos]) = moved else {
         return false;
@@ -288,11 +291,12 @@ fn finish_converged(moved: Option<[f64; 3]>) -> bool {
         return true;
     }
     let rho = last / before;
-    if rho < 1.0 && cos.abs() > CLOSING_IN_COS {
-        let to_go = last * rho / (1.0 - rho.copysign(cos));
-        return to_go <= UNCONVERGED_STEP;
+    let patterned = rho < 1.0 && cos.abs() > CLOSING_IN_COS;
+    let cap = if patterned && cos < 0.0 { 2.0 } else { 1.0 } * UNCONVERGED_STEP;
+    if last.is_nan() || last > cap {
+        return false;
     }
-    last <= UNCONVERGED_STEP
+    !patterned || last * rho / (1.0 - 2.0 * rho * cos + rho * rho).sqrt() <= UNCONVERGED_STEP
 }
 
 /// Solves that may follow the first scheduled one, one per update, while its step moved
@@ -788,8 +792,9 @@ mod tests {
     }
 
     /// The final solve iterates to `CONVERGED_STEP` but is called unconverged only when
-    /// its last step still moved a parameter by more than `UNCONVERGED_STEP` of its σ: a
-    /// floor of floating-point noise a thousandth of σ is no failure.
+    /// it may still be more than `UNCONVERGED_STEP` of σ from its point
+    /// (`finish_converged`): a floor of floating-point noise a thousandth of σ is no
+    /// failure.
     #[test]
     fn a_final_solve_at_the_floating_point_floor_has_converged() {
         // Converged to 10⁻⁴ σ, whatever came before.
@@ -804,13 +809,22 @@ mod tests {
         // ... or too slowly: 9×10⁻³ σ a step shrinking by 0.9 leaves ~0.08 σ to go.
         assert!(!finish_converged(Some([9e-3, 1e-2, 0.99])));
         assert!(!finish_converged(Some([5e-3, 5.05e-3, 0.9])));
-        // Turning back each step and shrinking: 1.18×10⁻² σ after 1.40×10⁻² leaves
-        // 5.4×10⁻³ σ to where they meet; 2.5×10⁻² after 2.6×10⁻², 1.2×10⁻².
+        // Turning back each step and shrinking, to where the steps meet:
+        // 5.4×10⁻³ σ to go; 1.9×10⁻² after 2.0×10⁻², 9.3×10⁻³; a last step over twice
+        // the limit is not judged by its pattern.
         assert!(finish_converged(Some([1.18e-2, 1.40e-2, -1.0])));
-        assert!(!finish_converged(Some([2.5e-2, 2.6e-2, -1.0])));
-        // Too large a last step, or none.
+        assert!(finish_converged(Some([1.9e-2, 2.0e-2, -1.0])));
+        assert!(!finish_converged(Some([2.1e-2, 2.2e-2, -1.0])));
+        // Turning less than back: at a cosine of −0.6 the steps meet farther off,
+        // 1.2×10⁻² × 0.84 / √(1 + 1.2 × 0.84 + 0.84²) ≈ 6.1×10⁻³ σ.
+        assert!(finish_converged(Some([1.2e-2, 1.43e-2, -0.6])));
+        assert!(!finish_converged(Some([1.9e-2, 2.0e-2, -0.6])));
+        // Too large a last step, or none; a large step shrinking fast says nothing yet
+        // of where the steps end.
         assert!(!finish_converged(Some([0.05, 0.04, -1.0])));
         assert!(!finish_converged(Some([0.05, 0.06, 0.2])));
+        assert!(!finish_converged(Some([0.05, 1.0, 0.9])));
+        assert!(!finish_converged(Some([0.5, 100.0, -0.9])));
         assert!(!finish_converged(Some([f64::INFINITY, f64::INFINITY, 0.0])));
         assert!(!finish_converged(Some([f64::NAN, 1.0, 0.0])));
         assert!(!finish_converged(None));
