@@ -17,8 +17,8 @@
  *        187 960 bytes, fixed at start-up. Stack per call, measured by painting
  *        (docs/flight.md, every call): update 7.4 KB (7.8 KB on a LEON3, 8.0 KB on
  *        x86-64); init 3.3 KB and restore 1.2 KB (they build the state in place);
- *        checkpoint 0.3 KB; solve and finish 12.2 / 12.8 KB on a Cortex-M7, 12.6 / 13.2
- *        KB on a LEON3, 12.8 / 13.3 KB on x86-64. A 16 KB task stack holds every call.
+ *        checkpoint 0.3 KB; solve and finish 12.3 / 12.9 KB on a Cortex-M7, 12.6 / 13.3
+ *        KB on a LEON3, 12.8 / 13.4 KB on x86-64. A 16 KB task stack holds every call.
  *
  * TIME   Instructions per call on a Cortex-M7 (tools/flight-qemu, default 10^4 s campaign):
  *        update 94 500 typical, 108 000 worst (the first sample; each includes the

@@ -439,19 +439,22 @@ impl JointEstimator {
 
     /// Gauss–Newton iterations from the current solution, until converged (no
     /// parameter moved by `CONVERGED_STEP` of its σ). Returns the last step's largest
-    /// move in σ of its parameter, the step's before it (∞ after one step) and the
-    /// cosine between the two steps in σ units (0 after one step); None when a step
-    /// failed (singular normal equations, a non-finite step), which keeps the previous
+    /// move in σ of its parameter, the step's before it (∞ after one step), the cosine
+    /// between the two steps in σ units (0 after one step), and the same move and
+    /// cosine one step earlier (∞ and 0 when there was none); None when a step failed
+    /// (singular normal equations, a non-finite step), which keeps the previous
     /// solution and says so in the status word.
     pub fn solve(
         &mut self,
         iterations: usize,
         priors: bool,
         w: &mut SolveWork,
-    ) -> Option<[f64; 3]> {
+    ) -> Option<[f64; 5]> {
         let mut moved = f64::INFINITY;
         let mut before = f64::INFINITY;
+        let mut earlier = f64::INFINITY;
         let mut cos = 0.0;
+        let mut cos_before = 0.0;
         let mut last = Par::zeros();
         for _ in 0..iterations {
             self.normal_equations(&self.p, priors, w);
@@ -468,8 +471,10 @@ impl JointEstimator {
             let cost = self.group_costs(&self.p, &mut w.gram);
             self.judge_consistency(&cost);
             self.refresh_gate();
+            earlier = before;
             before = moved;
             moved = largest_move(&delta, &self.sigma);
+            cos_before = cos;
             let step = delta.component_div(&self.sigma.map(|s| s.max(1e-300)));
             let norms = step.norm() * last.norm();
             cos = if norms > 0.0 {
@@ -482,7 +487,7 @@ impl JointEstimator {
                 break;
             }
         }
-        Some([moved, before, cos])
+        Some([moved, before, cos, earlier, cos_before])
     }
 
     /// Each group's χ² at `p`, with the rows `normal_equations` uses.
