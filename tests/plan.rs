@@ -16,6 +16,20 @@ fn planned(text: &str) -> (Scenario, plan::PlanInfo) {
     (s, p.expect("a scenario without waveform keys is planned"))
 }
 
+/// A Monte Carlo of `s` (seeds 1–12): every requirement met, each group's mean
+/// (err/σ)² near 1 (loosely: 12 seeds).
+fn flies_honest_on_12_seeds(s: &Scenario) {
+    let mc = taiji::montecarlo::run(s, 1, 12, taiji::estimate::Method::Joint).unwrap();
+    assert_eq!(mc.runs_meeting_requirements, 12, "{}", mc.table());
+    for (g, v) in mc.chi2_by_group.iter().enumerate() {
+        assert!(
+            (0.3..3.0).contains(v),
+            "group {g}: mean (err/σ)² {v}\n{}",
+            mc.table()
+        );
+    }
+}
+
 fn inertia(s: &Scenario) -> Matrix3<f64> {
     Matrix3::from_fn(|i, j| s.spacecraft.inertia_kg_m2[i][j])
 }
@@ -30,15 +44,7 @@ fn a_2000_s_window_without_a_maneuver_is_planned_and_meets_every_requirement() {
     let (_, end) = tl.span_ticks();
     assert!(end <= s.n_samples());
     // A Monte Carlo of the planned maneuver: requirements met, σ honest, at the bound.
-    let mc = taiji::montecarlo::run(&s, 1, 12, taiji::estimate::Method::Joint).unwrap();
-    assert_eq!(mc.runs_meeting_requirements, 12, "{}", mc.table());
-    for (g, v) in mc.chi2_by_group.iter().enumerate() {
-        assert!(
-            (0.3..3.0).contains(v),
-            "group {g}: mean (err/σ)² {v}\n{}",
-            mc.table()
-        );
-    }
+    flies_honest_on_12_seeds(&s);
     // The report records the plan.
     let res = taiji::campaign::run(&s, 3, taiji::estimate::Method::Joint, |_| {});
     let crlb = taiji::crlb::crlb(&s).unwrap();
@@ -336,13 +342,5 @@ fn quiet_thrusters_get_a_maneuver_that_rocks_every_axis_from_the_start() {
     assert_eq!(p.best_by_schedule.len(), 1, "{:?}", p.best_by_schedule);
     assert_eq!(p.best_by_schedule[0].0, "simultaneous");
     assert!(p.shortfall.is_none());
-    let mc = taiji::montecarlo::run(&s, 1, 12, taiji::estimate::Method::Joint).unwrap();
-    assert_eq!(mc.runs_meeting_requirements, 12, "{}", mc.table());
-    for (g, v) in mc.chi2_by_group.iter().enumerate() {
-        assert!(
-            (0.3..3.0).contains(v),
-            "group {g}: mean (err/σ)² {v}\n{}",
-            mc.table()
-        );
-    }
+    flies_honest_on_12_seeds(&s);
 }
