@@ -21,7 +21,7 @@ use crate::scenario::{k_from_beta, Maneuver, Scenario, Schedule};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::time::Instant;
-use taiji_core::estimate::joint::ROCKED_VAR_RATIO;
+use taiji_core::estimate::joint::rocking;
 use taiji_core::model::noise::white_sigma;
 
 /// Samples per candidate in the search: its sample rate is this over the window.
@@ -245,25 +245,23 @@ fn inertia(s: &Scenario) -> Matrix3<f64> {
 }
 
 /// How well the thrusters' torque noise alone rocks the spacecraft, in units of the
-/// estimator's test for real motion on every axis (`motion_on_every_axis`: 4 det C /
-/// (tr C)², a lower bound of the smallest eigenvalue of ω̇'s covariance C, against
-/// `ROCKED_VAR_RATIO` times the angular readout noise's variance). From the torque noise
-/// alone C = σ_τ² (f_s/2) I⁻² [rad²/s⁴] (white, the same on every body axis). The
-/// default scenario's is ~4×10³; 0 without torque noise; infinite without angular
-/// readout noise (any motion then dominates it).
+/// estimator's test for real motion on every axis (`joint::rocking`), for ω̇'s
+/// covariance from that noise alone, σ_τ² (f_s/2) I⁻² [rad²/s⁴] (white, the same on
+/// every body axis). The default scenario's is ~4×10³; 0 without torque noise;
+/// infinite without angular readout noise (any motion then dominates it).
 pub fn torque_noise_rocking(s: &Scenario) -> f64 {
     let fs = s.sample_rate_hz;
     let inv = inertia(s).try_inverse().unwrap_or_else(Matrix3::zeros);
-    let m = inv * inv;
-    let shape = 4.0 * m.determinant() / m.trace().powi(2);
-    let wdot_var = white_sigma(s.thruster.torque_noise_nm_rthz, fs).powi(2) * shape;
-    let noise_var = white_sigma(s.front_end.angular_noise_rthz, fs).powi(2);
-    if !wdot_var.is_finite() {
-        0.0 // no inertia to invert: a scenario refuses it
-    } else if noise_var > 0.0 {
-        wdot_var / (ROCKED_VAR_RATIO * noise_var)
+    let cov = inv * inv * white_sigma(s.thruster.torque_noise_nm_rthz, fs).powi(2);
+    let r = rocking(
+        &cov,
+        white_sigma(s.front_end.angular_noise_rthz, fs).powi(2),
+    );
+    // NaN: no motion (no torque noise, or no inertia to invert: a scenario refuses it).
+    if r.is_nan() {
+        0.0
     } else {
-        f64::INFINITY
+        r
     }
 }
 

@@ -226,10 +226,20 @@ const LEVEL_AT_END: u64 = 2;
 /// this many times the noise's (`every_axis_rocked`): the errors in variables then
 /// leave r̂ off by that share of r, 10⁻⁴ of a 5 cm offset (5 µm), and the maneuver's
 /// A r by ~10⁻¹⁴ m/s², below the SRP fluctuation the level is measured against.
-/// The thrusters' torque noise alone gives ~10⁸ (default scenario). The maneuver
-/// planner reads it too: without that noise a sequential schedule leaves the level
-/// waiting for its last axis.
-pub const ROCKED_VAR_RATIO: f64 = 1e4;
+/// The thrusters' torque noise alone gives ~10⁸ (default scenario).
+const ROCKED_VAR_RATIO: f64 = 1e4;
+
+/// How far motion of covariance `cov` [rad²/s⁴] dominates angular readout noise of
+/// variance `noise_var` on every axis, in units of `ROCKED_VAR_RATIO`: 4 det / trace²
+/// (a lower bound of the smallest eigenvalue, the other two being at most trace / 2
+/// each) over `ROCKED_VAR_RATIO` × `noise_var`; above 1, every axis is rocked (NaN
+/// without any motion or noise). The estimator asks it of its measured ω̇
+/// (`motion_on_every_axis`), the maneuver planner of the thrusters' torque noise alone:
+/// without it a sequential schedule leaves the SRP's level waiting for its last axis.
+pub fn rocking(cov: &Matrix3<f64>, noise_var: f64) -> f64 {
+    let tr = cov.trace();
+    4.0 * cov.determinant() / (ROCKED_VAR_RATIO * noise_var * tr * tr)
+}
 
 /// The excitation's spreads take every this many linear samples (`rate_moments`; a
 /// power of two: a 64-bit remainder is a library call on a 32-bit CPU).

@@ -368,8 +368,7 @@ impl JointEstimator {
         if n < 2.0 {
             return false;
         }
-        // ω̇'s covariance [rad²/s⁴] at the prior β; its smallest eigenvalue is at
-        // least 4 det / trace² (the other two at most trace / 2 each).
+        // ω̇'s covariance [rad²/s⁴] at the prior β.
         let c = &self.cfg;
         let mut cov = Matrix3::<f64>::zeros();
         for a in 0..3 {
@@ -385,8 +384,7 @@ impl JointEstimator {
                 cov[(a, b)] = ba * bb * (prod / n - (ma[2] / n) * (mb[2] / n));
             }
         }
-        let tr = cov.trace();
-        4.0 * cov.determinant() > ROCKED_VAR_RATIO * c.sigma_angular.powi(2) * tr * tr
+        rocking(&cov, c.sigma_angular.powi(2)) > 1.0
     }
 
     /// Is the running solution good enough to measure the SRP's fluctuation with
