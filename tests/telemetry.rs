@@ -11,6 +11,16 @@ fn calib() -> Command {
     Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
 }
 
+/// `taiji-calib replay --telemetry FILE --out DIR`, to be run (or given more arguments).
+fn replay(file: impl AsRef<std::ffi::OsStr>, out: impl AsRef<std::ffi::OsStr>) -> Command {
+    let mut c = calib();
+    c.args(["replay", "--telemetry"])
+        .arg(file)
+        .arg("--out")
+        .arg(out);
+    c
+}
+
 fn tmp(name: &str) -> tmpdir::TmpDir {
     tmpdir::TmpDir::new(&format!("tel-{name}"))
 }
@@ -92,11 +102,7 @@ fn recording_opens_in_h5py_matches_the_report_and_replays_bit_for_bit() {
 
     let replay_dir = dir.join("replay");
     ok(
-        calib()
-            .args(["replay", "--telemetry"])
-            .arg(dir.join("telemetry.h5"))
-            .arg("--out")
-            .arg(&replay_dir)
+        replay(dir.join("telemetry.h5"), &replay_dir)
             .output()
             .unwrap(),
         "taiji-calib replay",
@@ -129,13 +135,7 @@ fn replay_of_an_independently_simulated_h5py_file_meets_the_requirements() {
     // the scenario declares: the estimator must notice the misfit (χ² of the common
     // mode far above 1), inflate σ, and say the result is unverified (exit 1) — while
     // still meeting the requirements.
-    let out = calib()
-        .args(["replay", "--telemetry"])
-        .arg(&file)
-        .arg("--out")
-        .arg(&dir)
-        .output()
-        .unwrap();
+    let out = replay(&file, &dir).output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{stdout}");
     assert!(
@@ -178,13 +178,7 @@ fn replay_of_an_independently_simulated_h5py_file_meets_the_requirements() {
             .unwrap(),
         "make_external_telemetry.py --no-scenario",
     );
-    let out = calib()
-        .args(["replay", "--telemetry"])
-        .arg(&bare)
-        .arg("--out")
-        .arg(dir.join("bare"))
-        .output()
-        .unwrap();
+    let out = replay(&bare, dir.join("bare")).output().unwrap();
     // (Unverified for the same reason: exit 1.)
     assert!(
         String::from_utf8_lossy(&out.stdout).contains("Requirements met: yes"),
@@ -195,13 +189,7 @@ fn replay_of_an_independently_simulated_h5py_file_meets_the_requirements() {
 }
 
 fn replay_error(file: &Path) -> String {
-    let out = calib()
-        .args(["replay", "--telemetry"])
-        .arg(file)
-        .arg("--out")
-        .arg(file.with_extension("out"))
-        .output()
-        .unwrap();
+    let out = replay(file, file.with_extension("out")).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr).to_string();
     assert_eq!(out.status.code(), Some(2), "{}: {err}", file.display());
     assert!(!err.contains("panicked"), "{err}");
@@ -331,13 +319,7 @@ fn a_recording_of_the_former_hand_written_encoder_still_reads_bit_for_bit() {
         assert_eq!(a, b, "{name}: our reader and h5py differ");
     }
     // It replays to the end (exit 1: a requirement missed), with its seed.
-    let o = calib()
-        .args(["replay", "--telemetry"])
-        .arg(&h5)
-        .arg("--out")
-        .arg(dir.join("replay"))
-        .output()
-        .unwrap();
+    let o = replay(&h5, dir.join("replay")).output().unwrap();
     assert!(matches!(o.status.code(), Some(0 | 1)), "{o:?}");
     assert_eq!(report(&dir.join("replay"))["seed"], 11);
 }
@@ -386,11 +368,7 @@ fn corrupted_recordings_are_refused_or_replayed_never_a_crash_a_panic_or_a_hang(
         }
         let f = dir.join(format!("c{case}.h5"));
         std::fs::write(&f, &b).unwrap();
-        let mut child = calib()
-            .args(["replay", "--telemetry"])
-            .arg(&f)
-            .arg("--out")
-            .arg(dir.join(format!("o{case}")))
+        let mut child = replay(&f, dir.join(format!("o{case}")))
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::piped())
             .spawn()
@@ -437,13 +415,7 @@ fn a_recording_with_bus_faults_replays_bit_for_bit_faults_scored_alike() {
         .unwrap();
     assert!(matches!(o.status.code(), Some(0 | 1)), "{o:?}");
     let again = dir.join("replay");
-    let o = calib()
-        .args(["replay", "--telemetry"])
-        .arg(live.join("telemetry.h5"))
-        .arg("--out")
-        .arg(&again)
-        .output()
-        .unwrap();
+    let o = replay(live.join("telemetry.h5"), &again).output().unwrap();
     assert!(matches!(o.status.code(), Some(0 | 1)), "{o:?}");
     let (a, b) = (report(&live), report(&again));
     assert_eq!(estimates(&b), estimates(&a));
@@ -646,11 +618,7 @@ fn a_recording_cut_short_keeps_every_written_chunk_and_opens_in_h5py() {
     // Replay says so, and refuses it only when asked for a whole recording.
     let said = "a truncated recording: 14 of 30000 samples, the last at tick 13";
     let run = |extra: &[&str]| {
-        calib()
-            .args(["replay", "--telemetry"])
-            .arg(&path)
-            .arg("--out")
-            .arg(dir.join(format!("replay{}", extra.len())))
+        replay(&path, dir.join(format!("replay{}", extra.len())))
             .args(extra)
             .output()
             .unwrap()
