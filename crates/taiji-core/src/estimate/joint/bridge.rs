@@ -74,6 +74,9 @@ impl JointEstimator {
                 p[1][c] += dt * p[2][c];
             }
             if q > 0.0 && q.is_finite() {
+                self.turn_pq[a][0] += q * g0 * g0;
+                self.turn_pq[a][1] += q * g0 * g1;
+                self.turn_pq[a][2] += q * g1 * g1;
                 p[1][1] += q * g0 * g0;
                 p[1][2] += q * g0 * g1;
                 p[2][1] += q * g0 * g1;
@@ -88,8 +91,7 @@ impl JointEstimator {
         let h = 0.5 / self.cfg.fs;
         let w_model = Vector3::from_fn(|a, _| self.p[P_BETA + a] * psi_mid[0][a]);
         let q_mid = self.q_model * UnitQuaternion::from_scaled_axis(w_model * h);
-        let drift = Vector3::from_fn(|a, _| self.drift_x[a][1]);
-        let q = q_mid * UnitQuaternion::from_scaled_axis(drift);
+        let q = q_mid;
         let phi_hat = Vector3::from_fn(|a, _| self.phi_hat[a] + h * w_model[a]);
         q.to_rotation_matrix().into_inner().transpose() - Matrix3::identity() + skew(&phi_hat)
     }
@@ -178,6 +180,9 @@ impl JointEstimator {
                 p[0][1] += v * h;
                 p[1][0] += v * h;
                 p[1][1] += v;
+                self.turn_pq[a][0] += v * h * h;
+                self.turn_pq[a][1] += v * h;
+                self.turn_pq[a][2] += v;
                 let p = &mut self.drift_p[a];
                 p[1][1] += v * h * h;
                 p[1][2] += v * h;
@@ -196,6 +201,7 @@ impl JointEstimator {
     pub(super) fn drift_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
         self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
+        self.turn_pq[a][2] += dt * dt * self.jerk_var[a];
     }
 
     /// Star-tracker residual e = θ − κ − β1,prior Φ1 [rad] = θ0 + drift +

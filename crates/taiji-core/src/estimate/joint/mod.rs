@@ -114,6 +114,28 @@ pub struct JointEstimator {
     hn: f64,
     /// Row mapping the 6 linear residuals onto that channel: u0ᵀ L0⁻¹.
     t_u: SVector<f64, 6>,
+    /// The first sample's whitening L0⁻¹ of the six linear residuals: the rows across
+    /// the SRP (`turn_rows`) are taken in its space at each solve.
+    linv0: SMatrix<f64, 6, 6>,
+    /// The turned SRP's attitude error on the two whitened rows across the SRP
+    /// (`turn_rows`): IS1's readout noise and ripple integrated twice, with what bridged
+    /// ticks add, an integrated random walk per axis (`turn_pq`) beside the rows' white
+    /// noise. An innovations filter per row runs on every signal as the SRP's does
+    /// (`m_turn` the filtered Grams, `tx` each signal's state (angle, rate) per column,
+    /// `tp` the state covariance [whitened units², per s, per s²]). The rows as the
+    /// first sample set them (`turn_w`, channel space), their levers on ω̇'s noise
+    /// (`turn_lever`, for their white variance at each sample's drive) and on the
+    /// attitude error per axis, squared (`turn_z2` [whitened units per rad]²).
+    m_turn: [Packed; 2],
+    tx: [SMatrix<f64, 2, NS>; 2],
+    tp: [[[f64; 2]; 2]; 2],
+    turn_w: SMatrix<f64, 2, 6>,
+    turn_lever: [[f64; 3]; 2],
+    turn_z2: [[f64; 3]; 2],
+    /// Per axis, the attitude error's covariance (angle [rad²], angle × rate, rate
+    /// [rad²/s²]) added since the turn filters last stepped: the readout noise of
+    /// each tick, and what bridged ticks and a kept corrupted IS cost.
+    turn_pq: [[f64; 3]; 3],
     p: Par,
     p_prior: Par,
     p_sigma: Par,
@@ -161,10 +183,6 @@ pub struct JointEstimator {
     /// bound in long campaigns; the β state keeps the scale error out of it.
     drift_x: [[f64; 4]; 3],
     drift_p: [[[f64; 4]; 4]; 3],
-    /// Per axis, the drift filter's angle variance times its correlation length in
-    /// samples, summed over the samples the linear statistics took [rad²]: what its
-    /// error weighed in them on average (`white_cov`).
-    drift_noise_sum: [f64; 3],
     /// Per axis, IS1's integrated angular voltage ψ and its voltage over every
     /// `MOMENT_EVERY`th sample the linear statistics took: Σψ, Σψ², Σv, Σv² [V s, V² s²,
     /// V, V²]. Their spreads' ratio is the excitation's angular frequency

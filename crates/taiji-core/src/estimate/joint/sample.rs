@@ -11,7 +11,8 @@ impl JointEstimator {
         for i in 0..n {
             self.sum_ref[i] = data[i].sum;
         }
-        let h = self.first_srp_direction(data);
+        let bc = self.first_srp_dc(data);
+        let h = self.direction_in_volts(&self.p, &bc);
         let mut msq = [0.0; 6];
         for s in 0..3 * n {
             msq[s] = self.sum_ref[s / 3][s % 3].powi(2);
@@ -20,12 +21,21 @@ impl JointEstimator {
         if let Some((linv, u, hn)) = Self::whitening(&r0, &h) {
             self.t_u = linv.transpose() * u;
             self.hn = hn;
+            self.linv0 = linv;
+            let z = Self::turn_plane(&linv, &u, &self.turn_levers(&self.p, &bc));
+            if let Some(e) = Self::plane_basis(&z) {
+                for (k, ek) in e.iter().enumerate() {
+                    self.turn_w.set_row(k, &(linv.transpose() * ek).transpose());
+                    self.turn_z2[k] = core::array::from_fn(|a| ek.dot(&z[a]).powi(2));
+                }
+                self.turn_lever = self.row_levers(&self.turn_w);
+            }
             let rows = Self::complement_rows(&linv, &u);
             for k in 0..5 {
                 self.gate_w.set_row(k, &rows.row(k));
             }
             self.gate_w.set_row(5, &self.t_u.transpose());
-            self.gate_lever = self.row_levers();
+            self.gate_lever = self.row_levers(&self.gate_w);
         }
         self.gate_c = self.coeffs(&self.p).lin;
         self.started = START_FULL;
@@ -40,7 +50,7 @@ impl JointEstimator {
     /// inverse of that noise: the thrusters' torque noise times a CoM offset of
     /// 0.2 m, left in, tilted it by 10⁻³ towards the sunless axis and made that axis
     /// the channel (χ²/dof 0.75 and 5.8 with 10× the drive ripple).
-    fn first_srp_direction(&self, data: &[IsData; 2]) -> SVector<f64, 6> {
+    fn first_srp_dc(&self, data: &[IsData; 2]) -> Vector3<f64> {
         let p = &self.p;
         let n = self.n_is();
         let wdot = self.omega_dot(p, &[data[0].dv, data[1].dv]);
@@ -52,7 +62,7 @@ impl JointEstimator {
                 bc[j] += (self.k_of(p, i, j) * self.sum_ref[i][j] - ar[j]) / n as f64;
             }
         }
-        self.direction_in_volts(p, &bc)
+        bc
     }
 
     /// A tick processed or bridged: solve on schedule.
@@ -118,8 +128,8 @@ impl JointEstimator {
             // Each residual row's white variance at this sample's drive: for the
             // linear test now and the common-mode filter once accepted.
             let var = self.row_white_vars(&sig);
-            if self.linear_consistent(&sig, &var) {
-                lin_sig = Some((sig, var[5]));
+            if self.linear_consistent(&sig, &[var[0], var[1], var[2], var[3], var[4], var[5]]) {
+                lin_sig = Some((sig, var));
             } else {
                 self.reject(CAUSE_LINEAR_OUTLIER);
                 if n == 1 {
@@ -139,6 +149,13 @@ impl JointEstimator {
             (psi_mid, _) = self.integrate(&dv);
         }
         self.propagate_model(&psi_mid);
+        if self.n_ticks % 10 == 0 {
+            if let Ok(path) = std::env::var("TJ_TRACE") {
+                use std::io::Write;
+                let mut f = std::fs::OpenOptions::new().create(true).append(true).open(std::format!("{}.{:p}", path, self as *const Self)).unwrap();
+                let _ = std::writeln!(f, "{:p} {} {} {} {} {} {} {} {} {} {} {} {} {}", self as *const Self, tick, self.phi[0][0], self.phi[0][1], self.phi[0][2], self.drift_x[0][1], self.drift_x[1][1], self.drift_x[2][1], self.drift_x[0][0], self.drift_x[1][0], self.drift_x[2][0], self.drift_x[0][3], self.drift_x[1][3], self.drift_x[2][3]);
+            }
+        }
         let n_ang: [usize; 3] = core::array::from_fn(|a| (0..n).filter(|&i| axis_ok[i][a]).count());
         // Only clean samples teach the spread of ω̇'s change.
         for a in 0..3 {
@@ -148,11 +165,10 @@ impl JointEstimator {
                 self.forget_jerk(a);
             }
         }
-        if let Some((sig, cm_var)) = lin_sig {
+        if let Some((sig, var)) = lin_sig {
             self.n_used += 1;
-            self.update_linear(&sig, &dv, cm_var);
+            self.update_linear(&sig, &dv, &var);
             self.note_excitation(&dv);
-            self.note_drift_noise();
             self.fix_srp_level(&sig, &dv, &psi_mid, &phi_mid);
             self.gate_s = sig;
         } else {
@@ -203,6 +219,7 @@ impl JointEstimator {
                 let step = (c.beta_prior[0][a] * d0[a] - c.beta_prior[1][a] * d1[a]) / c.fs;
                 if step.is_finite() {
                     self.drift_p[a][2][2] += step * step;
+                    self.turn_pq[a][2] += step * step;
                 }
             }
         }
@@ -295,9 +312,10 @@ impl JointEstimator {
             }
         }
         for a in 0..3 {
-            s[S_PHI + a] = phi_mid[0][a];
+            let phi = phi_mid[0][a];
+            s[S_PHI + a] = phi;
             if self.srp_level_set == LEVEL_NONE {
-                s[S_PHI0 + a] = phi_mid[0][a];
+                s[S_PHI0 + a] = phi;
             }
             for m in 0..3 {
                 s[S_W + 3 * a + m] = w_turn[(a, m)];

@@ -4,6 +4,8 @@
 
 use super::*;
 
+fn count_turn() -> bool { std::env::var("TJ_NOCOUNT").is_err() }
+
 /// The Gauss–Newton sums a residual group adds to: H, g, and the cross term Jᵀ W Δ
 /// of the turn's β-derivatives Δ (`Linearised::turn`). (Each group's χ² is
 /// `group_costs`'s.)
@@ -192,7 +194,14 @@ impl JointEstimator {
             let Some(rows) = self.regime_rows(p, reg, &h, gram) else {
                 continue;
             };
-            for t in 0..5 {
+            for t in 0..3 {
+                let row = rows.row(t).transpose();
+                Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
+            }
+        }
+        if let Some(rows) = self.turn_rows(p) {
+            for t in 0..2 {
+                symmetric_into(&self.m_turn[t], gram);
                 let row = rows.row(t).transpose();
                 Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
             }
@@ -247,10 +256,12 @@ impl JointEstimator {
                 // faults: β's error the same with or without this evidence.
                 // What is left out is kept: β's uncertainty still reaches r through
                 // the turn (σ, `sandwich_var`).
-                for row in 0..6 {
-                    for (col, &c) in TURN_COLS.iter().enumerate() {
-                        turn[k - P_BETA][(row, col)] = d.lin[(row, c)];
-                        d.lin[(row, c)] = 0.0;
+                if !count_turn() {
+                    for row in 0..6 {
+                        for (col, &c) in TURN_COLS.iter().enumerate() {
+                            turn[k - P_BETA][(row, col)] = d.lin[(row, c)];
+                            d.lin[(row, c)] = 0.0;
+                        }
                     }
                 }
             }
@@ -296,15 +307,16 @@ impl JointEstimator {
         reg: usize,
         h: &SVector<f64, 6>,
         gram: &mut Gram,
-    ) -> Option<SMatrix<f64, 5, 6>> {
+    ) -> Option<SMatrix<f64, 3, 6>> {
         let (cnt, msq, wsq) = self.regime_stats(p, reg);
         if cnt < 1.0 {
             return None;
         }
         let r = self.white_cov(p, &msq, &wsq);
-        let (linv, u, _) = Self::whitening(&r, h)?;
+        let (linv, _, _) = Self::whitening(&r, h)?;
         symmetric_into(&self.m_raw[reg.min(N_REG - 1)], gram);
-        Some(Self::complement_rows(&linv, &u))
+        let cm = core::array::from_fn(|j| self.direction_in_volts(p, &Vector3::ith(j.min(2), 1.0)));
+        Some(Self::differential_rows(&linv, &cm))
     }
 
     /// Degrees of freedom of each group's χ² (residuals accumulated).
@@ -504,7 +516,13 @@ impl JointEstimator {
             let Some(rows) = self.regime_rows(p, reg, &h, gram) else {
                 continue;
             };
-            for t in 0..5 {
+            for t in 0..3 {
+                cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), gram);
+            }
+        }
+        if let Some(rows) = self.turn_rows(p) {
+            for t in 0..2 {
+                symmetric_into(&self.m_turn[t], gram);
                 cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), gram);
             }
         }
