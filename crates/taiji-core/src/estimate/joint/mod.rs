@@ -573,6 +573,9 @@ impl JointEstimator {
 
     /// `finish` with the caller's scratch (`SolveWork`).
     pub fn finish_with(&mut self, w: &mut SolveWork) -> EstimateMsg {
+        if std::env::var("TJDBG3").is_ok() && self.n_rejected > 0 {
+            std::eprintln!("finish n_bridged {} rejected {} seed {} beta {:?}", self.n_bridged, self.n_rejected, self.cfg.fs, &self.p.as_slice()[0..3]);
+        }
         if self.solve_due() {
             self.solve_now_with(w);
         }

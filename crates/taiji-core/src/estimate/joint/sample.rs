@@ -148,6 +148,9 @@ impl JointEstimator {
             dv = self.angular_inputs(&data, &axis_ok);
             (psi_mid, _) = self.integrate(&dv);
         }
+        if n == 2 {
+            self.note_borrowed(&axis_ok, &data);
+        }
         self.propagate_model(&psi_mid);
         if self.n_ticks % 10 == 0 {
             if let Ok(path) = std::env::var("TJ_TRACE") {
@@ -164,6 +167,9 @@ impl JointEstimator {
             } else {
                 self.forget_jerk(a);
             }
+        }
+        if std::env::var("TJ_DROPLIN").is_ok() && (tick.wrapping_mul(2654435761) >> 7) % 50 == 0 {
+            lin_sig = None;
         }
         if let Some((sig, var)) = lin_sig {
             self.n_used += 1;

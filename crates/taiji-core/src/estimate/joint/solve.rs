@@ -207,6 +207,20 @@ impl JointEstimator {
             }
         }
         symmetric_into(&self.m_filt, gram);
+        if std::env::var("TJ_UCUT").is_ok() {
+            let mut dcc: std::boxed::Box<[Coeffs; NP]> = std::boxed::Box::new(*lin.dc);
+            let mut tt = [SMatrix::<f64, 6, 9>::zeros(); 6];
+            for k in P_BETA..P_BETA + 6 {
+                for row in 0..6 {
+                    for (col, &c) in TURN_COLS.iter().enumerate() {
+                        tt[k - P_BETA][(row, col)] = dcc[k].lin[(row, c)];
+                        dcc[k].lin[(row, c)] = 0.0;
+                    }
+                }
+            }
+            let lin2 = Linearised { c0, dc: &dcc, turn: &tt };
+            Self::add_group(&self.t_u, gram, gw[GROUP_COMMON_MODE], &lin2, &mut out, group);
+        } else {
         Self::add_group(
             &self.t_u,
             gram,
@@ -215,6 +229,7 @@ impl JointEstimator {
             &mut out,
             group,
         );
+        }
         let Sums { hm, g, .. } = out;
         self.add_star_and_angular(c0, dc, hm, g, &mut group.prod);
     }

@@ -380,12 +380,13 @@ impl JointEstimator {
     /// left out: one row holds the sun-plane axes' levers, the other the third's).
     pub(super) fn turn_time_update(&mut self) {
         let dt = 1.0 / self.cfg.fs;
+        let mult: f64 = std::env::var("TJ_QMULT").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
         for k in 0..2 {
             let z2 = &self.turn_z2[k];
             let mut q = [0.0; 3];
             for (a, pq) in self.turn_pq.iter().enumerate() {
                 for (qi, pi) in q.iter_mut().zip(pq) {
-                    *qi += z2[a] * pi;
+                    *qi += z2[a] * pi * mult;
                 }
             }
             let p = &mut self.tp[k];
