@@ -252,6 +252,7 @@ impl JointEstimator {
         self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
         let mult: f64 = std::env::var("TJ_BMULT").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
         self.turn_pq[a][2] += dt * dt * self.jerk_var[a] * mult;
+        if std::env::var("TJDBG5").is_ok() { std::eprintln!("bridged tick {} a {} jerk_var {:e} tp {:?}", self.next_tick, a, self.jerk_var[a], self.tp); }
     }
 
     /// Star-tracker residual e = θ − κ − β1,prior Φ1 [rad] = θ0 + drift +
