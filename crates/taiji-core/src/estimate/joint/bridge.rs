@@ -84,7 +84,7 @@ impl JointEstimator {
             // the torque noise's). At 1 Hz it is five times IS1's own double-integrated
             // noise at the maneuver's frequency (β's σ 10–20 % optimistic without it).
             let walk = self.jerk_var[a] * dt * dt * dt * dt / 18.0;
-            if walk > 0.0 && walk.is_finite() {
+            if walk > 0.0 && walk.is_finite() && std::env::var("TJ_NOWALK").is_err() {
                 self.turn_pq[a][0] += walk;
             }
             if q > 0.0 && q.is_finite() {

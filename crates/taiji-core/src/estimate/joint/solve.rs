@@ -190,7 +190,21 @@ impl JointEstimator {
         let lin = Linearised { c0, dc, turn };
         let mut out = Sums { hm, g, cross };
         let h = self.srp_direction(p);
+        let old_rows = std::env::var("TJ_OLDROWS").is_ok();
         for reg in 0..N_REG {
+            if old_rows {
+                let (cnt, msq, wsq) = self.regime_stats(p, reg);
+                if cnt < 1.0 { continue; }
+                let r = self.white_cov(p, &msq, &wsq);
+                let Some((linv, u, _)) = Self::whitening(&r, &h) else { continue; };
+                symmetric_into(&self.m_raw[reg.min(N_REG - 1)], gram);
+                let rows = Self::complement_rows(&linv, &u);
+                for t in 0..5 {
+                    let row = rows.row(t).transpose();
+                    Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
+                }
+                continue;
+            }
             let Some(rows) = self.regime_rows(p, reg, &h, gram) else {
                 continue;
             };
@@ -199,7 +213,8 @@ impl JointEstimator {
                 Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
             }
         }
-        if let Some(rows) = self.turn_rows(p) {
+        if old_rows {
+        } else if let Some(rows) = self.turn_rows(p) {
             for t in 0..2 {
                 symmetric_into(&self.m_turn[t], gram);
                 let row = rows.row(t).transpose();

@@ -386,7 +386,8 @@ impl JointEstimator {
             let mut q = [0.0; 3];
             for (a, pq) in self.turn_pq.iter().enumerate() {
                 for (qi, pi) in q.iter_mut().zip(pq) {
-                    *qi += z2[a] * pi * mult;
+                    let keep = match std::env::var("TJ_QROW") { Ok(v) => v == std::format!("{}", k), Err(_) => true };
+                    *qi += z2[a] * pi * mult * if keep { 1.0 } else { 0.0 };
                 }
             }
             let p = &mut self.tp[k];
