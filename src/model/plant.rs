@@ -137,6 +137,11 @@ impl Plant {
         }
         let mut a_couple = [Vector3::zeros(); 2];
         let mut sun_b = Vector3::zeros();
+        // The sun's direction at each sub-step's start; the sub-step's mean is the
+        // mean of its ends (trapezoid), so the tick's SRP is the attitude's mean over
+        // the tick, as ω̇ and the coupling are (the sub-steps' ends alone sat h/2
+        // late: 0.05 of a tick, a turn error of 10⁻¹⁵ m/s² at 1 Hz).
+        let mut sun_a = self.body.q_bn.inverse_transform_vector(&self.sun_n);
         let mut torque_sum = Vector3::zeros();
         for mut tau in taus {
             if self.torque_sigma > 0.0 {
@@ -152,7 +157,9 @@ impl Plant {
             for (acc, r) in a_couple.iter_mut().zip(&self.r_tm_b) {
                 *acc += super::attitude::coupling_acceleration(&w_mid, &wd, r);
             }
-            sun_b += self.body.q_bn.inverse_transform_vector(&self.sun_n);
+            let sun_end = self.body.q_bn.inverse_transform_vector(&self.sun_n);
+            sun_b += (sun_a + sun_end) * 0.5;
+            sun_a = sun_end;
             torque_sum += tau;
         }
         let n = SUBSTEPS as f64;

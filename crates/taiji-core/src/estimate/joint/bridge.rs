@@ -215,7 +215,7 @@ impl JointEstimator {
     pub(super) fn close_bridge(&mut self, a: usize, dv: &[[f64; 3]; 2]) {
         let run = self.bridge_run[a];
         self.bridge_run[a] = 0;
-        if run > 0 {
+        if run > 0 && std::env::var("TJ_NOCLOSE").is_err() {
             let span = run as f64 / self.cfg.fs;
             let mut jump = 0.0;
             for l in 0..self.n_is() {
@@ -249,7 +249,7 @@ impl JointEstimator {
     /// must allow.
     pub(super) fn drift_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
+        if std::env::var("TJ_NODRIFTB").is_err() { self.drift_p[a][2][2] += dt * dt * self.jerk_var[a]; }
         let mult: f64 = std::env::var("TJ_BMULT").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
         self.turn_pq[a][2] += dt * dt * self.jerk_var[a] * mult;
         if std::env::var("TJDBG5").is_ok() { std::eprintln!("bridged tick {} a {} jerk_var {:e} tp {:?}", self.next_tick, a, self.jerk_var[a], self.tp); }

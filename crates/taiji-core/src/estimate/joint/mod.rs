@@ -136,6 +136,17 @@ pub struct JointEstimator {
     /// [rad²/s²]) added since the turn filters last stepped: the readout noise of
     /// each tick, and what bridged ticks and a kept corrupted IS cost.
     turn_pq: [[f64; 3]; 3],
+    /// The same attitude error on the common-mode channel (`t_u`), part of the SRP's
+    /// filter there (`wx`, `wp`): each signal's (angle, rate) state `ux`, their
+    /// covariance `up`, its covariance with the SRP's poles `uc`, and the channel's
+    /// lever on the attitude error per axis, squared (`turn_zu2` [whitened units per
+    /// rad]²). Small beside the SRP's fluctuation while the attitude holds; bridged
+    /// ticks step its rate, and the error then grows with time.
+    #[serde(with = "array_serde")]
+    ux: [[f64; 2]; NS],
+    uc: [[f64; 2]; MAX_POLES],
+    up: [[f64; 2]; 2],
+    turn_zu2: [f64; 3],
     p: Par,
     p_prior: Par,
     p_sigma: Par,
@@ -500,6 +511,16 @@ impl JointEstimator {
             }
         }
         self.jump_candidate = [0; 2];
+        if let Ok(v) = std::env::var("TJ_SKIP") {
+            if v.split(',').any(|t| t.parse::<u64>().ok() == Some(tick)) {
+                if std::env::var("TJ_EXACTDV").is_ok() {
+                    self.dv_last = [s.is[0].angular_volts(), s.is[1].angular_volts()];
+                }
+                self.bridge(tick);
+                self.next_tick = tick + 1;
+                return self.tick_mask;
+            }
+        }
         self.process(tick, s);
         self.next_tick = tick + 1;
         self.tick_mask
@@ -589,6 +610,10 @@ impl JointEstimator {
             }
         }
         self.solved_tick = last;
+        if let Ok(path) = std::env::var("TJ_PDUMP") {
+            let txt: std::string::String = self.p.iter().map(|x| std::format!("{:e}\n", x)).collect();
+            let _ = std::fs::write(path, txt);
+        }
         self.message(last)
     }
 }

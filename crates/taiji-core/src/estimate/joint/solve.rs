@@ -188,6 +188,18 @@ impl JointEstimator {
         }
         let gw = self.group_weight;
         let lin = Linearised { c0, dc, turn };
+        let mut dcc: std::boxed::Box<[Coeffs; NP]> = std::boxed::Box::new(*lin.dc);
+        let mut tt = [SMatrix::<f64, 6, 9>::zeros(); 6];
+        for k in P_BETA..P_BETA + 6 {
+            for row in 0..6 {
+                for (col, &c) in TURN_COLS.iter().enumerate() {
+                    tt[k - P_BETA][(row, col)] = dcc[k].lin[(row, c)];
+                    dcc[k].lin[(row, c)] = 0.0;
+                }
+            }
+        }
+        let cutrows = std::env::var("TJ_CUTROWS").unwrap_or_default();
+        let lin_cut = Linearised { c0, dc: &dcc, turn: &tt };
         let mut out = Sums { hm, g, cross };
         let h = self.srp_direction(p);
         let old_rows = std::env::var("TJ_OLDROWS").is_ok();
@@ -210,7 +222,8 @@ impl JointEstimator {
             };
             for t in 0..3 {
                 let row = rows.row(t).transpose();
-                Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
+                let l = if cutrows.contains("diff") { &lin_cut } else { &lin };
+                Self::add_group(&row, gram, gw[GROUP_LINEAR], l, &mut out, group);
             }
         }
         if old_rows {
@@ -218,7 +231,8 @@ impl JointEstimator {
             for t in 0..2 {
                 symmetric_into(&self.m_turn[t], gram);
                 let row = rows.row(t).transpose();
-                Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
+                let l = if cutrows.contains(&std::format!("turn{t}")) { &lin_cut } else { &lin };
+                Self::add_group(&row, gram, gw[GROUP_LINEAR], l, &mut out, group);
             }
         }
         symmetric_into(&self.m_filt, gram);

@@ -252,7 +252,17 @@ impl JointEstimator {
         for pgi in &pg[..nb] {
             ptot += *pgi;
         }
-        let sv = hn * hn * ptot + cm_var;
+        // The attitude error's states (`ux`): P Hᵀ's part on them (`gu`) and on the
+        // poles (`pgh`), H = [hn … hn, 1, 0].
+        let (mut cu0, mut cu1) = (-0.0, -0.0);
+        for c in &self.uc[..nb] {
+            cu0 += c[0];
+            cu1 += c[1];
+        }
+        let gu = [hn * cu0 + self.up[0][0], hn * cu1 + self.up[1][0]];
+        let pgh: [f64; MAX_POLES] =
+            core::array::from_fn(|i| if i < nb { hn * pg[i] + self.uc[i][0] } else { 0.0 });
+        let sv = hn * hn * ptot + 2.0 * hn * cu0 + self.up[0][0] + cm_var;
         let inv_sqrt = 1.0 / sv.sqrt();
         let mut sf = Sig::zeros();
         // Slices of the `nb` poles in use: the loops below vectorise (element by
@@ -267,21 +277,24 @@ impl JointEstimator {
                 *sm += x[k];
             }
         }
-        for ((m, x), sum) in self.wx.iter_mut().enumerate().zip(sums) {
+        let pgh = &pgh[..nb];
+        for (((m, x), sum), xu) in self.wx.iter_mut().enumerate().zip(sums).zip(self.ux.iter_mut()) {
             let x = &mut x[..nb];
-            let pred = sum * hn;
+            let pred = sum * hn + xu[0];
             let innov = s[m] - pred;
             sf[m] = innov * inv_sqrt;
-            let g = hn * innov / sv;
-            for ((xk, ak), pk) in x.iter_mut().zip(a).zip(pg) {
+            let g = innov / sv;
+            for ((xk, ak), pk) in x.iter_mut().zip(a).zip(pgh) {
                 *xk = ak * (*xk + pk * g);
             }
+            xu[0] += gu[0] * g;
+            xu[1] += gu[1] * g;
         }
         rank1_packed(&mut self.m_filt, &sf, 1.0);
-        let c = hn * hn / sv;
-        // Column by column (wp is column-major); row i of column j as before:
-        // (wp_ij − c pg_i pg_j) a_i a_j.
-        let cpg: [f64; MAX_POLES] = core::array::from_fn(|i| c * pg.get(i).unwrap_or(&0.0));
+        let c = 1.0 / sv;
+        // Column by column (wp is column-major); row i of column j:
+        // (wp_ij − c pgh_i pgh_j) a_i a_j.
+        let cpg: [f64; MAX_POLES] = core::array::from_fn(|i| c * pgh.get(i).unwrap_or(&0.0));
         for (j, col) in self
             .wp
             .as_mut_slice()
@@ -289,13 +302,23 @@ impl JointEstimator {
             .take(nb)
             .enumerate()
         {
-            let (pj, aj) = (pg[j], a[j]);
+            let (pj, aj) = (pgh[j], a[j]);
             for ((w, ci), ai) in col[..nb].iter_mut().zip(&cpg).zip(a) {
                 *w = (*w - ci * pj) * ai * aj;
             }
         }
         for i in 0..nb {
             self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
+        }
+        for ((uc, ci), ai) in self.uc[..nb].iter_mut().zip(&cpg).zip(a) {
+            for (u, g) in uc.iter_mut().zip(&gu) {
+                *u = (*u - ci * g) * ai;
+            }
+        }
+        for (r, row) in self.up.iter_mut().enumerate() {
+            for (u, g) in row.iter_mut().zip(&gu) {
+                *u -= c * gu[r] * g;
+            }
         }
     }
 
@@ -400,6 +423,26 @@ impl JointEstimator {
                 col[0] += dt * col[1];
             }
         }
+        // The common-mode channel's share, in the SRP's filter: F = [[1, dt], [0, 1]]
+        // on the (angle, rate) states, their covariance and the poles' with them.
+        let mut q = [0.0; 3];
+        for (z2, pq) in self.turn_zu2.iter().zip(&self.turn_pq) {
+            for (qi, pi) in q.iter_mut().zip(pq) {
+                *qi += z2 * pi;
+            }
+        }
+        if std::env::var("TJ_NOU").is_ok() { q = [0.0; 3]; }
+        let p = &self.up;
+        let p00 = p[0][0] + dt * (p[0][1] + p[1][0]) + dt * dt * p[1][1] + q[0];
+        let p01 = p[0][1] + dt * p[1][1] + q[1];
+        let p11 = p[1][1] + q[2];
+        self.up = [[p00, p01], [p01, p11]];
+        for x in self.ux.iter_mut() {
+            x[0] += dt * x[1];
+        }
+        for c in self.uc.iter_mut().take(self.bank.poles()) {
+            c[0] += dt * c[1];
+        }
         self.turn_pq = [[0.0; 3]; 3];
     }
 
@@ -425,6 +468,18 @@ impl JointEstimator {
                 [p[0][1] - g0 * p[0][1], p[1][1] - g1 * p[0][1]],
             ];
             rank1_packed(&mut self.m_turn[k], &sf, 1.0);
+            if let Ok(pf) = std::env::var("TJ_PFILE") {
+                let txt = std::fs::read_to_string(&pf).unwrap();
+                let v: std::vec::Vec<f64> = txt.lines().map(|l| l.parse().unwrap()).collect();
+                let pp = Par::from_fn(|i, _| v[i]);
+                if let Some(rows) = self.turn_rows(&pp) {
+                    let lin = self.coeffs(&pp).lin;
+                    let e = (rows.row(k) * (lin * sf))[0];
+                    use std::io::Write;
+                    let mut f = std::fs::OpenOptions::new().create(true).append(true).open(std::format!("{}.f{}.{:p}", std::env::var("TJ_RES").unwrap(), k, self as *const Self)).unwrap();
+                    let _ = std::writeln!(f, "{:e} {:e} {:e}", e, self.tp[k][0][0], white[k]);
+                }
+            }
         }
     }
 
@@ -477,6 +532,10 @@ impl JointEstimator {
                 self.wp[(i, j)] *= self.bank.a[i] * self.bank.a[j];
             }
             self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
+        }
+        for (uc, ai) in self.uc[..nb].iter_mut().zip(&self.bank.a) {
+            uc[0] *= ai;
+            uc[1] *= ai;
         }
     }
 }
