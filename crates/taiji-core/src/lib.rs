@@ -6,6 +6,7 @@
 #![no_std]
 
 // Unit tests run on the host with std (the library itself never links it).
+#[cfg(test)]
 extern crate std;
 
 pub mod capi;

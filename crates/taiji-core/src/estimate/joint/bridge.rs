@@ -38,11 +38,7 @@ impl JointEstimator {
                 let psi_new = self.psi[i][a] + dt * dv[i][a];
                 psi_mid[i][a] = 0.5 * (self.psi[i][a] + psi_new);
                 let phi_new = self.phi[i][a] + dt * psi_mid[i][a];
-                phi_mid[i][a] = if std::env::var("TJ_EXACTMID").is_ok() {
-                    self.phi[i][a] + 0.5 * dt * self.psi[i][a] + dt * dt * dv[i][a] / 6.0
-                } else {
-                    0.5 * (self.phi[i][a] + phi_new)
-                };
+                phi_mid[i][a] = 0.5 * (self.phi[i][a] + phi_new);
                 self.psi[i][a] = psi_new;
                 self.phi[i][a] = phi_new;
             }
@@ -84,7 +80,7 @@ impl JointEstimator {
             // the torque noise's). At 1 Hz it is five times IS1's own double-integrated
             // noise at the maneuver's frequency (β's σ 10–20 % optimistic without it).
             let walk = self.jerk_var[a] * dt * dt * dt * dt / 18.0;
-            if walk > 0.0 && walk.is_finite() && std::env::var("TJ_NOWALK").is_err() {
+            if walk > 0.0 && walk.is_finite() {
                 self.turn_pq[a][0] += walk;
             }
             if q > 0.0 && q.is_finite() {
@@ -127,10 +123,6 @@ impl JointEstimator {
                         Some((rho, _)) => 1.0 / rho,
                         None => prior,
                     };
-                    if std::env::var("TJDBG4").is_ok() {
-                        std::eprintln!("borrow tick {} i {} a {} r {:.9e} prior {:.9e} fitted {}", self.next_tick, i, a, r, prior, self.ratio[a].ratio().is_some());
-                    }
-                    let r = if std::env::var("TJ_RATIO1").is_ok() { 1.0 } else { r };
                     data[o].dv[a] * r
                 } else {
                     self.dv_last[i][a]
@@ -215,7 +207,7 @@ impl JointEstimator {
     pub(super) fn close_bridge(&mut self, a: usize, dv: &[[f64; 3]; 2]) {
         let run = self.bridge_run[a];
         self.bridge_run[a] = 0;
-        if run > 0 && std::env::var("TJ_NOCLOSE").is_err() {
+        if run > 0 {
             let span = run as f64 / self.cfg.fs;
             let mut jump = 0.0;
             for l in 0..self.n_is() {
@@ -249,10 +241,8 @@ impl JointEstimator {
     /// must allow.
     pub(super) fn drift_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        if std::env::var("TJ_NODRIFTB").is_err() { self.drift_p[a][2][2] += dt * dt * self.jerk_var[a]; }
-        let mult: f64 = std::env::var("TJ_BMULT").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
-        self.turn_pq[a][2] += dt * dt * self.jerk_var[a] * mult;
-        if std::env::var("TJDBG5").is_ok() { std::eprintln!("bridged tick {} a {} jerk_var {:e} tp {:?}", self.next_tick, a, self.jerk_var[a], self.tp); }
+        self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
+        self.turn_pq[a][2] += dt * dt * self.jerk_var[a];
     }
 
     /// Star-tracker residual e = θ − κ − β1,prior Φ1 [rad] = θ0 + drift +
@@ -276,21 +266,18 @@ impl JointEstimator {
         }
     }
 
-    /// Add this linear sample to the excitation's spreads (`excitation_rate`), on every
-    /// `MOMENT_EVERY`th: the maneuver is slow against any sample rate, and an update on
-    /// a flight CPU then pays for a branch, not for 12 software floating-point
-    /// operations. The moments change only here, so here too is where the first tick
-    /// with motion of its own on every axis is noted (`rocked_tick`).
+    /// Add this linear sample to the excitation's moments (`rate_moments`,
+    /// `rate_cross`), on every `MOMENT_EVERY`th: the maneuver is slow against any
+    /// sample rate, and an update on a flight CPU then pays for a branch, not for 9
+    /// software floating-point operations. They change only here, so here too is where
+    /// the first tick with motion of its own on every axis is noted (`rocked_tick`).
     pub(super) fn note_excitation(&mut self, dv: &[[f64; 3]; 2]) {
         if self.n_used & (MOMENT_EVERY - 1) != 1 {
             return;
         }
-        for (a, m) in self.rate_moments.iter_mut().enumerate() {
-            let (psi, v) = (self.psi[0][a], dv[0][a]);
-            m[0] += psi;
-            m[1] += psi * psi;
-            m[2] += v;
-            m[3] += v * v;
+        for (m, v) in self.rate_moments.iter_mut().zip(&dv[0]) {
+            m[0] += v;
+            m[1] += v * v;
         }
         let v = &dv[0];
         self.rate_cross[0] += v[0] * v[1];
@@ -298,24 +285,6 @@ impl JointEstimator {
         self.rate_cross[2] += v[1] * v[2];
         if self.rocked_tick == 0 && self.motion_on_every_axis() {
             self.rocked_tick = self.next_tick + 1;
-        }
-    }
-
-    /// The maneuver's angular frequency [rad/s]: the spread of ω̇ over the spread of ω,
-    /// both summed over the axes (IS1's voltage and its integral, so β cancels); 0
-    /// before they spread.
-    pub(super) fn excitation_rate(&self) -> f64 {
-        let n = self.n_used.div_ceil(MOMENT_EVERY) as f64;
-        let (mut var_w, mut var_wdot) = (0.0, 0.0);
-        for m in &self.rate_moments {
-            var_w += m[1] / n - (m[0] / n).powi(2);
-            var_wdot += m[3] / n - (m[2] / n).powi(2);
-        }
-        let w = (var_wdot / var_w).sqrt();
-        if w.is_finite() {
-            w
-        } else {
-            0.0
         }
     }
 

@@ -136,17 +136,6 @@ pub struct JointEstimator {
     /// [rad²/s²]) added since the turn filters last stepped: the readout noise of
     /// each tick, and what bridged ticks and a kept corrupted IS cost.
     turn_pq: [[f64; 3]; 3],
-    /// The same attitude error on the common-mode channel (`t_u`), part of the SRP's
-    /// filter there (`wx`, `wp`): each signal's (angle, rate) state `ux`, their
-    /// covariance `up`, its covariance with the SRP's poles `uc`, and the channel's
-    /// lever on the attitude error per axis, squared (`turn_zu2` [whitened units per
-    /// rad]²). Small beside the SRP's fluctuation while the attitude holds; bridged
-    /// ticks step its rate, and the error then grows with time.
-    #[serde(with = "array_serde")]
-    ux: [[f64; 2]; NS],
-    uc: [[f64; 2]; MAX_POLES],
-    up: [[f64; 2]; 2],
-    turn_zu2: [f64; 3],
     p: Par,
     p_prior: Par,
     p_sigma: Par,
@@ -194,11 +183,9 @@ pub struct JointEstimator {
     /// bound in long campaigns; the β state keeps the scale error out of it.
     drift_x: [[f64; 4]; 3],
     drift_p: [[[f64; 4]; 4]; 3],
-    /// Per axis, IS1's integrated angular voltage ψ and its voltage over every
-    /// `MOMENT_EVERY`th sample the linear statistics took: Σψ, Σψ², Σv, Σv² [V s, V² s²,
-    /// V, V²]. Their spreads' ratio is the excitation's angular frequency
-    /// (`excitation_rate`).
-    rate_moments: [[f64; 4]; 3],
+    /// Per axis, IS1's angular voltage over every `MOMENT_EVERY`th sample the linear
+    /// statistics took: Σv, Σv² [V, V²] (`motion_on_every_axis`).
+    rate_moments: [[f64; 2]; 3],
     /// IS1's angular voltages' cross products on the same samples: Σ v_x v_y, Σ v_x v_z,
     /// Σ v_y v_z [V²] (`every_axis_rocked`).
     rate_cross: [f64; 3],
@@ -220,15 +207,6 @@ pub struct JointEstimator {
     star_track: [Track; 3],
 }
 
-/// The drift filter's error as white noise of the linear channels: a process of
-/// variance P and correlation time τ has the one-sided spectral density
-/// 4 P τ / (1 + (ω τ)²) at angular frequency ω, and white noise of that density has
-/// the variance 2 P τ f_s / (1 + (ω τ)²) per sample: this factor times the rest,
-/// ω the maneuver's (`excitation_rate`). (It replaced a measured factor of 10 on the
-/// filter's variance at the solve. Taken at zero frequency it left r_z's σ 3×
-/// cautious with 1 % IS dropouts, (err/σ)² 0.10; at the maneuver's 0.78,
-/// docs/integrity.md.)
-const WHITE_EQUIVALENT: f64 = 2.0;
 /// Nothing taken yet.
 const START_NONE: u64 = 0;
 /// Every reference set (the value a started state always had: old checkpoints agree).
@@ -270,7 +248,7 @@ pub fn rocking(cov: &Matrix3<f64>, noise_var: f64) -> f64 {
     4.0 * cov.determinant() / (ROCKED_VAR_RATIO * noise_var * tr * tr)
 }
 
-/// The excitation's spreads take every this many linear samples (`rate_moments`; a
+/// The excitation's cross products take every this many linear samples (`rate_cross`; a
 /// power of two: a 64-bit remainder is a library call on a 32-bit CPU).
 const MOMENT_EVERY: u64 = 8;
 const _: () = assert!(MOMENT_EVERY.is_power_of_two());
@@ -511,16 +489,6 @@ impl JointEstimator {
             }
         }
         self.jump_candidate = [0; 2];
-        if let Ok(v) = std::env::var("TJ_SKIP") {
-            if v.split(',').any(|t| t.parse::<u64>().ok() == Some(tick)) {
-                if std::env::var("TJ_EXACTDV").is_ok() {
-                    self.dv_last = [s.is[0].angular_volts(), s.is[1].angular_volts()];
-                }
-                self.bridge(tick);
-                self.next_tick = tick + 1;
-                return self.tick_mask;
-            }
-        }
         self.process(tick, s);
         self.next_tick = tick + 1;
         self.tick_mask
@@ -594,9 +562,6 @@ impl JointEstimator {
 
     /// `finish` with the caller's scratch (`SolveWork`).
     pub fn finish_with(&mut self, w: &mut SolveWork) -> EstimateMsg {
-        if std::env::var("TJDBG3").is_ok() && self.n_rejected > 0 {
-            std::eprintln!("finish n_bridged {} rejected {} seed {} beta {:?}", self.n_bridged, self.n_rejected, self.cfg.fs, &self.p.as_slice()[0..3]);
-        }
         if self.solve_due() {
             self.solve_now_with(w);
         }
@@ -610,10 +575,6 @@ impl JointEstimator {
             }
         }
         self.solved_tick = last;
-        if let Ok(path) = std::env::var("TJ_PDUMP") {
-            let txt: std::string::String = self.p.iter().map(|x| std::format!("{:e}\n", x)).collect();
-            let _ = std::fs::write(path, txt);
-        }
         self.message(last)
     }
 }

@@ -22,9 +22,7 @@ impl JointEstimator {
             self.t_u = linv.transpose() * u;
             self.hn = hn;
             self.linv0 = linv;
-            let levers = self.turn_levers(&self.p, &bc);
-            self.turn_zu2 = core::array::from_fn(|a| u.dot(&(linv * levers[a])).powi(2));
-            let z = Self::turn_plane(&linv, &u, &levers);
+            let z = Self::turn_plane(&linv, &u, &self.turn_levers(&self.p, &bc));
             if let Some(e) = Self::plane_basis(&z) {
                 for (k, ek) in e.iter().enumerate() {
                     self.turn_w.set_row(k, &(linv.transpose() * ek).transpose());
@@ -85,9 +83,6 @@ impl JointEstimator {
             2 => self.cross_check(s, &mut ok, &mut axis_ok),
             _ => [false; 3],
         };
-        let hit = |k: &str| std::env::var(k).map(|v| v.split(',').any(|t| t.parse::<u64>().ok() == Some(tick))).unwrap_or(false);
-        if hit("TJ_DROPIS2") { ok[1] = false; axis_ok[1] = [false; 3]; }
-        if hit("TJ_DROPIS1") { ok[0] = false; axis_ok[0] = [false; 3]; }
         let data = [is_data(&s.is[0]), is_data(&s.is[1])];
         let all_valid = (0..n).all(|i| ok[i]);
         if self.started != START_FULL {
@@ -116,7 +111,7 @@ impl JointEstimator {
         let mut dv = self.angular_inputs(&data, &axis_ok);
         if n == 2 {
             for a in 0..3 {
-                if self.bridge_run[a] > 0 && (axis_ok[0][a] || axis_ok[1][a]) && std::env::var("TJ_NOINTERP").is_err() {
+                if self.bridge_run[a] > 0 && (axis_ok[0][a] || axis_ok[1][a]) {
                     self.interpolate_bridge(a, &dv);
                 }
             }
@@ -157,40 +152,13 @@ impl JointEstimator {
             self.note_borrowed(&axis_ok, &data);
         }
         self.propagate_model(&psi_mid);
-        if self.n_ticks % 10 == 0 {
-            if let Ok(path) = std::env::var("TJ_TRACE") {
-                use std::io::Write;
-                let mut f = std::fs::OpenOptions::new().create(true).append(true).open(std::format!("{}.{:p}", path, self as *const Self)).unwrap();
-                let _ = std::writeln!(f, "{:p} {} {} {} {} {} {} {} {} {} {} {} {} {}", self as *const Self, tick, self.phi[0][0], self.phi[0][1], self.phi[0][2], self.drift_x[0][1], self.drift_x[1][1], self.drift_x[2][1], self.drift_x[0][0], self.drift_x[1][0], self.drift_x[2][0], self.drift_x[0][3], self.drift_x[1][3], self.drift_x[2][3]);
-            }
-        }
         let n_ang: [usize; 3] = core::array::from_fn(|a| (0..n).filter(|&i| axis_ok[i][a]).count());
         // Only clean samples teach the spread of ω̇'s change.
         for a in 0..3 {
-            if n_ang[a] == n && (n == 1 || pair[a]) && !hit("TJ_FORGET") {
+            if n_ang[a] == n && (n == 1 || pair[a]) {
                 self.learn_jerk(a, &dv, &saved.2);
             } else {
                 self.forget_jerk(a);
-            }
-        }
-        if std::env::var("TJ_SKIPLIN").map(|v| v.split(',').any(|t| t.parse::<u64>().ok() == Some(tick))).unwrap_or(false) {
-            lin_sig = None;
-        }
-        if std::env::var("TJ_DROPLIN").is_ok() && (tick.wrapping_mul(2654435761) >> 7) % 50 == 0 {
-            lin_sig = None;
-        }
-        if let (Some((sig, var)), Ok(pf)) = (&lin_sig, std::env::var("TJ_PFILE")) {
-            let txt = std::fs::read_to_string(&pf).unwrap();
-            let v: std::vec::Vec<f64> = txt.lines().map(|l| l.parse().unwrap()).collect();
-            let p = Par::from_fn(|i, _| v[i]);
-            if let Some(rows) = self.turn_rows(&p) {
-                let lin = self.coeffs(&p).lin;
-                let r6 = lin * sig;
-                let r = rows * r6;
-                let u = self.t_u.dot(&r6);
-                use std::io::Write;
-                let mut f = std::fs::OpenOptions::new().create(true).append(true).open(std::format!("{}.{:p}", std::env::var("TJ_RES").unwrap(), self as *const Self)).unwrap();
-                let _ = std::writeln!(f, "{} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e}", tick, r[0], r[1], u, var[6], var[7], var[5], phi_mid[0][0], phi_mid[0][1], phi_mid[0][2], psi_mid[0][0], psi_mid[0][1], psi_mid[0][2], self.turn_z2[0][0], self.turn_z2[0][1], self.turn_z2[0][2]);
             }
         }
         if let Some((sig, var)) = lin_sig {
@@ -203,7 +171,7 @@ impl JointEstimator {
             self.n_rejected += 1;
             self.whitening_time_update();
         }
-        if !hit("TJ_NOPAIR") { self.add_angular_pairs(&pair, &dv); }
+        self.add_angular_pairs(&pair, &dv);
         self.end_bridges(&n_ang, &dv);
         self.star_time_update(&dv, &n_ang);
         let kappa = self.kappa();
@@ -422,12 +390,12 @@ impl JointEstimator {
             for b in 0..3 {
                 let (mb, bb) = (&self.rate_moments[b], c.beta_prior[0][b]);
                 let prod = match a + b {
-                    _ if a == b => ma[3],
+                    _ if a == b => ma[1],
                     1 => self.rate_cross[0],
                     2 => self.rate_cross[1],
                     _ => self.rate_cross[2],
                 };
-                cov[(a, b)] = ba * bb * (prod / n - (ma[2] / n) * (mb[2] / n));
+                cov[(a, b)] = ba * bb * (prod / n - (ma[0] / n) * (mb[0] / n));
             }
         }
         rocking(&cov, c.sigma_angular.powi(2)) > 1.0

@@ -21,7 +21,7 @@ impl JointEstimator {
             if n_valid[a] == 0 {
                 // Bridged (the line drawn once data return): off by ω̇'s departure
                 // from that line.
-                if std::env::var("TJ_NOSTARQ").is_err() { q += self.jerk_var[a]; }
+                q += self.jerk_var[a];
             } else {
                 // Borrowed voltages carry the other IS's noise in full.
                 q *= self.n_is() as f64 / n_valid[a] as f64;

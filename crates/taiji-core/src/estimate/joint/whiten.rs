@@ -117,8 +117,20 @@ impl JointEstimator {
     pub(super) fn row_white_vars(&self, s: &Sig) -> [f64; 8] {
         let d = self.drive(s);
         core::array::from_fn(|k| match k {
-            0..=5 => Self::white_var_of_row(self.cfg.sigma_ripple, &self.gate_w, k, &self.gate_lever[k.min(5)], &d),
-            _ => Self::white_var_of_row(self.cfg.sigma_ripple, &self.turn_w, k - 6, &self.turn_lever[(k - 6).min(1)], &d),
+            0..=5 => Self::white_var_of_row(
+                self.cfg.sigma_ripple,
+                &self.gate_w,
+                k,
+                &self.gate_lever[k.min(5)],
+                &d,
+            ),
+            _ => Self::white_var_of_row(
+                self.cfg.sigma_ripple,
+                &self.turn_w,
+                k - 6,
+                &self.turn_lever[(k - 6).min(1)],
+                &d,
+            ),
         })
     }
 
@@ -218,7 +230,12 @@ impl JointEstimator {
     #[target_feature(enable = "avx2")]
     /// # Safety
     /// The CPU must support AVX2 (`simd::has_avx2`).
-    pub(super) unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2], var: &[f64; 8]) {
+    pub(super) unsafe fn update_linear_avx2(
+        &mut self,
+        s: &Sig,
+        dv: &[[f64; 3]; 2],
+        var: &[f64; 8],
+    ) {
         self.update_linear_portable(s, dv, var);
     }
 
@@ -252,17 +269,7 @@ impl JointEstimator {
         for pgi in &pg[..nb] {
             ptot += *pgi;
         }
-        // The attitude error's states (`ux`): P Hᵀ's part on them (`gu`) and on the
-        // poles (`pgh`), H = [hn … hn, 1, 0].
-        let (mut cu0, mut cu1) = (-0.0, -0.0);
-        for c in &self.uc[..nb] {
-            cu0 += c[0];
-            cu1 += c[1];
-        }
-        let gu = [hn * cu0 + self.up[0][0], hn * cu1 + self.up[1][0]];
-        let pgh: [f64; MAX_POLES] =
-            core::array::from_fn(|i| if i < nb { hn * pg[i] + self.uc[i][0] } else { 0.0 });
-        let sv = hn * hn * ptot + 2.0 * hn * cu0 + self.up[0][0] + cm_var;
+        let sv = hn * hn * ptot + cm_var;
         let inv_sqrt = 1.0 / sv.sqrt();
         let mut sf = Sig::zeros();
         // Slices of the `nb` poles in use: the loops below vectorise (element by
@@ -277,24 +284,21 @@ impl JointEstimator {
                 *sm += x[k];
             }
         }
-        let pgh = &pgh[..nb];
-        for (((m, x), sum), xu) in self.wx.iter_mut().enumerate().zip(sums).zip(self.ux.iter_mut()) {
+        for ((m, x), sum) in self.wx.iter_mut().enumerate().zip(sums) {
             let x = &mut x[..nb];
-            let pred = sum * hn + xu[0];
+            let pred = sum * hn;
             let innov = s[m] - pred;
             sf[m] = innov * inv_sqrt;
-            let g = innov / sv;
-            for ((xk, ak), pk) in x.iter_mut().zip(a).zip(pgh) {
+            let g = hn * innov / sv;
+            for ((xk, ak), pk) in x.iter_mut().zip(a).zip(pg) {
                 *xk = ak * (*xk + pk * g);
             }
-            xu[0] += gu[0] * g;
-            xu[1] += gu[1] * g;
         }
         rank1_packed(&mut self.m_filt, &sf, 1.0);
-        let c = 1.0 / sv;
-        // Column by column (wp is column-major); row i of column j:
-        // (wp_ij − c pgh_i pgh_j) a_i a_j.
-        let cpg: [f64; MAX_POLES] = core::array::from_fn(|i| c * pgh.get(i).unwrap_or(&0.0));
+        let c = hn * hn / sv;
+        // Column by column (wp is column-major); row i of column j as before:
+        // (wp_ij − c pg_i pg_j) a_i a_j.
+        let cpg: [f64; MAX_POLES] = core::array::from_fn(|i| c * pg.get(i).unwrap_or(&0.0));
         for (j, col) in self
             .wp
             .as_mut_slice()
@@ -302,23 +306,13 @@ impl JointEstimator {
             .take(nb)
             .enumerate()
         {
-            let (pj, aj) = (pgh[j], a[j]);
+            let (pj, aj) = (pg[j], a[j]);
             for ((w, ci), ai) in col[..nb].iter_mut().zip(&cpg).zip(a) {
                 *w = (*w - ci * pj) * ai * aj;
             }
         }
         for i in 0..nb {
             self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
-        }
-        for ((uc, ci), ai) in self.uc[..nb].iter_mut().zip(&cpg).zip(a) {
-            for (u, g) in uc.iter_mut().zip(&gu) {
-                *u = (*u - ci * g) * ai;
-            }
-        }
-        for (r, row) in self.up.iter_mut().enumerate() {
-            for (u, g) in row.iter_mut().zip(&gu) {
-                *u -= c * gu[r] * g;
-            }
         }
     }
 
@@ -403,14 +397,12 @@ impl JointEstimator {
     /// left out: one row holds the sun-plane axes' levers, the other the third's).
     pub(super) fn turn_time_update(&mut self) {
         let dt = 1.0 / self.cfg.fs;
-        let mult: f64 = std::env::var("TJ_QMULT").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
         for k in 0..2 {
             let z2 = &self.turn_z2[k];
             let mut q = [0.0; 3];
             for (a, pq) in self.turn_pq.iter().enumerate() {
                 for (qi, pi) in q.iter_mut().zip(pq) {
-                    let keep = match std::env::var("TJ_QROW") { Ok(v) => v == std::format!("{}", k), Err(_) => true };
-                    *qi += z2[a] * pi * mult * if keep { 1.0 } else { 0.0 };
+                    *qi += z2[a] * pi;
                 }
             }
             let p = &mut self.tp[k];
@@ -422,26 +414,6 @@ impl JointEstimator {
             for mut col in self.tx[k].column_iter_mut() {
                 col[0] += dt * col[1];
             }
-        }
-        // The common-mode channel's share, in the SRP's filter: F = [[1, dt], [0, 1]]
-        // on the (angle, rate) states, their covariance and the poles' with them.
-        let mut q = [0.0; 3];
-        for (z2, pq) in self.turn_zu2.iter().zip(&self.turn_pq) {
-            for (qi, pi) in q.iter_mut().zip(pq) {
-                *qi += z2 * pi;
-            }
-        }
-        if std::env::var("TJ_NOU").is_ok() { q = [0.0; 3]; }
-        let p = &self.up;
-        let p00 = p[0][0] + dt * (p[0][1] + p[1][0]) + dt * dt * p[1][1] + q[0];
-        let p01 = p[0][1] + dt * p[1][1] + q[1];
-        let p11 = p[1][1] + q[2];
-        self.up = [[p00, p01], [p01, p11]];
-        for x in self.ux.iter_mut() {
-            x[0] += dt * x[1];
-        }
-        for c in self.uc.iter_mut().take(self.bank.poles()) {
-            c[0] += dt * c[1];
         }
         self.turn_pq = [[0.0; 3]; 3];
     }
@@ -457,7 +429,11 @@ impl JointEstimator {
             let inv_sqrt = 1.0 / sv.sqrt();
             let (g0, g1) = (p[0][0] / sv, p[1][0] / sv);
             let mut sf = Sig::zeros();
-            for ((f, mut x), sm) in sf.iter_mut().zip(self.tx[k].column_iter_mut()).zip(s.iter()) {
+            for ((f, mut x), sm) in sf
+                .iter_mut()
+                .zip(self.tx[k].column_iter_mut())
+                .zip(s.iter())
+            {
                 let innov = sm - x[0];
                 *f = innov * inv_sqrt;
                 x[0] += g0 * innov;
@@ -468,18 +444,6 @@ impl JointEstimator {
                 [p[0][1] - g0 * p[0][1], p[1][1] - g1 * p[0][1]],
             ];
             rank1_packed(&mut self.m_turn[k], &sf, 1.0);
-            if let Ok(pf) = std::env::var("TJ_PFILE") {
-                let txt = std::fs::read_to_string(&pf).unwrap();
-                let v: std::vec::Vec<f64> = txt.lines().map(|l| l.parse().unwrap()).collect();
-                let pp = Par::from_fn(|i, _| v[i]);
-                if let Some(rows) = self.turn_rows(&pp) {
-                    let lin = self.coeffs(&pp).lin;
-                    let e = (rows.row(k) * (lin * sf))[0];
-                    use std::io::Write;
-                    let mut f = std::fs::OpenOptions::new().create(true).append(true).open(std::format!("{}.f{}.{:p}", std::env::var("TJ_RES").unwrap(), k, self as *const Self)).unwrap();
-                    let _ = std::writeln!(f, "{:e} {:e} {:e}", e, self.tp[k][0][0], white[k]);
-                }
-            }
         }
     }
 
@@ -493,7 +457,7 @@ impl JointEstimator {
     ) -> SMatrix<f64, 3, 6> {
         let mut basis = [SVector::<f64, 6>::zeros(); 6];
         let mut n = 0;
-        let mut add = |v: SVector<f64, 6>, basis: &mut [SVector<f64, 6>; 6], n: &mut usize| {
+        let add = |v: SVector<f64, 6>, basis: &mut [SVector<f64, 6>; 6], n: &mut usize| {
             let mut w = v;
             for b in basis.iter().take(*n) {
                 w -= b * b.dot(&w);
@@ -532,10 +496,6 @@ impl JointEstimator {
                 self.wp[(i, j)] *= self.bank.a[i] * self.bank.a[j];
             }
             self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
-        }
-        for (uc, ai) in self.uc[..nb].iter_mut().zip(&self.bank.a) {
-            uc[0] *= ai;
-            uc[1] *= ai;
         }
     }
 }
