@@ -4,6 +4,7 @@
 //! time ([`Writer`]) and replay reads them a chunk at a time ([`read::Recording`]), so
 //! memory does not grow with the campaign.
 
+mod cloexec;
 mod columns;
 pub mod layout;
 pub mod read;

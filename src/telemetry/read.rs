@@ -290,6 +290,7 @@ fn load(path: &Path) -> Result<Reader, TelemetryError> {
             Err(_) => return Err(not_hdf5(path, first)),
         },
     };
+    super::cloexec::keep_from_children(&file);
     Ok(Reader {
         file,
         origin: path.to_path_buf(),

@@ -239,6 +239,7 @@ impl Writer {
             .with_fapl(|p| p.libver_v110())
             .create(path)
             .map_err(err)?;
+        super::cloexec::keep_from_children(&file);
         root_attrs(&file, meta).map_err(err)?;
         let all: Vec<&Column> = samples.iter().chain(estimates.iter()).collect();
         groups(&file, &all).map_err(err)?;
@@ -399,6 +400,7 @@ fn write_faults(path: &Path, f: &[FaultRecord], detected: &[u64]) -> hdf5::Resul
     let file = hdf5::File::with_options()
         .with_fapl(|p| p.libver_v110())
         .open_rw(path)?;
+    super::cloexec::keep_from_children(&file);
     file.create_group("faults")?;
     let u = |g: &dyn Fn(&FaultRecord) -> u64| -> Vec<u64> { f.iter().map(g).collect() };
     let x = |g: &dyn Fn(&FaultRecord) -> f64| -> Vec<f64> { f.iter().map(g).collect() };
