@@ -121,13 +121,13 @@ pub struct JointEstimator {
     /// (`turn_rows`): IS1's readout noise and ripple integrated twice, with what bridged
     /// ticks add, an integrated random walk per axis (`turn_pq`) beside the rows' white
     /// noise. An innovations filter per row runs on every signal as the SRP's does
-    /// (`m_turn` the filtered Grams, `tx` each signal's state (angle, rate) per column,
+    /// (`m_turn` the filtered Grams, `tx` each signal's state (angles, rates: its columns),
     /// `tp` the state covariance [whitened units², per s, per s²]). The rows as the
     /// first sample set them (`turn_w`, channel space), their levers on ω̇'s noise
     /// (`turn_lever`, for their white variance at each sample's drive) and on the
     /// attitude error per axis, squared (`turn_z2` [whitened units per rad]²).
     m_turn: [Packed; 2],
-    tx: [SMatrix<f64, 2, NS>; 2],
+    tx: [SMatrix<f64, NS, 2>; 2],
     tp: [[[f64; 2]; 2]; 2],
     turn_w: SMatrix<f64, 2, 6>,
     turn_lever: [[f64; 3]; 2],

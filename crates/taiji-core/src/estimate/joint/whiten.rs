@@ -395,6 +395,7 @@ impl JointEstimator {
     /// axis times the row's lever squared (`turn_z2`): a sum of independent integrated
     /// random walks is one, of the summed intensity (the two rows' cross terms are
     /// left out: one row holds the sun-plane axes' levers, the other the third's).
+    #[inline(always)]
     pub(super) fn turn_time_update(&mut self) {
         let dt = 1.0 / self.cfg.fs;
         for k in 0..2 {
@@ -411,8 +412,11 @@ impl JointEstimator {
             let p01 = p[0][1] + dt * p[1][1] + q[1];
             let p11 = p[1][1] + q[2];
             *p = [[p00, p01], [p01, p11]];
-            for mut col in self.tx[k].column_iter_mut() {
-                col[0] += dt * col[1];
+            // Column 0 the signals' angles, column 1 their rates: contiguous, so the
+            // loop vectorises (each element the same operations as one at a time).
+            let (angle, rate) = self.tx[k].as_mut_slice().split_at_mut(NS);
+            for (x0, x1) in angle.iter_mut().zip(rate.iter()) {
+                *x0 += dt * x1;
             }
         }
         self.turn_pq = [[0.0; 3]; 3];
@@ -420,7 +424,9 @@ impl JointEstimator {
 
     /// The turn filters take one sample: their time step, then every signal's
     /// innovation, whitened, into `m_turn`. `white`: each row's white variance at this
-    /// sample's drive (`row_white_vars`).
+    /// sample's drive (`row_white_vars`). Inlined into `update_linear`, so that the
+    /// AVX2 path vectorises its rank-one updates too (the same bits).
+    #[inline(always)]
     fn update_turn(&mut self, s: &Sig, white: &[f64; 2]) {
         self.turn_time_update();
         for k in 0..2 {
@@ -429,15 +435,17 @@ impl JointEstimator {
             let inv_sqrt = 1.0 / sv.sqrt();
             let (g0, g1) = (p[0][0] / sv, p[1][0] / sv);
             let mut sf = Sig::zeros();
-            for ((f, mut x), sm) in sf
+            let (angle, rate) = self.tx[k].as_mut_slice().split_at_mut(NS);
+            for (((f, x0), x1), sm) in sf
                 .iter_mut()
-                .zip(self.tx[k].column_iter_mut())
+                .zip(angle.iter_mut())
+                .zip(rate.iter_mut())
                 .zip(s.iter())
             {
-                let innov = sm - x[0];
+                let innov = sm - *x0;
                 *f = innov * inv_sqrt;
-                x[0] += g0 * innov;
-                x[1] += g1 * innov;
+                *x0 += g0 * innov;
+                *x1 += g1 * innov;
             }
             self.tp[k] = [
                 [p[0][0] - g0 * p[0][0], p[0][1] - g0 * p[0][1]],
