@@ -1,6 +1,6 @@
 //! Attitude: the double integrals of the angular voltages, the attitude propagated
-//! with the running β̂, the bridging of ticks without angular data, and the drift
-//! filter that tracks what bridging costs against the star tracker.
+//! with the running β̂, the bridging of ticks without angular data, and what that
+//! attitude's error adds to the turn filters' noise (`turn_pq`).
 
 use super::*;
 
@@ -17,7 +17,7 @@ impl JointEstimator {
         self.n_bridged += 1;
         for a in 0..3 {
             self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
-            self.drift_bridged(a);
+            self.turn_bridged(a);
             self.forget_jerk(a);
         }
         let (psi_mid, _) = self.integrate(&dv);
@@ -47,7 +47,7 @@ impl JointEstimator {
         (psi_mid, phi_mid)
     }
 
-    /// Advance the running-β̂ attitude by one sample (and the drift filter's time).
+    /// Advance the running-β̂ attitude by one sample (and the turn filters' noise).
     pub(super) fn propagate_model(&mut self, psi_mid: &[[f64; 3]; 2]) {
         let dt = 1.0 / self.cfg.fs;
         let w_model = Vector3::from_fn(|a, _| self.p[P_BETA + a] * psi_mid[0][a]);
@@ -60,19 +60,10 @@ impl JointEstimator {
         // IS1's ω̇ noise (readout and drive ripple) integrates twice into the propagated
         // attitude: a random walk of angle and rate that grows as t^1.5 (2×10⁻⁷ rad at
         // 10⁵ s) and, turning the 3×10⁻⁸ m/s² SRP, would pose as a CoM offset in long
-        // campaigns. The filter follows it on the star tracker.
+        // campaigns: the turn filters' noise (`turn_pq`).
         for a in 0..3 {
             let wd = c.beta_prior[0][a] * self.dv_last[0][a];
             let q = c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2);
-            let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
-            x[1] += dt * x[2];
-            // P ← F P Fᵀ with F = I + dt e1 e2ᵀ (drift += dt × drift rate), plus the noise.
-            for r in 0..4 {
-                p[r][1] += dt * p[r][2];
-            }
-            for c in 0..4 {
-                p[1][c] += dt * p[2][c];
-            }
             // The thrusters' torque noise moves ω̇ within each tick, and the IS reports
             // its mean: the angle at the tick's end is off by ∫(dt − s)(ω̇ − ω̄) ds, a
             // random walk of variance S dt³/12 a tick (S = var_tick dt its spectral
@@ -87,16 +78,14 @@ impl JointEstimator {
                 self.turn_pq[a][0] += q * g0 * g0;
                 self.turn_pq[a][1] += q * g0 * g1;
                 self.turn_pq[a][2] += q * g1 * g1;
-                p[1][1] += q * g0 * g0;
-                p[1][2] += q * g0 * g1;
-                p[2][1] += q * g0 * g1;
-                p[2][2] += q * g1 * g1;
             }
         }
     }
 
     /// W of the linear model at the middle of this sample's interval (before the
-    /// attitude takes its step): R̂ᵀ − I + [Φ̂]×, R̂ including the bridged drift.
+    /// attitude takes its step): R̂ᵀ − I + [Φ̂]×, R̂ IS1's integrals alone (their error
+    /// is the turn filters' noise; pulled onto the star tracker it would carry the star
+    /// tracker's noise, which the star group counts already).
     pub(super) fn srp_turn(&self, psi_mid: &[[f64; 3]; 2]) -> Matrix3<f64> {
         let h = 0.5 / self.cfg.fs;
         let w_model = Vector3::from_fn(|a, _| self.p[P_BETA + a] * psi_mid[0][a]);
@@ -169,8 +158,7 @@ impl JointEstimator {
     /// behind a changing ω̇ (a thruster's overshoot after an edge); the line leaves
     /// only its curvature and the torque noise's own scatter. The integrals move by
     /// dt Σ δ_k (rate) and dt² Σ δ_k (n − k + ½) (angle), δ_k = k Δ/(n + 1): Δ dt n/2
-    /// and Δ dt² n(2n + 1)/12. The propagated attitude and the drift filter (which had
-    /// followed the held values' error on the star tracker) move with them. (Measured,
+    /// and Δ dt² n(2n + 1)/12. The propagated attitude moves with them. (Measured,
     /// 5 % IS dropouts, 30 seeds: the common β error 2.3 → 1.9×10⁻⁵.) With one IS
     /// configured the linear test may still undo this sample's angular data, so the
     /// line is drawn only with two.
@@ -194,9 +182,6 @@ impl JointEstimator {
         let turn = self.p[P_BETA + a] * d_phi[0];
         self.phi_hat[a] += turn;
         self.q_model *= UnitQuaternion::from_scaled_axis(Vector3::ith(a, turn));
-        let x = &mut self.drift_x[a];
-        x[1] -= self.cfg.beta_prior[0][a] * d_phi[0];
-        x[2] -= self.cfg.beta_prior[0][a] * d_psi[0];
     }
 
     /// Angular data on axis `a` are back after `bridge_run` ticks bridged with the previous ω̇: if
@@ -224,11 +209,6 @@ impl JointEstimator {
                 self.turn_pq[a][0] += v * h * h;
                 self.turn_pq[a][1] += v * h;
                 self.turn_pq[a][2] += v;
-                let p = &mut self.drift_p[a];
-                p[1][1] += v * h * h;
-                p[1][2] += v * h;
-                p[2][1] += v * h;
-                p[2][2] += v;
             }
         }
         for l in 0..2 {
@@ -237,33 +217,11 @@ impl JointEstimator {
     }
 
     /// A tick without angular data on axis `a`: the propagated rate is off by dt times
-    /// ω̇'s departure from the line later drawn across the gap, which the drift filter
-    /// must allow.
-    pub(super) fn drift_bridged(&mut self, a: usize) {
+    /// ω̇'s departure from the line later drawn across the gap, a step of the attitude
+    /// that turns the SRP.
+    pub(super) fn turn_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
         self.turn_pq[a][2] += dt * dt * self.jerk_var[a];
-    }
-
-    /// Star-tracker residual e = θ − κ − β1,prior Φ1 [rad] = θ0 + drift +
-    /// (β1 − β1,prior) Φ1 + noise: update the drift filter.
-    pub(super) fn drift_update(&mut self, a: usize, e: f64) {
-        let r = self.cfg.sigma_star_rad.powi(2);
-        let h = [1.0, 1.0, 0.0, self.phi[0][a]];
-        let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
-        let ph: [f64; 4] = core::array::from_fn(|i| (0..4).map(|j| p[i][j] * h[j]).sum());
-        let sv = (0..4).map(|i| h[i] * ph[i]).sum::<f64>() + r;
-        let innov = e - (0..4).map(|i| h[i] * x[i]).sum::<f64>();
-        if !(sv > 0.0 && sv.is_finite() && innov.is_finite()) {
-            return;
-        }
-        let k: [f64; 4] = core::array::from_fn(|i| ph[i] / sv);
-        for i in 0..4 {
-            x[i] += k[i] * innov;
-            for j in 0..4 {
-                p[i][j] -= k[i] * ph[j];
-            }
-        }
     }
 
     /// Add this linear sample to the excitation's moments (`rate_moments`,

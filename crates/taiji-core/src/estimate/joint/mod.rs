@@ -176,13 +176,6 @@ pub struct JointEstimator {
     /// Ticks on which some axis had no angular data at all.
     n_bridged: u64,
     dv_anchor: [[f64; 3]; 2],
-    /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
-    /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
-    /// [rad], drift rate [rad/s], β1 − β1,prior [rad s⁻² V⁻¹]) and its covariance.
-    /// The drift also follows IS1's double-integrated ω̇ noise, which grows without
-    /// bound in long campaigns; the β state keeps the scale error out of it.
-    drift_x: [[f64; 4]; 3],
-    drift_p: [[[f64; 4]; 4]; 3],
     /// Per axis, IS1's angular voltage over every `MOMENT_EVERY`th sample the linear
     /// statistics took: Σv, Σv² [V, V²] (`motion_on_every_axis`).
     rate_moments: [[f64; 2]; 3],
@@ -216,9 +209,10 @@ const START_FULL: u64 = 1;
 /// first tick would otherwise delay the integrals' start to a tick where the
 /// spacecraft already turns: that initial rate θ̇₀ is a ramp in the propagated
 /// attitude, harmless while the turn lacks it (the linear channels' α′ t takes it),
-/// but the drift filter learns it after its first bridged tick, and from there the
-/// SRP's turn carries θ̇₀ (t − t_k), a kink no line takes (r_z up to 46σ off in 1 to
-/// 2 % of runs with 1 % IS dropouts, every one of them with an IS missing at tick 0).
+/// but the star tracker's drift filter (as it was) learned it after its first bridged
+/// tick, and from there the SRP's turn carried θ̇₀ (t − t_k), a kink no line takes (r_z
+/// up to 46σ off in 1 to 2 % of runs with 1 % IS dropouts, every one of them with an
+/// IS missing at tick 0).
 const START_ANGULAR: u64 = 2;
 
 /// The SRP's level is not fixed yet: the samples turn the fitted DC (`S_PHI0`).
@@ -263,8 +257,6 @@ pub const PRIOR_COM_M: f64 = 0.05;
 /// Star-tracker reference offset θ0 [rad] (0.6°) and its rate θ̇0 [rad/s].
 const PRIOR_THETA0_RAD: f64 = 1e-2;
 const PRIOR_THETA_RATE_RAD_S: f64 = 1e-4;
-/// The drift filter's initial variance of θ0 [rad²]: the same prior, squared.
-const PRIOR_THETA0_VAR_RAD2: f64 = 1e-4;
 /// Linear-channel bias b' [V] and drift α' [V/s]: beyond any drive-voltage offset.
 const PRIOR_BIAS_V: f64 = 1.0;
 const PRIOR_DRIFT_V_S: f64 = 1e-3;
@@ -386,10 +378,6 @@ impl JointEstimator {
         dst.status = ST_NO_SOLUTION;
         dst.group_weight = [1.0; N_GROUPS];
         dst.inflation = 1.0;
-        for (a, d) in dst.drift_p.iter_mut().enumerate() {
-            d[0][0] = PRIOR_THETA0_VAR_RAD2;
-            d[3][3] = (PRIOR_BETA_REL * cfg.beta_prior[0][a]).powi(2);
-        }
     }
 
     /// Could this state have come from `new` and `update`s? Its table passes its
@@ -666,7 +654,6 @@ mod tests {
         assert_eq!(a.p[P_BETA], cfg.beta_prior[0][0]);
         assert_eq!(a.p_prior, a.p);
         assert_eq!(a.status, ST_NO_SOLUTION);
-        assert_eq!(a.drift_p[2][0][0], PRIOR_THETA0_VAR_RAD2);
         assert_eq!(a.wp[(0, 0)], a.bank.var[0]);
     }
 
@@ -683,8 +670,7 @@ mod tests {
 
     /// An IS missing at the first tick does not delay the attitude integrals: the
     /// spacecraft turns from that tick on, and a later start would leave its rate out
-    /// of them (θ̇₀, a ramp the drift filter learns after its first bridged tick, and
-    /// the SRP's turn then carries from there). The linear references wait for a
+    /// of them (θ̇₀, a ramp in the attitude that turns the SRP). The linear references wait for a
     /// sample with both IS; with neither, nothing starts.
     #[test]
     fn an_is_missing_at_the_first_tick_does_not_delay_the_attitude_integrals() {

@@ -209,12 +209,11 @@ impl JointEstimator {
                 axis_ok[0][a] = t[0];
                 axis_ok[1][a] = t[1];
                 // Should the kept IS be the corrupted one, the propagated rate is off
-                // by dt times the mismatch from here on: the drift filter must allow
-                // that step of its rate, or it would smear the ramp over the maneuver.
+                // by dt times the mismatch from here on: the turn filters must allow
+                // that step of its rate, or they would smear the ramp over the maneuver.
                 let c = &self.cfg;
                 let step = (c.beta_prior[0][a] * d0[a] - c.beta_prior[1][a] * d1[a]) / c.fs;
                 if step.is_finite() {
-                    self.drift_p[a][2][2] += step * step;
                     self.turn_pq[a][2] += step * step;
                 }
             }
@@ -261,7 +260,7 @@ impl JointEstimator {
         for a in 0..3 {
             if n_ang[a] == 0 {
                 self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
-                self.drift_bridged(a);
+                self.turn_bridged(a);
             } else {
                 self.close_bridge(a, dv);
             }

@@ -91,12 +91,6 @@ impl JointEstimator {
             return;
         }
         self.n_star += 1;
-        for a in 0..3 {
-            // Against the prior β, not the running β̂: the filter then depends on the
-            // data alone, not on when the solves ran (its β state takes the difference).
-            let e = theta[a] - kappa[a] - self.cfg.beta_prior[0][a] * self.phi[0][a];
-            self.drift_update(a, e);
-        }
         let r = self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v =
