@@ -939,22 +939,4 @@ mod tests {
         }
         assert_ne!(after.column(S_PHI), before.column(S_PHI));
     }
-
-    /// The excitation's angular frequency from the spreads of ω̇ and ω: a sinusoid's.
-    #[test]
-    fn the_excitation_rate_of_a_sinusoid_is_its_angular_frequency() {
-        let mut e = JointEstimator::new(test_config());
-        let w = core::f64::consts::TAU * 6e-4;
-        let n = 100_000u64;
-        for k in 1..=n {
-            let t = k as f64 / e.cfg.fs;
-            e.n_used = k;
-            e.psi[0][1] = 3.0 + (w * t).sin() / w;
-            let mut dv = [[0.0; 3]; 2];
-            dv[0][1] = (w * t).cos();
-            e.note_excitation(&dv);
-        }
-        let ratio = e.excitation_rate() / w;
-        assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
-    }
 }
