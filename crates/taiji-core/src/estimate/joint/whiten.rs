@@ -366,7 +366,9 @@ impl JointEstimator {
                 e2 = w;
             }
         }
-        if !(n2 > 1e-9 * z[first].norm()) || !e1.iter().all(|x| x.is_finite()) {
+        // A NaN fails this comparison too.
+        let across = n2 > 1e-9 * z[first].norm();
+        if !across || !e1.iter().all(|x| x.is_finite()) {
             return None;
         }
         Some([e1, e2 / n2])
