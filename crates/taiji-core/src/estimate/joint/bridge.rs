@@ -198,7 +198,7 @@ impl JointEstimator {
             for l in 0..self.n_is() {
                 jump += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - self.dv_anchor[l][a]);
             }
-            let v = (span * jump).powi(2) / 12.0;
+            let v = SHARED_STEP_GROUPS * (span * jump).powi(2) / 12.0;
             if v.is_finite() {
                 let h = 0.5 * span;
                 let p = &mut self.st_p[a];
@@ -221,7 +221,7 @@ impl JointEstimator {
     /// that turns the SRP.
     pub(super) fn turn_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        self.turn_pq[a][2] += dt * dt * self.jerk_var[a];
+        self.turn_pq[a][2] += SHARED_STEP_GROUPS * dt * dt * self.jerk_var[a];
     }
 
     /// Add this linear sample to the excitation's moments (`rate_moments`,
