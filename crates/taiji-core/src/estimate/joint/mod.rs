@@ -114,9 +114,6 @@ pub struct JointEstimator {
     hn: f64,
     /// Row mapping the 6 linear residuals onto that channel: u0ᵀ L0⁻¹.
     t_u: SVector<f64, 6>,
-    /// The first sample's whitening L0⁻¹ of the six linear residuals: the rows across
-    /// the SRP (`turn_rows`) are taken in its space at each solve.
-    linv0: SMatrix<f64, 6, 6>,
     /// The turned SRP's attitude error on the two whitened rows across the SRP
     /// (`turn_rows`): IS1's readout noise and ripple integrated twice, with what bridged
     /// ticks add, an integrated random walk per axis (`turn_pq`) beside the rows' white

@@ -21,7 +21,6 @@ impl JointEstimator {
         if let Some((linv, u, hn)) = Self::whitening(&r0, &h) {
             self.t_u = linv.transpose() * u;
             self.hn = hn;
-            self.linv0 = linv;
             let z = Self::turn_plane(&linv, &u, &self.turn_levers(&self.p, &bc));
             if let Some(e) = Self::plane_basis(&z) {
                 for (k, ek) in e.iter().enumerate() {

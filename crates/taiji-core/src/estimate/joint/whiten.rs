@@ -374,17 +374,27 @@ impl JointEstimator {
         Some([e1, e2 / n2])
     }
 
-    /// The two whitened rows across the SRP at `p` (2 × 6, in the first sample's
-    /// whitened space, as the turn filters'), the SRP's direction from the fitted DC
+    /// The two whitened rows across the SRP at `p` (2 × 6, whitened at the first
+    /// sample's drive, as the turn filters'), the SRP's direction from the fitted DC
     /// (as the white rows'): the first sample's holds the maneuver's A r (≈10⁻⁴ of it
     /// at the priors), and the SRP's fluctuation would leak into rows across it.
+    /// Whitened with the noise model at `p`, not the first sample's at the priors: the
+    /// levers are common to both IS through the k at `p`, and the thrusters' force
+    /// noise, common through the true k, is the larger part of the common modes' noise
+    /// (10⁻⁷ N/√Hz: 1.7×10⁴ times the readout's). At the priors' k (5×10⁻³ off) its
+    /// part across the priors' common modes, 10⁻³ of it, was whitened as readout: the
+    /// rows' χ²/dof reached 10⁴.
     pub(super) fn turn_rows(&self, p: &Par) -> Option<SMatrix<f64, 2, 6>> {
         let b = Vector3::from(self.srp_dc(p));
-        let hp = self.linv0 * self.srp_direction(p);
-        let u = hp / hp.norm();
-        let z = Self::turn_plane(&self.linv0, &u, &self.turn_levers(p, &b));
+        let mut msq = [0.0; 6];
+        for s in 0..3 * self.n_is() {
+            msq[s.min(5)] = self.sum_ref[(s / 3).min(1)][s % 3].powi(2);
+        }
+        let r = self.white_cov(p, &msq, &[[0.0; 3]; 2]);
+        let (linv, u, _) = Self::whitening(&r, &self.srp_direction(p))?;
+        let z = Self::turn_plane(&linv, &u, &self.turn_levers(p, &b));
         let e = Self::plane_basis(&z)?;
-        let l = self.linv0.transpose();
+        let l = linv.transpose();
         let mut rows = SMatrix::<f64, 2, 6>::zeros();
         for (k, ek) in e.iter().enumerate() {
             rows.set_row(k, &(l * ek).transpose());
