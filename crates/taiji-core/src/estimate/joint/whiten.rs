@@ -69,14 +69,18 @@ impl JointEstimator {
         }
         for s in 0..3 * n {
             for s2 in 0..3 * n {
-                let (i, j, i2, j2) = (s / 3, s % 3, s2 / 3, s2 % 3);
+                // Clamped indices and a plain loop from −0 (as `Iterator::sum`, the same
+                // bits): inlined into `turn_rows`, the iterator's closure kept an index
+                // check the C ABI could reach.
+                let (i, j, i2, j2) = ((s / 3).min(1), s % 3, (s2 / 3).min(1), s2 % 3);
                 let (k, k2) = (self.k_of(p, i, j), self.k_of(p, i2, j2));
-                let xi = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i + a]));
-                let xi2 = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i2 + a]));
-                let mut val = (0..3)
-                    .map(|a| xi[(j, a)] * xi2[(j2, a)] * v[a])
-                    .sum::<f64>()
-                    / (k * k2);
+                let xi = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i + a.min(2)]));
+                let xi2 = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i2 + a.min(2)]));
+                let mut acc = -0.0;
+                for a in 0..3 {
+                    acc += xi[(j.min(2), a)] * xi2[(j2.min(2), a)] * v[a];
+                }
+                let mut val = acc / (k * k2);
                 if j == j2 {
                     val += c.sigma_force.powi(2) / (k * k2);
                 }
