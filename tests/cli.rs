@@ -291,7 +291,8 @@ fn launch_help_is_immediate_and_lists_every_mode() {
 
 #[test]
 fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data() {
-    // 1 Hz typed for 1 mHz: its bound is 32× the requirement.
+    // 1 Hz typed for 1 mHz: its bound is 24× the requirement (32× while the SRP's turn
+    // was no β evidence).
     let dir = tmpdir::TmpDir::new("cli-typo");
     let f = dir.join("typo.toml");
     std::fs::write(&f, "name = \"typo\"\n[maneuver]\nfrequency_hz = 1.0\n").unwrap();
@@ -304,7 +305,7 @@ fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data(
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
-        text.contains("Warning: the written maneuver's bound is 32.1× the requirement")
+        text.contains("Warning: the written maneuver's bound is 23.8× the requirement")
             && text.contains("taiji-calib plan")
             && text.contains("Predicted from the bound: requirements met with probability 0.00 %"),
         "{text}"
@@ -312,7 +313,7 @@ fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data(
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("typo/report.json")).unwrap())
             .unwrap();
-    assert!(r["warnings"][0].as_str().unwrap().contains("32.1×"), "{r}");
+    assert!(r["warnings"][0].as_str().unwrap().contains("23.8×"), "{r}");
     assert!(
         r["predicted_probability_requirements_met"]
             .as_f64()

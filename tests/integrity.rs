@@ -507,6 +507,9 @@ fn other_sample_rates_and_dropouts_stay_honest_a_few_cells_of_the_matrix() {
             "sample_rate_hz = 5.0\n[star_tracker]\nrate_hz = 5.0\n\
              [faults]\nis_dropout_rate = 0.01\nstar_dropout_rate = 0.02\n",
         ),
+        // Every lost tick a rate step that both the star group and the turn rows see
+        // (`SHARED_STEP_GROUPS`): counted once in each, β's σ was 1.3–1.8× optimistic.
+        ("10 Hz, ticks missing", "[faults]\nmissing_rate = 0.0025\n"),
     ] {
         let s = Scenario::from_toml_str(&format!("name = \"cell\"\n{text}")).unwrap();
         let (s, _) = taiji::plan::resolve(s).unwrap();
@@ -519,12 +522,13 @@ fn other_sample_rates_and_dropouts_stay_honest_a_few_cells_of_the_matrix() {
         for p in &mc.params {
             assert!(p.crlb_ratio < 1.8, "{name}, {}\n{}", p.name, mc.table());
         }
-        // β and k always; r's σ is cautious with dropouts (the matrix's known gap).
-        let groups = if name.contains("dropouts") { 2 } else { 3 };
-        for g in 0..groups {
+        // Every group. Loosely below: the six β share one error, the common scale, so
+        // 6 seeds are ~6 values of it, not 36 (5 Hz with dropouts, seeds 1–6: 0.32,
+        // where seeds 1–200 of the clean 5 Hz cell read 0.77–0.86).
+        for g in 0..3 {
             let v = mc.chi2_by_group[g];
             assert!(
-                (0.4..2.0).contains(&v),
+                (0.25..2.0).contains(&v),
                 "{name}, group {g}: {v}\n{}",
                 mc.table()
             );

@@ -19,7 +19,9 @@ pub const HEADER: usize = 32;
 /// changes meaning (the host's file checkpoint, `TJCKPT` and two digits, with it).
 /// 2: the angular group's Gram on ΔV1 − ρ0 ΔV2 and ΔV2; older builds wrote 0 here
 /// (the Gram on ΔV1 and ΔV2), so their checkpoints are refused rather than misread.
-pub const STATE_VERSION: u32 = 2;
+/// 3: the SRP's turn modelled (the turn rows' filters, IS1's attitude without the
+/// drift filter in the turn).
+pub const STATE_VERSION: u32 = 3;
 
 /// The checkpoint's version word.
 const VERSION: u64 = LAYOUT_VERSION as u64 | (STATE_VERSION as u64) << 32;

@@ -1,6 +1,6 @@
 //! Attitude: the double integrals of the angular voltages, the attitude propagated
-//! with the running β̂, the bridging of ticks without angular data, and the drift
-//! filter that tracks what bridging costs against the star tracker.
+//! with the running β̂, the bridging of ticks without angular data, and what that
+//! attitude's error adds to the turn filters' noise (`turn_pq`).
 
 use super::*;
 
@@ -17,7 +17,7 @@ impl JointEstimator {
         self.n_bridged += 1;
         for a in 0..3 {
             self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
-            self.drift_bridged(a);
+            self.turn_bridged(a);
             self.forget_jerk(a);
         }
         let (psi_mid, _) = self.integrate(&dv);
@@ -47,7 +47,7 @@ impl JointEstimator {
         (psi_mid, phi_mid)
     }
 
-    /// Advance the running-β̂ attitude by one sample (and the drift filter's time).
+    /// Advance the running-β̂ attitude by one sample (and the turn filters' noise).
     pub(super) fn propagate_model(&mut self, psi_mid: &[[f64; 3]; 2]) {
         let dt = 1.0 / self.cfg.fs;
         let w_model = Vector3::from_fn(|a, _| self.p[P_BETA + a] * psi_mid[0][a]);
@@ -60,36 +60,37 @@ impl JointEstimator {
         // IS1's ω̇ noise (readout and drive ripple) integrates twice into the propagated
         // attitude: a random walk of angle and rate that grows as t^1.5 (2×10⁻⁷ rad at
         // 10⁵ s) and, turning the 3×10⁻⁸ m/s² SRP, would pose as a CoM offset in long
-        // campaigns. The filter follows it on the star tracker.
+        // campaigns: the turn filters' noise (`turn_pq`).
         for a in 0..3 {
             let wd = c.beta_prior[0][a] * self.dv_last[0][a];
             let q = c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2);
-            let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
-            x[1] += dt * x[2];
-            // P ← F P Fᵀ with F = I + dt e1 e2ᵀ (drift += dt × drift rate), plus the noise.
-            for r in 0..4 {
-                p[r][1] += dt * p[r][2];
-            }
-            for c in 0..4 {
-                p[1][c] += dt * p[2][c];
+            // The thrusters' torque noise moves ω̇ within each tick, and the IS reports
+            // its mean: the angle at the tick's end is off by ∫(dt − s)(ω̇ − ω̄) ds, a
+            // random walk of variance S dt³/12 a tick (S = var_tick dt its spectral
+            // density, var_tick = jerk_var/1.5 the learned tick-to-tick spread, mostly
+            // the torque noise's). At 1 Hz it is five times IS1's own double-integrated
+            // noise at the maneuver's frequency (β's σ 10–20 % optimistic without it).
+            let walk = self.jerk_var[a] * dt * dt * dt * dt / 18.0;
+            if walk > 0.0 && walk.is_finite() {
+                self.turn_pq[a][0] += walk;
             }
             if q > 0.0 && q.is_finite() {
-                p[1][1] += q * g0 * g0;
-                p[1][2] += q * g0 * g1;
-                p[2][1] += q * g0 * g1;
-                p[2][2] += q * g1 * g1;
+                self.turn_pq[a][0] += q * g0 * g0;
+                self.turn_pq[a][1] += q * g0 * g1;
+                self.turn_pq[a][2] += q * g1 * g1;
             }
         }
     }
 
     /// W of the linear model at the middle of this sample's interval (before the
-    /// attitude takes its step): R̂ᵀ − I + [Φ̂]×, R̂ including the bridged drift.
+    /// attitude takes its step): R̂ᵀ − I + [Φ̂]×, R̂ IS1's integrals alone (their error
+    /// is the turn filters' noise; pulled onto the star tracker it would carry the star
+    /// tracker's noise, which the star group counts already).
     pub(super) fn srp_turn(&self, psi_mid: &[[f64; 3]; 2]) -> Matrix3<f64> {
         let h = 0.5 / self.cfg.fs;
         let w_model = Vector3::from_fn(|a, _| self.p[P_BETA + a] * psi_mid[0][a]);
         let q_mid = self.q_model * UnitQuaternion::from_scaled_axis(w_model * h);
-        let drift = Vector3::from_fn(|a, _| self.drift_x[a][1]);
-        let q = q_mid * UnitQuaternion::from_scaled_axis(drift);
+        let q = q_mid;
         let phi_hat = Vector3::from_fn(|a, _| self.phi_hat[a] + h * w_model[a]);
         q.to_rotation_matrix().into_inner().transpose() - Matrix3::identity() + skew(&phi_hat)
     }
@@ -120,14 +121,44 @@ impl JointEstimator {
         dv
     }
 
+    /// IS1's axes that borrowed IS2's voltage this tick (`angular_inputs`) put the
+    /// fitted ratio's error into IS1's rate: dt β1 ΔV2 δρ, a step of the attitude that
+    /// turns the SRP (`turn_pq`). δρ's variance is the fit's (its residual's readout
+    /// noise and ripple over Σ ΔV2²), or the priors' ratio's before the fit. (At 1 Hz
+    /// the fit after 100 pairs is off by 10⁻⁵; left out, 1 % IS dropouts put β's σ
+    /// 1.5× optimistic once the turn counts as evidence.)
+    pub(super) fn note_borrowed(&mut self, axis_ok: &[[bool; 3]; 2], data: &[IsData; 2]) {
+        let c = &self.cfg;
+        let dt = 1.0 / c.fs;
+        for a in 0..3 {
+            if axis_ok[0][a] || !axis_ok[1][a] {
+                continue;
+            }
+            let v2 = data[1].dv[a];
+            let (b1, b2) = (c.beta_prior[0][a], c.beta_prior[1][a]);
+            let var_rho = match self.ratio[a].ratio() {
+                Some((rho, inv_syy)) => {
+                    let res = (c.sigma_angular / b1).powi(2)
+                        + (rho * c.sigma_angular / b2).powi(2)
+                        + 2.0 * (c.sigma_ripple * v2).powi(2);
+                    res * inv_syy
+                }
+                None => 2.0 * (PRIOR_BETA_REL * b2 / b1).powi(2),
+            };
+            let v = (dt * b1 * v2).powi(2) * var_rho;
+            if v.is_finite() {
+                self.turn_pq[a][2] += v;
+            }
+        }
+    }
+
     /// Angular data on axis `a` are back after `bridge_run` = n ticks bridged with the
     /// last ω̇ measured before them (the anchor): replace those n held values by the
     /// straight line from the anchor to this sample's ω̇. Holding lags the attitude
     /// behind a changing ω̇ (a thruster's overshoot after an edge); the line leaves
     /// only its curvature and the torque noise's own scatter. The integrals move by
     /// dt Σ δ_k (rate) and dt² Σ δ_k (n − k + ½) (angle), δ_k = k Δ/(n + 1): Δ dt n/2
-    /// and Δ dt² n(2n + 1)/12. The propagated attitude and the drift filter (which had
-    /// followed the held values' error on the star tracker) move with them. (Measured,
+    /// and Δ dt² n(2n + 1)/12. The propagated attitude moves with them. (Measured,
     /// 5 % IS dropouts, 30 seeds: the common β error 2.3 → 1.9×10⁻⁵.) With one IS
     /// configured the linear test may still undo this sample's angular data, so the
     /// line is drawn only with two.
@@ -151,9 +182,6 @@ impl JointEstimator {
         let turn = self.p[P_BETA + a] * d_phi[0];
         self.phi_hat[a] += turn;
         self.q_model *= UnitQuaternion::from_scaled_axis(Vector3::ith(a, turn));
-        let x = &mut self.drift_x[a];
-        x[1] -= self.cfg.beta_prior[0][a] * d_phi[0];
-        x[2] -= self.cfg.beta_prior[0][a] * d_psi[0];
     }
 
     /// Angular data on axis `a` are back after `bridge_run` ticks bridged with the previous ω̇: if
@@ -170,7 +198,7 @@ impl JointEstimator {
             for l in 0..self.n_is() {
                 jump += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - self.dv_anchor[l][a]);
             }
-            let v = (span * jump).powi(2) / 12.0;
+            let v = SHARED_STEP_GROUPS * (span * jump).powi(2) / 12.0;
             if v.is_finite() {
                 let h = 0.5 * span;
                 let p = &mut self.st_p[a];
@@ -178,11 +206,9 @@ impl JointEstimator {
                 p[0][1] += v * h;
                 p[1][0] += v * h;
                 p[1][1] += v;
-                let p = &mut self.drift_p[a];
-                p[1][1] += v * h * h;
-                p[1][2] += v * h;
-                p[2][1] += v * h;
-                p[2][2] += v;
+                self.turn_pq[a][0] += v * h * h;
+                self.turn_pq[a][1] += v * h;
+                self.turn_pq[a][2] += v;
             }
         }
         for l in 0..2 {
@@ -191,49 +217,25 @@ impl JointEstimator {
     }
 
     /// A tick without angular data on axis `a`: the propagated rate is off by dt times
-    /// ω̇'s departure from the line later drawn across the gap, which the drift filter
-    /// must allow.
-    pub(super) fn drift_bridged(&mut self, a: usize) {
+    /// ω̇'s departure from the line later drawn across the gap, a step of the attitude
+    /// that turns the SRP.
+    pub(super) fn turn_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        self.drift_p[a][2][2] += dt * dt * self.jerk_var[a];
+        self.turn_pq[a][2] += SHARED_STEP_GROUPS * dt * dt * self.jerk_var[a];
     }
 
-    /// Star-tracker residual e = θ − κ − β1,prior Φ1 [rad] = θ0 + drift +
-    /// (β1 − β1,prior) Φ1 + noise: update the drift filter.
-    pub(super) fn drift_update(&mut self, a: usize, e: f64) {
-        let r = self.cfg.sigma_star_rad.powi(2);
-        let h = [1.0, 1.0, 0.0, self.phi[0][a]];
-        let (x, p) = (&mut self.drift_x[a], &mut self.drift_p[a]);
-        let ph: [f64; 4] = core::array::from_fn(|i| (0..4).map(|j| p[i][j] * h[j]).sum());
-        let sv = (0..4).map(|i| h[i] * ph[i]).sum::<f64>() + r;
-        let innov = e - (0..4).map(|i| h[i] * x[i]).sum::<f64>();
-        if !(sv > 0.0 && sv.is_finite() && innov.is_finite()) {
-            return;
-        }
-        let k: [f64; 4] = core::array::from_fn(|i| ph[i] / sv);
-        for i in 0..4 {
-            x[i] += k[i] * innov;
-            for j in 0..4 {
-                p[i][j] -= k[i] * ph[j];
-            }
-        }
-    }
-
-    /// Add this linear sample to the excitation's spreads (`excitation_rate`), on every
-    /// `MOMENT_EVERY`th: the maneuver is slow against any sample rate, and an update on
-    /// a flight CPU then pays for a branch, not for 12 software floating-point
-    /// operations. The moments change only here, so here too is where the first tick
-    /// with motion of its own on every axis is noted (`rocked_tick`).
+    /// Add this linear sample to the excitation's moments (`rate_moments`,
+    /// `rate_cross`), on every `MOMENT_EVERY`th: the maneuver is slow against any
+    /// sample rate, and an update on a flight CPU then pays for a branch, not for 9
+    /// software floating-point operations. They change only here, so here too is where
+    /// the first tick with motion of its own on every axis is noted (`rocked_tick`).
     pub(super) fn note_excitation(&mut self, dv: &[[f64; 3]; 2]) {
         if self.n_used & (MOMENT_EVERY - 1) != 1 {
             return;
         }
-        for (a, m) in self.rate_moments.iter_mut().enumerate() {
-            let (psi, v) = (self.psi[0][a], dv[0][a]);
-            m[0] += psi;
-            m[1] += psi * psi;
-            m[2] += v;
-            m[3] += v * v;
+        for (m, v) in self.rate_moments.iter_mut().zip(&dv[0]) {
+            m[0] += v;
+            m[1] += v * v;
         }
         let v = &dv[0];
         self.rate_cross[0] += v[0] * v[1];
@@ -241,24 +243,6 @@ impl JointEstimator {
         self.rate_cross[2] += v[1] * v[2];
         if self.rocked_tick == 0 && self.motion_on_every_axis() {
             self.rocked_tick = self.next_tick + 1;
-        }
-    }
-
-    /// The maneuver's angular frequency [rad/s]: the spread of ω̇ over the spread of ω,
-    /// both summed over the axes (IS1's voltage and its integral, so β cancels); 0
-    /// before they spread.
-    pub(super) fn excitation_rate(&self) -> f64 {
-        let n = self.n_used.div_ceil(MOMENT_EVERY) as f64;
-        let (mut var_w, mut var_wdot) = (0.0, 0.0);
-        for m in &self.rate_moments {
-            var_w += m[1] / n - (m[0] / n).powi(2);
-            var_wdot += m[3] / n - (m[2] / n).powi(2);
-        }
-        let w = (var_wdot / var_w).sqrt();
-        if w.is_finite() {
-            w
-        } else {
-            0.0
         }
     }
 

@@ -82,17 +82,3 @@ pub(super) fn prod(a: usize, b: usize) -> usize {
 
 /// k index permutation of eq. 2: k_j = G_{PERM[j]} β_{PERM[j]}.
 pub(super) const PERM: [usize; 3] = [2, 0, 1];
-
-/// The signals whose coefficients carry the SRP's turn with β1 Φ1: Φ1 and the
-/// measured SRP's change.
-pub(super) const TURN_COLS: [usize; 9] = [
-    S_PHI,
-    S_PHI + 1,
-    S_PHI + 2,
-    S_TF,
-    S_TF + 1,
-    S_TF + 2,
-    S_PHI0,
-    S_PHI0 + 1,
-    S_PHI0 + 2,
-];

@@ -114,6 +114,25 @@ pub struct JointEstimator {
     hn: f64,
     /// Row mapping the 6 linear residuals onto that channel: u0ᵀ L0⁻¹.
     t_u: SVector<f64, 6>,
+    /// The turned SRP's attitude error on the two whitened rows across the SRP
+    /// (`turn_rows`): IS1's readout noise and ripple integrated twice, with what bridged
+    /// ticks add, an integrated random walk per axis (`turn_pq`) beside the rows' white
+    /// noise. An innovations filter per row runs on every signal as the SRP's does
+    /// (`m_turn` the filtered Grams, `tx` each signal's state (angles, rates: its columns),
+    /// `tp` the state covariance [whitened units², per s, per s²]). The rows as the
+    /// first sample set them (`turn_w`, channel space), their levers on ω̇'s noise
+    /// (`turn_lever`, for their white variance at each sample's drive) and on the
+    /// attitude error per axis, squared (`turn_z2` [whitened units per rad]²).
+    m_turn: [Packed; 2],
+    tx: [SMatrix<f64, NS, 2>; 2],
+    tp: [[[f64; 2]; 2]; 2],
+    turn_w: SMatrix<f64, 2, 6>,
+    turn_lever: [[f64; 3]; 2],
+    turn_z2: [[f64; 3]; 2],
+    /// Per axis, the attitude error's covariance (angle [rad²], angle × rate, rate
+    /// [rad²/s²]) added since the turn filters last stepped: the readout noise of
+    /// each tick, and what bridged ticks and a kept corrupted IS cost.
+    turn_pq: [[f64; 3]; 3],
     p: Par,
     p_prior: Par,
     p_sigma: Par,
@@ -154,22 +173,9 @@ pub struct JointEstimator {
     /// Ticks on which some axis had no angular data at all.
     n_bridged: u64,
     dv_anchor: [[f64; 3]; 2],
-    /// Drift of the propagated attitude caused by bridged ticks (ω̇ unknown), per axis,
-    /// tracked against the star tracker: state (star reference offset θ0 [rad], drift
-    /// [rad], drift rate [rad/s], β1 − β1,prior [rad s⁻² V⁻¹]) and its covariance.
-    /// The drift also follows IS1's double-integrated ω̇ noise, which grows without
-    /// bound in long campaigns; the β state keeps the scale error out of it.
-    drift_x: [[f64; 4]; 3],
-    drift_p: [[[f64; 4]; 4]; 3],
-    /// Per axis, the drift filter's angle variance times its correlation length in
-    /// samples, summed over the samples the linear statistics took [rad²]: what its
-    /// error weighed in them on average (`white_cov`).
-    drift_noise_sum: [f64; 3],
-    /// Per axis, IS1's integrated angular voltage ψ and its voltage over every
-    /// `MOMENT_EVERY`th sample the linear statistics took: Σψ, Σψ², Σv, Σv² [V s, V² s²,
-    /// V, V²]. Their spreads' ratio is the excitation's angular frequency
-    /// (`excitation_rate`).
-    rate_moments: [[f64; 4]; 3],
+    /// Per axis, IS1's angular voltage over every `MOMENT_EVERY`th sample the linear
+    /// statistics took: Σv, Σv² [V, V²] (`motion_on_every_axis`).
+    rate_moments: [[f64; 2]; 3],
     /// IS1's angular voltages' cross products on the same samples: Σ v_x v_y, Σ v_x v_z,
     /// Σ v_y v_z [V²] (`every_axis_rocked`).
     rate_cross: [f64; 3],
@@ -191,15 +197,6 @@ pub struct JointEstimator {
     star_track: [Track; 3],
 }
 
-/// The drift filter's error as white noise of the linear channels: a process of
-/// variance P and correlation time τ has the one-sided spectral density
-/// 4 P τ / (1 + (ω τ)²) at angular frequency ω, and white noise of that density has
-/// the variance 2 P τ f_s / (1 + (ω τ)²) per sample: this factor times the rest,
-/// ω the maneuver's (`excitation_rate`). (It replaced a measured factor of 10 on the
-/// filter's variance at the solve. Taken at zero frequency it left r_z's σ 3×
-/// cautious with 1 % IS dropouts, (err/σ)² 0.10; at the maneuver's 0.78,
-/// docs/integrity.md.)
-const WHITE_EQUIVALENT: f64 = 2.0;
 /// Nothing taken yet.
 const START_NONE: u64 = 0;
 /// Every reference set (the value a started state always had: old checkpoints agree).
@@ -209,9 +206,10 @@ const START_FULL: u64 = 1;
 /// first tick would otherwise delay the integrals' start to a tick where the
 /// spacecraft already turns: that initial rate θ̇₀ is a ramp in the propagated
 /// attitude, harmless while the turn lacks it (the linear channels' α′ t takes it),
-/// but the drift filter learns it after its first bridged tick, and from there the
-/// SRP's turn carries θ̇₀ (t − t_k), a kink no line takes (r_z up to 46σ off in 1 to
-/// 2 % of runs with 1 % IS dropouts, every one of them with an IS missing at tick 0).
+/// but the star tracker's drift filter (as it was) learned it after its first bridged
+/// tick, and from there the SRP's turn carried θ̇₀ (t − t_k), a kink no line takes (r_z
+/// up to 46σ off in 1 to 2 % of runs with 1 % IS dropouts, every one of them with an
+/// IS missing at tick 0).
 const START_ANGULAR: u64 = 2;
 
 /// The SRP's level is not fixed yet: the samples turn the fitted DC (`S_PHI0`).
@@ -241,7 +239,7 @@ pub fn rocking(cov: &Matrix3<f64>, noise_var: f64) -> f64 {
     4.0 * cov.determinant() / (ROCKED_VAR_RATIO * noise_var * tr * tr)
 }
 
-/// The excitation's spreads take every this many linear samples (`rate_moments`; a
+/// The excitation's cross products take every this many linear samples (`rate_cross`; a
 /// power of two: a 64-bit remainder is a library call on a 32-bit CPU).
 const MOMENT_EVERY: u64 = 8;
 const _: () = assert!(MOMENT_EVERY.is_power_of_two());
@@ -256,8 +254,6 @@ pub const PRIOR_COM_M: f64 = 0.05;
 /// Star-tracker reference offset θ0 [rad] (0.6°) and its rate θ̇0 [rad/s].
 const PRIOR_THETA0_RAD: f64 = 1e-2;
 const PRIOR_THETA_RATE_RAD_S: f64 = 1e-4;
-/// The drift filter's initial variance of θ0 [rad²]: the same prior, squared.
-const PRIOR_THETA0_VAR_RAD2: f64 = 1e-4;
 /// Linear-channel bias b' [V] and drift α' [V/s]: beyond any drive-voltage offset.
 const PRIOR_BIAS_V: f64 = 1.0;
 const PRIOR_DRIFT_V_S: f64 = 1e-3;
@@ -327,6 +323,15 @@ const STAR_RELEARN_GAP_S: f64 = 1.0;
 /// bridged too, B − 1 ticks gained a call: a 600 s gap at 10 Hz costs about 86 s of
 /// data, and no call costs more than this many steps. Gaps up to it lose nothing.
 const BRIDGE_PER_UPDATE: u64 = 8;
+/// A bridged tick's rate step is one unknown that two groups see, the star tracker's
+/// and the turn rows' (the same ramp of the attitude in both), each filter taking it
+/// as its own. Their joint likelihood with one step of variance v gives the scale it
+/// confounds the information I/(1 + v I), I = I₁ + I₂ what both groups learn of the
+/// step; each group taking 2v gives Σ Iₖ/(1 + 2v Iₖ), equal to it when the groups learn
+/// alike and below it otherwise (x/(1 + 2vx) is concave), never above. Taken once in
+/// each (v, not 2v), β's σ read 1.3–1.7× optimistic at 10 Hz with 5 % IS dropouts or
+/// 0.1–0.25 % of ticks lost on the bus (30–100 seeds); with 2v, 0.75–1.04.
+const SHARED_STEP_GROUPS: f64 = 2.0;
 
 /// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
 const ALPHA_LIN: f64 = 1.0 / 64.0;
@@ -379,10 +384,6 @@ impl JointEstimator {
         dst.status = ST_NO_SOLUTION;
         dst.group_weight = [1.0; N_GROUPS];
         dst.inflation = 1.0;
-        for (a, d) in dst.drift_p.iter_mut().enumerate() {
-            d[0][0] = PRIOR_THETA0_VAR_RAD2;
-            d[3][3] = (PRIOR_BETA_REL * cfg.beta_prior[0][a]).powi(2);
-        }
     }
 
     /// Could this state have come from `new` and `update`s? Its table passes its
@@ -659,7 +660,6 @@ mod tests {
         assert_eq!(a.p[P_BETA], cfg.beta_prior[0][0]);
         assert_eq!(a.p_prior, a.p);
         assert_eq!(a.status, ST_NO_SOLUTION);
-        assert_eq!(a.drift_p[2][0][0], PRIOR_THETA0_VAR_RAD2);
         assert_eq!(a.wp[(0, 0)], a.bank.var[0]);
     }
 
@@ -676,8 +676,7 @@ mod tests {
 
     /// An IS missing at the first tick does not delay the attitude integrals: the
     /// spacecraft turns from that tick on, and a later start would leave its rate out
-    /// of them (θ̇₀, a ramp the drift filter learns after its first bridged tick, and
-    /// the SRP's turn then carries from there). The linear references wait for a
+    /// of them (θ̇₀, a ramp in the attitude that turns the SRP). The linear references wait for a
     /// sample with both IS; with neither, nothing starts.
     #[test]
     fn an_is_missing_at_the_first_tick_does_not_delay_the_attitude_integrals() {
@@ -945,23 +944,5 @@ mod tests {
             }
         }
         assert_ne!(after.column(S_PHI), before.column(S_PHI));
-    }
-
-    /// The excitation's angular frequency from the spreads of ω̇ and ω: a sinusoid's.
-    #[test]
-    fn the_excitation_rate_of_a_sinusoid_is_its_angular_frequency() {
-        let mut e = JointEstimator::new(test_config());
-        let w = core::f64::consts::TAU * 6e-4;
-        let n = 100_000u64;
-        for k in 1..=n {
-            let t = k as f64 / e.cfg.fs;
-            e.n_used = k;
-            e.psi[0][1] = 3.0 + (w * t).sin() / w;
-            let mut dv = [[0.0; 3]; 2];
-            dv[0][1] = (w * t).cos();
-            e.note_excitation(&dv);
-        }
-        let ratio = e.excitation_rate() / w;
-        assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
     }
 }

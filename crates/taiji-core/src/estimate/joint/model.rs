@@ -12,13 +12,10 @@ pub(super) struct Coeffs {
     pub(super) ang: [SVector<f64, 2>; 3],
 }
 
-/// Residual coefficients at the current parameters and their derivatives by each;
-/// `turn` holds the β-derivatives of the SRP's turn that `dc` leaves out (the turn is
-/// no evidence about β), per β and linear row, on the signals `TURN_COLS`.
+/// Residual coefficients at the current parameters and their derivatives by each.
 pub(super) struct Linearised<'a> {
     pub(super) c0: &'a Coeffs,
     pub(super) dc: &'a [Coeffs; NP],
-    pub(super) turn: &'a [SMatrix<f64, 6, 9>; 6],
 }
 
 pub(super) fn skew(r: &Vector3<f64>) -> Matrix3<f64> {

@@ -8,9 +8,8 @@ use super::*;
 const NUISANCE_ITERATIONS: usize = 6;
 
 impl JointEstimator {
-    /// 1σ at `p` without priors, as the solve reports it (the sandwich of
-    /// `sandwich_var`: the Fisher information of the linear, star-tracker and angular
-    /// groups, with β's uncertainty reaching r through the SRP's turn). The
+    /// 1σ at `p` without priors, as the solve reports it (`estimate_var`: the Fisher
+    /// information of the linear, star-tracker and angular groups). The
     /// Cramér–Rao bound when `p` is the truth and the statistics were accumulated from
     /// noise-free signals.
     /// (Analysis, not flight: its scratch is on the stack.)
@@ -18,7 +17,7 @@ impl JointEstimator {
         let mut w = SolveWork::zeroed();
         self.normal_equations(p, false, &mut w);
         Self::newton_step(&w.n.hm, &w.n.g, &mut w.hs, &mut w.hinv)?;
-        Self::sandwich_var(&w.n, &w.hinv).map(|var| var.map(|v| v.max(0.0).sqrt()))
+        Self::estimate_var(&w.hinv).map(|var| var.map(|v| v.max(0.0).sqrt()))
     }
 
     /// Fit the nuisances (θ0, θ̇0, b', α') with β and r held at their values in `p`,

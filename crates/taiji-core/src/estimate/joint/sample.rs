@@ -11,7 +11,8 @@ impl JointEstimator {
         for i in 0..n {
             self.sum_ref[i] = data[i].sum;
         }
-        let h = self.first_srp_direction(data);
+        let bc = self.first_srp_dc(data);
+        let h = self.direction_in_volts(&self.p, &bc);
         let mut msq = [0.0; 6];
         for s in 0..3 * n {
             msq[s] = self.sum_ref[s / 3][s % 3].powi(2);
@@ -20,12 +21,20 @@ impl JointEstimator {
         if let Some((linv, u, hn)) = Self::whitening(&r0, &h) {
             self.t_u = linv.transpose() * u;
             self.hn = hn;
+            let z = Self::turn_plane(&linv, &u, &self.turn_levers(&self.p, &bc));
+            if let Some(e) = Self::plane_basis(&z) {
+                for (k, ek) in e.iter().enumerate() {
+                    self.turn_w.set_row(k, &(linv.transpose() * ek).transpose());
+                    self.turn_z2[k] = core::array::from_fn(|a| ek.dot(&z[a]).powi(2));
+                }
+                self.turn_lever = self.row_levers(&self.turn_w);
+            }
             let rows = Self::complement_rows(&linv, &u);
             for k in 0..5 {
                 self.gate_w.set_row(k, &rows.row(k));
             }
             self.gate_w.set_row(5, &self.t_u.transpose());
-            self.gate_lever = self.row_levers();
+            self.gate_lever = self.row_levers(&self.gate_w);
         }
         self.gate_c = self.coeffs(&self.p).lin;
         self.started = START_FULL;
@@ -40,7 +49,7 @@ impl JointEstimator {
     /// inverse of that noise: the thrusters' torque noise times a CoM offset of
     /// 0.2 m, left in, tilted it by 10⁻³ towards the sunless axis and made that axis
     /// the channel (χ²/dof 0.75 and 5.8 with 10× the drive ripple).
-    fn first_srp_direction(&self, data: &[IsData; 2]) -> SVector<f64, 6> {
+    fn first_srp_dc(&self, data: &[IsData; 2]) -> Vector3<f64> {
         let p = &self.p;
         let n = self.n_is();
         let wdot = self.omega_dot(p, &[data[0].dv, data[1].dv]);
@@ -52,7 +61,7 @@ impl JointEstimator {
                 bc[j] += (self.k_of(p, i, j) * self.sum_ref[i][j] - ar[j]) / n as f64;
             }
         }
-        self.direction_in_volts(p, &bc)
+        bc
     }
 
     /// A tick processed or bridged: solve on schedule.
@@ -118,8 +127,8 @@ impl JointEstimator {
             // Each residual row's white variance at this sample's drive: for the
             // linear test now and the common-mode filter once accepted.
             let var = self.row_white_vars(&sig);
-            if self.linear_consistent(&sig, &var) {
-                lin_sig = Some((sig, var[5]));
+            if self.linear_consistent(&sig, &[var[0], var[1], var[2], var[3], var[4], var[5]]) {
+                lin_sig = Some((sig, var));
             } else {
                 self.reject(CAUSE_LINEAR_OUTLIER);
                 if n == 1 {
@@ -138,6 +147,9 @@ impl JointEstimator {
             dv = self.angular_inputs(&data, &axis_ok);
             (psi_mid, _) = self.integrate(&dv);
         }
+        if n == 2 {
+            self.note_borrowed(&axis_ok, &data);
+        }
         self.propagate_model(&psi_mid);
         let n_ang: [usize; 3] = core::array::from_fn(|a| (0..n).filter(|&i| axis_ok[i][a]).count());
         // Only clean samples teach the spread of ω̇'s change.
@@ -148,11 +160,10 @@ impl JointEstimator {
                 self.forget_jerk(a);
             }
         }
-        if let Some((sig, cm_var)) = lin_sig {
+        if let Some((sig, var)) = lin_sig {
             self.n_used += 1;
-            self.update_linear(&sig, &dv, cm_var);
+            self.update_linear(&sig, &dv, &var);
             self.note_excitation(&dv);
-            self.note_drift_noise();
             self.fix_srp_level(&sig, &dv, &psi_mid, &phi_mid);
             self.gate_s = sig;
         } else {
@@ -197,12 +208,12 @@ impl JointEstimator {
                 axis_ok[0][a] = t[0];
                 axis_ok[1][a] = t[1];
                 // Should the kept IS be the corrupted one, the propagated rate is off
-                // by dt times the mismatch from here on: the drift filter must allow
-                // that step of its rate, or it would smear the ramp over the maneuver.
+                // by dt times the mismatch from here on: the turn filters must allow
+                // that step of its rate, or they would smear the ramp over the maneuver.
                 let c = &self.cfg;
                 let step = (c.beta_prior[0][a] * d0[a] - c.beta_prior[1][a] * d1[a]) / c.fs;
                 if step.is_finite() {
-                    self.drift_p[a][2][2] += step * step;
+                    self.turn_pq[a][2] += step * step;
                 }
             }
         }
@@ -248,7 +259,7 @@ impl JointEstimator {
         for a in 0..3 {
             if n_ang[a] == 0 {
                 self.bridge_run[a] = self.bridge_run[a].saturating_add(1);
-                self.drift_bridged(a);
+                self.turn_bridged(a);
             } else {
                 self.close_bridge(a, dv);
             }
@@ -295,9 +306,10 @@ impl JointEstimator {
             }
         }
         for a in 0..3 {
-            s[S_PHI + a] = phi_mid[0][a];
+            let phi = phi_mid[0][a];
+            s[S_PHI + a] = phi;
             if self.srp_level_set == LEVEL_NONE {
-                s[S_PHI0 + a] = phi_mid[0][a];
+                s[S_PHI0 + a] = phi;
             }
             for m in 0..3 {
                 s[S_W + 3 * a + m] = w_turn[(a, m)];
@@ -376,12 +388,12 @@ impl JointEstimator {
             for b in 0..3 {
                 let (mb, bb) = (&self.rate_moments[b], c.beta_prior[0][b]);
                 let prod = match a + b {
-                    _ if a == b => ma[3],
+                    _ if a == b => ma[1],
                     1 => self.rate_cross[0],
                     2 => self.rate_cross[1],
                     _ => self.rate_cross[2],
                 };
-                cov[(a, b)] = ba * bb * (prod / n - (ma[2] / n) * (mb[2] / n));
+                cov[(a, b)] = ba * bb * (prod / n - (ma[0] / n) * (mb[0] / n));
             }
         }
         rocking(&cov, c.sigma_angular.powi(2)) > 1.0

@@ -1,26 +1,21 @@
 //! The solve: Gauss–Newton normal equations from the Gram statistics, the step, the
-//! sandwich covariance (β's error carried through the SRP's turn), χ²/dof per group
-//! and the status word.
+//! covariance, χ²/dof per group and the status word.
 
 use super::*;
 
-/// The Gauss–Newton sums a residual group adds to: H, g, and the cross term Jᵀ W Δ
-/// of the turn's β-derivatives Δ (`Linearised::turn`). (Each group's χ² is
+/// The Gauss–Newton sums a residual group adds to: H and g. (Each group's χ² is
 /// `group_costs`'s.)
 pub(super) struct Sums<'a> {
     pub(super) hm: &'a mut SMatrix<f64, NP, NP>,
     pub(super) g: &'a mut Par,
-    pub(super) cross: &'a mut SMatrix<f64, NP, 6>,
 }
 
-/// Gauss–Newton normal equations at a parameter vector: H (the cut Jacobian's, priors
-/// as asked), g, and the cross term of the turn's β-derivatives.
+/// Gauss–Newton normal equations at a parameter vector: H (priors as asked) and g.
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub(super) struct Normal {
     pub(super) hm: SMatrix<f64, NP, NP>,
     pub(super) g: Par,
-    pub(super) cross: SMatrix<f64, NP, 6>,
 }
 
 /// One residual group's products (`add_group`): its Jacobian rows, their transposes,
@@ -48,7 +43,6 @@ pub struct SolveWork {
     pub(super) cp: Coeffs,
     pub(super) cm: Coeffs,
     pub(super) dc: [Coeffs; NP],
-    pub(super) turn: [SMatrix<f64, 6, 9>; 6],
     pub(super) n: Normal,
     pub(super) hinv: SMatrix<f64, NP, NP>,
     pub(super) hs: SMatrix<f64, NP, NP>,
@@ -64,7 +58,7 @@ impl SolveWork {
 }
 
 impl JointEstimator {
-    /// One residual group's row: its Gauss–Newton terms into (H, g) and the cross term.
+    /// One residual group's row: its Gauss–Newton terms into (H, g).
     /// Where the CPU has AVX2 its matrix products (most of a solve's ~10⁶
     /// multiply-adds) run compiled for it, like [`Self::update_linear`]: the same bits.
     #[inline(always)]
@@ -133,21 +127,9 @@ impl JointEstimator {
         for (g, x) in out.g.iter_mut().zip(sc.v.iter()) {
             *g += x * weight;
         }
-        // Jᵀ W Δ: Δ's rows are zero but on the turn's six signals.
-        for (col, &s) in TURN_COLS.iter().enumerate() {
-            for b in 0..6 {
-                let dd: f64 = (0..6).map(|r| row[r] * lin.turn[b][(r, col)]).sum();
-                if dd != 0.0 {
-                    for i in 0..NP {
-                        out.cross[(i, b)] += sc.md[(s.min(NS - 1), i)] * dd * weight;
-                    }
-                }
-            }
-        }
     }
 
-    /// Gauss–Newton normal equations (H, g) at `p`, and the cross term of the turn's
-    /// β-derivatives (`sandwich_var`); with `priors`, the weak ground priors are
+    /// Gauss–Newton normal equations (H, g) at `p`; with `priors`, the weak ground priors are
     /// included (they only matter before every axis has been excited). Each group
     /// enters with its weight (1, or 1/(χ²/dof) when its noise proved larger than
     /// modelled).
@@ -157,19 +139,17 @@ impl JointEstimator {
             cp,
             cm,
             dc,
-            turn,
             n,
             gram,
             group,
             ..
         } = w;
         *c0 = self.coeffs(p);
-        self.jacobian(p, dc, turn, [cp, cm]);
+        self.jacobian(p, dc, [cp, cm]);
         let c0 = &*c0;
         n.hm = SMatrix::zeros();
         n.g = Par::zeros();
-        n.cross = SMatrix::zeros();
-        let Normal { hm, g, cross } = n;
+        let Normal { hm, g } = n;
         if priors {
             for k in 0..NP {
                 let w = 1.0 / self.p_sigma[k].powi(2);
@@ -185,14 +165,21 @@ impl JointEstimator {
             }
         }
         let gw = self.group_weight;
-        let lin = Linearised { c0, dc, turn };
-        let mut out = Sums { hm, g, cross };
+        let lin = Linearised { c0, dc };
+        let mut out = Sums { hm, g };
         let h = self.srp_direction(p);
         for reg in 0..N_REG {
             let Some(rows) = self.regime_rows(p, reg, &h, gram) else {
                 continue;
             };
-            for t in 0..5 {
+            for t in 0..3 {
+                let row = rows.row(t).transpose();
+                Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
+            }
+        }
+        if let Some(rows) = self.turn_rows(p) {
+            for t in 0..2 {
+                symmetric_into(&self.m_turn[t], gram);
                 let row = rows.row(t).transpose();
                 Self::add_group(&row, gram, gw[GROUP_LINEAR], &lin, &mut out, group);
             }
@@ -211,17 +198,10 @@ impl JointEstimator {
     }
 
     /// The Jacobian of every coefficient by each parameter (central differences) into
-    /// `dc`, the turn's β-derivatives into `turn`. Out of line, as the other parts of
+    /// `dc`. Out of line, as the other parts of
     /// the normal equations: their frames then never add up on the solve's stack.
     #[inline(never)]
-    fn jacobian(
-        &self,
-        p: &Par,
-        dc: &mut [Coeffs; NP],
-        turn: &mut [SMatrix<f64, 6, 9>; 6],
-        [cp, cm]: [&mut Coeffs; 2],
-    ) {
-        *turn = [SMatrix::<f64, 6, 9>::zeros(); 6];
+    fn jacobian(&self, p: &Par, dc: &mut [Coeffs; NP], [cp, cm]: [&mut Coeffs; 2]) {
         for (k, d) in dc.iter_mut().enumerate() {
             let hk = 1e-6 * self.p_sigma[k];
             let mut pp = *p;
@@ -233,26 +213,6 @@ impl JointEstimator {
             // (cp − cm) f, element by element, as the matrix expression computes it.
             for ((x, a), b) in d.lin.iter_mut().zip(cp.lin.iter()).zip(cm.lin.iter()) {
                 *x = (a - b) * f;
-            }
-            if (P_BETA..P_BETA + 6).contains(&k) {
-                // The SRP turns with the attitude β1 Φ1 + drift, but its β-dependence
-                // is no evidence about β: the star tracker measures β far better, and
-                // a turn model off by 10⁻¹⁷ m/s² (a 10⁻⁸ rad drift error once ticks
-                // are bridged; the measured SRP's running corrections) poses as a
-                // 10⁻⁶ scale error (βy 7σ off at 10⁵ s). The coefficient still uses
-                // β1, so at the solution the attitude is the final β's. IS2's β
-                // counts too: its channels carry the turned SRP divided by its
-                // k = G β2 (with IS1's β alone, 5 % dropouts left the common β scale 9×
-                // its bound off and 3.5× outside its σ). Measured at 10⁴ s without
-                // faults: β's error the same with or without this evidence.
-                // What is left out is kept: β's uncertainty still reaches r through
-                // the turn (σ, `sandwich_var`).
-                for row in 0..6 {
-                    for (col, &c) in TURN_COLS.iter().enumerate() {
-                        turn[k - P_BETA][(row, col)] = d.lin[(row, c)];
-                        d.lin[(row, c)] = 0.0;
-                    }
-                }
             }
             for a in 0..3 {
                 d.star[a] = (cp.star[a] - cm.star[a]) * f;
@@ -296,15 +256,16 @@ impl JointEstimator {
         reg: usize,
         h: &SVector<f64, 6>,
         gram: &mut Gram,
-    ) -> Option<SMatrix<f64, 5, 6>> {
+    ) -> Option<SMatrix<f64, 3, 6>> {
         let (cnt, msq, wsq) = self.regime_stats(p, reg);
         if cnt < 1.0 {
             return None;
         }
         let r = self.white_cov(p, &msq, &wsq);
-        let (linv, u, _) = Self::whitening(&r, h)?;
+        let (linv, _, _) = Self::whitening(&r, h)?;
         symmetric_into(&self.m_raw[reg.min(N_REG - 1)], gram);
-        Some(Self::complement_rows(&linv, &u))
+        let cm = core::array::from_fn(|j| self.direction_in_volts(p, &Vector3::ith(j.min(2), 1.0)));
+        Some(Self::differential_rows(&linv, &cm))
     }
 
     /// Degrees of freedom of each group's χ² (residuals accumulated).
@@ -355,15 +316,6 @@ impl JointEstimator {
         }
     }
 
-    /// A tick was bridged: the propagated attitude has drifted and leans on the star
-    /// tracker (see `normal_equations`). Even a few bridged ticks count: each starts a
-    /// ramp of the attitude (white torque noise moves ω̇ by ~10⁻¹⁰ rad/s² between
-    /// samples), and 10 of them in 10⁵ ticks (1 % dropouts per IS) put r_z's
-    /// (err/σ)² at 5.8 while the old threshold of 0.1 % waited.
-    pub(super) fn drifted(&self) -> bool {
-        self.n_bridged > 0
-    }
-
     pub(super) fn param_used(&self, k: usize) -> bool {
         let second = (P_BETA + 3..P_BETA + 6).contains(&k)
             || (P_R + 3..P_R + 6).contains(&k)
@@ -407,33 +359,13 @@ impl JointEstimator {
         Some(delta)
     }
 
-    /// Variance of the estimate [parameter units²]: the sandwich A⁻¹ H A⁻ᵀ. The
-    /// solution solves Jᵀ W e = 0 with the cut Jacobian J (the SRP's turn is no
-    /// evidence about β), while the data depend on β through the turn too (J + Δ):
-    /// an error δβ moves the solution by −A⁻¹ Jᵀ W Δ δβ, A = H + Jᵀ W Δ. H⁻¹ alone
-    /// would leave that out: r_z's error is 15 % above its σ without it (300 seeds,
-    /// (err/σ)² 1.33), as β's error, taken from the star tracker, turns the SRP.
-    ///
-    /// A = H + C, C nonzero in the six β columns only (C = X V, X = `cross`, V the
-    /// selector of those columns), so with U = H⁻¹ X and W = U (I₆ + V U)⁻¹,
-    /// A⁻¹ H A⁻ᵀ = K H⁻¹ Kᵀ with K = I − W V: only the diagonal is built, from H⁻¹
-    /// (the step's own inverse) and 30 × 6 products.
-    #[inline(never)]
-    pub(super) fn sandwich_var(n: &Normal, hinv: &SMatrix<f64, NP, NP>) -> Option<Par> {
-        let u: SMatrix<f64, NP, 6> = hinv * n.cross;
-        let vu = SMatrix::<f64, 6, 6>::from_fn(|b, c| u[(P_BETA + b, c)]);
-        let m = crate::math::lu_inverse(&(SMatrix::<f64, 6, 6>::identity() + vu))?;
-        let w = u * m;
-        let var = Par::from_fn(|k, _| {
-            let mut v = hinv[(k, k)];
-            for b in 0..6 {
-                v -= 2.0 * w[(k, b)] * hinv[(k, P_BETA + b)];
-                for c in 0..6 {
-                    v += w[(k, b)] * hinv[(P_BETA + b, P_BETA + c)] * w[(k, c)];
-                }
-            }
-            v
-        });
+    /// Variance of the estimate [parameter units²]: H⁻¹'s diagonal (the step's own
+    /// inverse); None if any is not finite. The SRP's turn counts as evidence about β
+    /// like every other term, its attitude error a noise of the turn rows' filters
+    /// (`turn_time_update`), so no part of the Jacobian is left out to be carried
+    /// separately.
+    pub(super) fn estimate_var(hinv: &SMatrix<f64, NP, NP>) -> Option<Par> {
+        let var = Par::from_fn(|k, _| hinv[(k, k)]);
         var.iter().all(|v| v.is_finite()).then_some(var)
     }
 
@@ -460,7 +392,7 @@ impl JointEstimator {
             self.normal_equations(&self.p, priors, w);
             let step = Self::newton_step(&w.n.hm, &w.n.g, &mut w.hs, &mut w.hinv)
                 .filter(|d| d.iter().all(|x| x.is_finite()))
-                .and_then(|d| Some((d, Self::sandwich_var(&w.n, &w.hinv)?)));
+                .and_then(|d| Some((d, Self::estimate_var(&w.hinv)?)));
             let Some((delta, var)) = step else {
                 self.status |= ST_SOLVE_FAILED;
                 return None;
@@ -504,7 +436,13 @@ impl JointEstimator {
             let Some(rows) = self.regime_rows(p, reg, &h, gram) else {
                 continue;
             };
-            for t in 0..5 {
+            for t in 0..3 {
+                cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), gram);
+            }
+        }
+        if let Some(rows) = self.turn_rows(p) {
+            for t in 0..2 {
+                symmetric_into(&self.m_turn[t], gram);
                 cost[GROUP_LINEAR] += lin(&rows.row(t).transpose(), gram);
             }
         }
@@ -679,7 +617,7 @@ mod tests {
     /// what it refuses.
     #[test]
     fn the_in_place_cholesky_is_nalgebras_bit_for_bit() {
-        let n = normal(1.0);
+        let n = normal();
         let mut a = n.hm;
         assert!(cholesky_in_place(&mut a));
         let ch = n.hm.cholesky().unwrap();
@@ -718,20 +656,14 @@ mod tests {
     }
 
     /// A symmetric positive-definite H of widely spread scales (as the parameters'
-    /// units make it) and a cross term on the β columns.
-    fn normal(cross_scale: f64) -> Normal {
+    /// units make it).
+    fn normal() -> Normal {
         let scale = Par::from_fn(|k, _| 10f64.powi((k % 7) as i32 * 2 - 6));
         let b = SMatrix::<f64, NP, NP>::from_fn(|i, j| ((i * 31 + j * 17) % 13) as f64 - 6.0);
         let spd = b * b.transpose() + SMatrix::<f64, NP, NP>::identity() * 50.0;
         let hm = SMatrix::<f64, NP, NP>::from_fn(|i, j| spd[(i, j)] * scale[i] * scale[j]);
-        let cross = SMatrix::<f64, NP, 6>::from_fn(|i, c| {
-            cross_scale * (((i + 3 * c) % 5) as f64 - 2.0) * scale[i] * scale[P_BETA + c]
-        });
-        Normal {
-            hm,
-            g: Par::zeros(),
-            cross,
-        }
+        let g = Par::from_fn(|k, _| ((k % 5) as f64 - 2.0) * scale[k]);
+        Normal { hm, g }
     }
 
     /// `mul_into` gives nalgebra's product bit for bit, zeros, signs and rounding alike.
@@ -781,38 +713,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn without_the_turn_cross_term_the_sandwich_is_the_inverse_hessian() {
-        let n = normal(0.0);
-        let (_, hinv) = step(&n.hm, &n.g).unwrap();
-        let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
-        let inv = n.hm.try_inverse().unwrap();
-        for k in 0..NP {
-            assert!((var[k] / inv[(k, k)] - 1.0).abs() < 1e-9, "{k}");
-        }
-    }
-
-    #[test]
-    fn the_sandwich_is_a_inverse_h_a_inverse_transposed() {
-        let n = normal(3.0);
-        let (_, hinv) = step(&n.hm, &n.g).unwrap();
-        let var = JointEstimator::sandwich_var(&n, &hinv).unwrap();
-        let mut a = n.hm;
-        for c in 0..6 {
-            for i in 0..NP {
-                a[(i, P_BETA + c)] += n.cross[(i, c)];
-            }
-        }
-        let ai = a.try_inverse().unwrap();
-        let cov = ai * n.hm * ai.transpose();
-        for k in 0..NP {
-            assert!((var[k] / cov[(k, k)] - 1.0).abs() < 1e-8, "{k}");
-        }
-        // β's error reaching other parameters adds variance somewhere.
-        let inv = n.hm.try_inverse().unwrap();
-        assert!((0..NP).any(|k| var[k] > 1.01 * inv[(k, k)]));
     }
 
     /// On a linear least-squares problem one Gauss–Newton step from anywhere lands on

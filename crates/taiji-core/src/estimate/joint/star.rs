@@ -20,8 +20,8 @@ impl JointEstimator {
             }
             if n_valid[a] == 0 {
                 // Bridged (the line drawn once data return): off by ω̇'s departure
-                // from that line.
-                q += self.jerk_var[a];
+                // from that line, a step the turn rows see too (`SHARED_STEP_GROUPS`).
+                q += SHARED_STEP_GROUPS * self.jerk_var[a];
             } else {
                 // Borrowed voltages carry the other IS's noise in full.
                 q *= self.n_is() as f64 / n_valid[a] as f64;
@@ -91,12 +91,6 @@ impl JointEstimator {
             return;
         }
         self.n_star += 1;
-        for a in 0..3 {
-            // Against the prior β, not the running β̂: the filter then depends on the
-            // data alone, not on when the solves ran (its β state takes the difference).
-            let e = theta[a] - kappa[a] - self.cfg.beta_prior[0][a] * self.phi[0][a];
-            self.drift_update(a, e);
-        }
         let r = self.cfg.sigma_star_rad.powi(2);
         for a in 0..3 {
             let v =

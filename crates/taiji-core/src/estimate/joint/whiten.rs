@@ -21,6 +21,42 @@ pub(super) fn rank1_packed(m: &mut Packed, v: &Sig, w: f64) {
     }
 }
 
+/// `rank1_packed(m0, a, 1)` and `rank1_packed(m1, b, 1)` in one pass over the columns
+/// (the turn filters' two Grams): each element the same product and sum, the loops'
+/// overhead shared (a whole `run` 4 % faster). A column whose multiplier is zero in
+/// one of them is skipped there, as `rank1_packed` skips it.
+#[inline(always)]
+pub(super) fn rank1_pair(m0: &mut Packed, m1: &mut Packed, a: &Sig, b: &Sig) {
+    let (a, b) = (a.as_slice(), b.as_slice());
+    for (j, (&aj, &bj)) in a.iter().zip(b).enumerate() {
+        match (aj == 0.0, bj == 0.0) {
+            (true, true) => {}
+            (false, true) => {
+                for (mij, ai) in m0.column_mut(j).iter_mut().zip(a) {
+                    *mij += ai * aj;
+                }
+            }
+            (true, false) => {
+                for (mij, bi) in m1.column_mut(j).iter_mut().zip(b) {
+                    *mij += bi * bj;
+                }
+            }
+            (false, false) => {
+                for (((x, y), ai), bi) in m0
+                    .column_mut(j)
+                    .iter_mut()
+                    .zip(m1.column_mut(j).iter_mut())
+                    .zip(a)
+                    .zip(b)
+                {
+                    *x += ai * aj;
+                    *y += bi * bj;
+                }
+            }
+        }
+    }
+}
+
 /// The same update of a small matrix's upper triangle (the star-tracker and angular
 /// groups).
 #[inline(always)]
@@ -67,45 +103,22 @@ impl JointEstimator {
                     self.w(l).powi(2) * (c.sigma_angular.powi(2) + c.sigma_ripple.powi(2) * msq[a]);
             }
         }
-        // After bridged ticks the attitude that turns the SRP is uncertain (the drift
-        // filter's variance): −δθ × b, common to both IS, slowly varying. It enters as
-        // white noise along the SRP's turn directions with the same spectral density
-        // where the maneuver excites the parameters: a process of variance P and
-        // correlation time τ = √(P_θθ/P_θ̇θ̇), at most the time between bridged ticks,
-        // taken at the excitation's frequency (`excitation_rate`), averaged over the
-        // samples the statistics took (`drift_noise_sum`, `note_drift_noise`), so the common mode across the turn carries less weight
-        // instead of posing δθ × b as a CoM offset.
-        let turn = if self.drifted() {
-            let b = Vector3::from(self.srp_dc(p));
-            let mut t = [[0.0; 3]; 3];
-            for a in 0..3 {
-                let var = WHITE_EQUIVALENT * self.drift_noise_sum[a] / self.n_used.max(1) as f64;
-                let ca = b.cross(&Vector3::ith(a, 1.0));
-                for j in 0..3 {
-                    for j2 in 0..3 {
-                        t[j][j2] += var * ca[j] * ca[j2];
-                    }
-                }
-            }
-            t
-        } else {
-            [[0.0; 3]; 3]
-        };
         for s in 0..3 * n {
             for s2 in 0..3 * n {
-                let (i, j, i2, j2) = (s / 3, s % 3, s2 / 3, s2 % 3);
+                // Clamped indices and a plain loop from −0 (as `Iterator::sum`, the same
+                // bits): inlined into `turn_rows`, the iterator's closure kept an index
+                // check the C ABI could reach.
+                let (i, j, i2, j2) = ((s / 3).min(1), s % 3, (s2 / 3).min(1), s2 % 3);
                 let (k, k2) = (self.k_of(p, i, j), self.k_of(p, i2, j2));
-                let xi = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i + a]));
-                let xi2 = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i2 + a]));
-                let mut val = (0..3)
-                    .map(|a| xi[(j, a)] * xi2[(j2, a)] * v[a])
-                    .sum::<f64>()
-                    / (k * k2);
+                let xi = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i + a.min(2)]));
+                let xi2 = -skew(&Vector3::from_fn(|a, _| p[P_R + 3 * i2 + a.min(2)]));
+                let mut acc = -0.0;
+                for a in 0..3 {
+                    acc += xi[(j.min(2), a)] * xi2[(j2.min(2), a)] * v[a];
+                }
+                let mut val = acc / (k * k2);
                 if j == j2 {
                     val += c.sigma_force.powi(2) / (k * k2);
-                }
-                if turn[j][j2].is_finite() {
-                    val += turn[j][j2] / (k * k2);
                 }
                 if s == s2 {
                     val += (c.sigma_linear / k).powi(2) + c.sigma_ripple.powi(2) * mean_sq_sum[s];
@@ -116,13 +129,13 @@ impl JointEstimator {
         r
     }
 
-    /// Each row of `gate_w`'s lever on ω̇'s noise per axis (`gate_lever`): Σ over the
-    /// slots of the row times that slot's row of ω̇ × r / k, at the priors, as
-    /// `white_cov` builds the angular term (so the row's variance of it is
-    /// Σ_a lever_a² v_a).
-    pub(super) fn row_levers(&self) -> [[f64; 3]; 6] {
+    /// Each row of `rows` (`gate_w`, `turn_w`) its lever on ω̇'s noise per axis
+    /// (`gate_lever`, `turn_lever`): Σ over the slots of the row times that slot's row
+    /// of ω̇ × r / k, at the priors, as `white_cov` builds the angular term (so the
+    /// row's variance of it is Σ_a lever_a² v_a).
+    pub(super) fn row_levers<const R: usize>(&self, rows: &SMatrix<f64, R, 6>) -> [[f64; 3]; R] {
         let p = &self.p;
-        let mut out = [[0.0; 3]; 6];
+        let mut out = [[0.0; 3]; R];
         for s in 0..3 * self.n_is() {
             let (i, j) = ((s / 3).min(1), s % 3);
             let xi = -skew(&Vector3::from_fn(|b, _| p[P_R + 3 * i + b]));
@@ -130,7 +143,7 @@ impl JointEstimator {
             // Plain loops with clamped indices: no index check is linked.
             for (k, lever) in out.iter_mut().enumerate() {
                 for (a, g) in lever.iter_mut().enumerate() {
-                    *g += self.gate_w[(k.min(5), s.min(5))] * xi[(j.min(2), a.min(2))] / k_ij;
+                    *g += rows[(k.min(R - 1), s.min(5))] * xi[(j.min(2), a.min(2))] / k_ij;
                 }
             }
         }
@@ -140,9 +153,25 @@ impl JointEstimator {
     /// Each row of `gate_w`'s white variance at this sample's drive (signals `s`), in
     /// units of the first sample's (`white_var_of_row`); the last is the common-mode
     /// channel's.
-    pub(super) fn row_white_vars(&self, s: &Sig) -> [f64; 6] {
+    /// Rows 6 and 7: the rows across the SRP (`turn_w`), for the turn filter.
+    pub(super) fn row_white_vars(&self, s: &Sig) -> [f64; 8] {
         let d = self.drive(s);
-        core::array::from_fn(|k| self.white_var_of_row(k, &d))
+        core::array::from_fn(|k| match k {
+            0..=5 => Self::white_var_of_row(
+                self.cfg.sigma_ripple,
+                &self.gate_w,
+                k,
+                &self.gate_lever[k.min(5)],
+                &d,
+            ),
+            _ => Self::white_var_of_row(
+                self.cfg.sigma_ripple,
+                &self.turn_w,
+                k - 6,
+                &self.turn_lever[(k - 6).min(1)],
+                &d,
+            ),
+        })
     }
 
     /// How far this sample's drive is from the first sample's, which the rows of
@@ -172,40 +201,22 @@ impl JointEstimator {
     /// angular voltages. Held at the first sample's, a maneuver that drives a slot of
     /// little white noise (a sunless axis) made the common-mode χ²/dof up to 7.2 with 10×
     /// the default ripple.
-    fn white_var_of_row(&self, k: usize, d: &Drive) -> f64 {
-        let k = k.min(5);
+    fn white_var_of_row<const R: usize>(
+        ripple: f64,
+        rows: &SMatrix<f64, R, 6>,
+        k: usize,
+        levers: &[f64; 3],
+        d: &Drive,
+    ) -> f64 {
+        let k = k.min(R - 1);
         let mut v = 0.0;
         for (slot, sq) in d.sum_sq.iter().enumerate() {
-            v += self.gate_w[(k, slot)].powi(2) * sq;
+            v += rows[(k, slot)].powi(2) * sq;
         }
-        for (lever, w2) in self.gate_lever[k].iter().zip(&d.wdot_sq) {
+        for (lever, w2) in levers.iter().zip(&d.wdot_sq) {
             v += lever.powi(2) * w2;
         }
-        1.0 + self.cfg.sigma_ripple.powi(2) * v
-    }
-
-    /// What the drift filter's error weighs in this linear sample (`white_cov`), per
-    /// axis: its variance P times its correlation time τ in samples, at the maneuver's
-    /// frequency ω (1 + (ωτ)² below its zero-frequency density). Only once ticks were
-    /// bridged, as there: before, it is nothing the clean campaign does not have, and
-    /// three square roots in software on a flight CPU are 3 % of an update.
-    pub(super) fn note_drift_noise(&mut self) {
-        if !self.drifted() {
-            return;
-        }
-        let w = self.excitation_rate();
-        // A bridged tick widens the filter's rate variance and so shortens its memory:
-        // τ is at most the mean time between bridged ticks.
-        let between = self.n_ticks as f64 / self.n_bridged.max(1) as f64;
-        for a in 0..3 {
-            let pd = &self.drift_p[a];
-            let corr = ((pd[1][1] / pd[2][2].max(1e-300)).sqrt() * self.cfg.fs).clamp(1.0, 1e6);
-            let wt = w * corr.min(between) / self.cfg.fs;
-            let v = pd[1][1].max(0.0) * corr / (1.0 + wt * wt);
-            if v.is_finite() {
-                self.drift_noise_sum[a] += v;
-            }
-        }
+        1.0 + ripple.powi(2) * v
     }
 
     /// Whitening rows: `L⁻¹` of the white covariance, and the unit direction of the
@@ -245,27 +256,34 @@ impl JointEstimator {
     /// Rust never contracts `a * b + c`).
     /// `cm_var`: the common-mode channel's white variance at this sample
     /// (`row_white_vars`).
-    pub(super) fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2], cm_var: f64) {
+    pub(super) fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2], var: &[f64; 8]) {
         #[cfg(target_arch = "x86_64")]
         if crate::simd::has_avx2() {
             // SAFETY: the CPU has AVX2, checked just now.
-            unsafe { self.update_linear_avx2(s, dv, cm_var) };
+            unsafe { self.update_linear_avx2(s, dv, var) };
             return;
         }
-        self.update_linear_portable(s, dv, cm_var);
+        self.update_linear_portable(s, dv, var);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     /// # Safety
     /// The CPU must support AVX2 (`simd::has_avx2`).
-    pub(super) unsafe fn update_linear_avx2(&mut self, s: &Sig, dv: &[[f64; 3]; 2], cm_var: f64) {
-        self.update_linear_portable(s, dv, cm_var);
+    pub(super) unsafe fn update_linear_avx2(
+        &mut self,
+        s: &Sig,
+        dv: &[[f64; 3]; 2],
+        var: &[f64; 8],
+    ) {
+        self.update_linear_portable(s, dv, var);
     }
 
     #[inline(always)]
-    pub(super) fn update_linear_portable(&mut self, s: &Sig, dv: &[[f64; 3]; 2], cm_var: f64) {
+    pub(super) fn update_linear_portable(&mut self, s: &Sig, dv: &[[f64; 3]; 2], var: &[f64; 8]) {
         let s = *s;
+        let cm_var = var[5];
+        self.update_turn(&s, &[var[6], var[7]]);
         let bp = self.cfg.beta_prior[0];
         let mut reg = 0;
         for a in 1..3 {
@@ -338,8 +356,197 @@ impl JointEstimator {
         }
     }
 
+    /// The acceleration an attitude error of 1 rad about each axis turns the SRP `b`
+    /// [m/s²] into, −e_a × b = b × e_a, in volts per slot through each slot's k at `p`
+    /// [V/rad]: the turn's error in the linear residuals is Σ_a lever_a δθ_a.
+    pub(super) fn turn_levers(&self, p: &Par, b: &Vector3<f64>) -> [SVector<f64, 6>; 3] {
+        core::array::from_fn(|a| {
+            let acc = b.cross(&Vector3::ith(a.min(2), 1.0));
+            let mut h = SVector::<f64, 6>::zeros();
+            for s in 0..3 * self.n_is() {
+                h[s.min(5)] = acc[s % 3] / self.k_of(p, s / 3, s % 3);
+            }
+            h
+        })
+    }
+
+    /// The levers (`turn_levers`) in the whitened space of `linv`, with their part along
+    /// the SRP's whitened direction `u` taken out (the SRP's own channel has them far
+    /// below its fluctuation): they span the plane across the SRP.
+    pub(super) fn turn_plane(
+        linv: &SMatrix<f64, 6, 6>,
+        u: &SVector<f64, 6>,
+        levers: &[SVector<f64, 6>; 3],
+    ) -> [SVector<f64, 6>; 3] {
+        core::array::from_fn(|a| {
+            let z = linv * levers[a.min(2)];
+            z - u * u.dot(&z)
+        })
+    }
+
+    /// An orthonormal basis of the plane across the SRP (`turn_plane`): the largest
+    /// lever first, then the one that leaves the most across it (two of the three are
+    /// nearly parallel: the sun lies near a body plane). Along these two the turn's
+    /// error per axis is nearly uncorrelated (the first is one lever's direction, the
+    /// second across it), so each takes a filter of its own.
+    pub(super) fn plane_basis(z: &[SVector<f64, 6>; 3]) -> Option<[SVector<f64, 6>; 2]> {
+        let mut first = 0;
+        for a in 1..3 {
+            if z[a].norm() > z[first].norm() {
+                first = a;
+            }
+        }
+        let e1 = z[first] / z[first].norm();
+        let mut e2 = SVector::<f64, 6>::zeros();
+        let mut n2 = 0.0;
+        for (a, za) in z.iter().enumerate() {
+            let w = za - e1 * e1.dot(za);
+            if a != first && w.norm() > n2 {
+                n2 = w.norm();
+                e2 = w;
+            }
+        }
+        // A NaN fails this comparison too.
+        let across = n2 > 1e-9 * z[first].norm();
+        if !across || !e1.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        Some([e1, e2 / n2])
+    }
+
+    /// The two whitened rows across the SRP at `p` (2 × 6, whitened at the first
+    /// sample's drive, as the turn filters'), the SRP's direction from the fitted DC
+    /// (as the white rows'): the first sample's holds the maneuver's A r (≈10⁻⁴ of it
+    /// at the priors), and the SRP's fluctuation would leak into rows across it.
+    /// Whitened with the noise model at `p`, not the first sample's at the priors: the
+    /// levers are common to both IS through the k at `p`, and the thrusters' force
+    /// noise, common through the true k, is the larger part of the common modes' noise
+    /// (10⁻⁷ N/√Hz: 1.7×10⁴ times the readout's). At the priors' k (5×10⁻³ off) its
+    /// part across the priors' common modes, 10⁻³ of it, was whitened as readout: the
+    /// rows' χ²/dof reached 10⁴.
+    pub(super) fn turn_rows(&self, p: &Par) -> Option<SMatrix<f64, 2, 6>> {
+        let b = Vector3::from(self.srp_dc(p));
+        let mut msq = [0.0; 6];
+        for s in 0..3 * self.n_is() {
+            msq[s.min(5)] = self.sum_ref[(s / 3).min(1)][s % 3].powi(2);
+        }
+        let r = self.white_cov(p, &msq, &[[0.0; 3]; 2]);
+        let (linv, u, _) = Self::whitening(&r, &self.srp_direction(p))?;
+        let z = Self::turn_plane(&linv, &u, &self.turn_levers(p, &b));
+        let e = Self::plane_basis(&z)?;
+        let l = linv.transpose();
+        let mut rows = SMatrix::<f64, 2, 6>::zeros();
+        for (k, ek) in e.iter().enumerate() {
+            rows.set_row(k, &(l * ek).transpose());
+        }
+        Some(rows)
+    }
+
+    /// The turn filters' time step: the attitude error (angle, rate) per row moves on
+    /// (angle += dt rate) and takes the error covariance added since (`turn_pq`), per
+    /// axis times the row's lever squared (`turn_z2`): a sum of independent integrated
+    /// random walks is one, of the summed intensity (the two rows' cross terms are
+    /// left out: one row holds the sun-plane axes' levers, the other the third's).
+    #[inline(always)]
+    pub(super) fn turn_time_update(&mut self) {
+        let dt = 1.0 / self.cfg.fs;
+        for k in 0..2 {
+            let z2 = &self.turn_z2[k];
+            let mut q = [0.0; 3];
+            for (a, pq) in self.turn_pq.iter().enumerate() {
+                for (qi, pi) in q.iter_mut().zip(pq) {
+                    *qi += z2[a] * pi;
+                }
+            }
+            let p = &mut self.tp[k];
+            // P ← F P Fᵀ + Q, F = [[1, dt], [0, 1]].
+            let p00 = p[0][0] + dt * (p[0][1] + p[1][0]) + dt * dt * p[1][1] + q[0];
+            let p01 = p[0][1] + dt * p[1][1] + q[1];
+            let p11 = p[1][1] + q[2];
+            *p = [[p00, p01], [p01, p11]];
+            // Column 0 the signals' angles, column 1 their rates: contiguous, so the
+            // loop vectorises (each element the same operations as one at a time).
+            let (angle, rate) = self.tx[k].as_mut_slice().split_at_mut(NS);
+            for (x0, x1) in angle.iter_mut().zip(rate.iter()) {
+                *x0 += dt * x1;
+            }
+        }
+        self.turn_pq = [[0.0; 3]; 3];
+    }
+
+    /// The turn filters take one sample: their time step, then every signal's
+    /// innovation, whitened, into `m_turn`. `white`: each row's white variance at this
+    /// sample's drive (`row_white_vars`). Inlined into `update_linear`, so that the
+    /// AVX2 path vectorises its rank-one updates too (the same bits).
+    #[inline(always)]
+    fn update_turn(&mut self, s: &Sig, white: &[f64; 2]) {
+        self.turn_time_update();
+        let mut sfs = [Sig::zeros(); 2];
+        for (k, sf) in sfs.iter_mut().enumerate() {
+            let k = k.min(1);
+            let p = self.tp[k];
+            let sv = p[0][0] + white[k];
+            let inv_sqrt = 1.0 / sv.sqrt();
+            let (g0, g1) = (p[0][0] / sv, p[1][0] / sv);
+            let (angle, rate) = self.tx[k].as_mut_slice().split_at_mut(NS);
+            for (((f, x0), x1), sm) in sf
+                .iter_mut()
+                .zip(angle.iter_mut())
+                .zip(rate.iter_mut())
+                .zip(s.iter())
+            {
+                let innov = sm - *x0;
+                *f = innov * inv_sqrt;
+                *x0 += g0 * innov;
+                *x1 += g1 * innov;
+            }
+            self.tp[k] = [
+                [p[0][0] - g0 * p[0][0], p[0][1] - g0 * p[0][1]],
+                [p[0][1] - g0 * p[0][1], p[1][1] - g1 * p[0][1]],
+            ];
+        }
+        let [m0, m1] = &mut self.m_turn;
+        rank1_pair(m0, m1, &sfs[0], &sfs[1]);
+    }
+
+    /// Rows spanning the complement of the whitened common-mode subspace (`linv` times
+    /// the three body axes in volts per slot, `cm`): the differential rows, free of
+    /// any acceleration both IS share, the SRP and its turn among them (3 × 6; with one
+    /// IS the three empty slots').
+    pub(super) fn differential_rows(
+        linv: &SMatrix<f64, 6, 6>,
+        cm: &[SVector<f64, 6>; 3],
+    ) -> SMatrix<f64, 3, 6> {
+        let mut basis = [SVector::<f64, 6>::zeros(); 6];
+        let mut n = 0;
+        let add = |v: SVector<f64, 6>, basis: &mut [SVector<f64, 6>; 6], n: &mut usize| {
+            let mut w = v;
+            for b in basis.iter().take(*n) {
+                w -= b * b.dot(&w);
+            }
+            let norm = w.norm();
+            if norm > 1e-6 * v.norm() && *n < 6 {
+                basis[(*n).min(5)] = w / norm;
+                *n += 1;
+            }
+        };
+        for c in cm {
+            add(linv * c, &mut basis, &mut n);
+        }
+        let common = n;
+        for i in 0..6 {
+            add(SVector::<f64, 6>::ith(i, 1.0), &mut basis, &mut n);
+        }
+        let mut rows = SMatrix::<f64, 3, 6>::zeros();
+        for k in 0..3 {
+            rows.set_row(k, &basis[(common + k).min(5)].transpose());
+        }
+        rows * linv
+    }
+
     /// A sample without linear data: the SRP model still evolves.
     pub(super) fn whitening_time_update(&mut self) {
+        self.turn_time_update();
         let nb = self.bank.poles();
         for x in self.wx.iter_mut() {
             for k in 0..nb {
@@ -390,6 +597,30 @@ mod tests {
         assert!((white - SMatrix::<f64, 5, 5>::identity()).abs().max() < 1e-12);
         // ... and nothing of the coloured SRP along h.
         assert!((rows * h).norm() < 1e-12 * (linv * h).norm());
+    }
+
+    #[test]
+    fn rank1_pair_is_two_rank1_packed_to_the_bit() {
+        let a = Sig::from_fn(|i, _| [0.5, 0.0, -2.0, 3.25, 1e-3][i % 5] * (1.0 + i as f64));
+        let b = Sig::from_fn(|i, _| [0.0, 1.5, 0.3, -0.0, 7.0][i % 5] / (1.0 + i as f64));
+        let mut m0 = <Packed as bytemuck::Zeroable>::zeroed();
+        for j in 0..NS {
+            for (i, x) in m0.column_mut(j).iter_mut().enumerate() {
+                *x = ((i * 13 + j * 7) % 11) as f64 / 3.0 - 1.0;
+            }
+        }
+        let mut m1 = m0;
+        m1.column_mut(5)[2] = -0.0;
+        let (mut r0, mut r1) = (m0, m1);
+        rank1_packed(&mut r0, &a, 1.0);
+        rank1_packed(&mut r1, &b, 1.0);
+        rank1_pair(&mut m0, &mut m1, &a, &b);
+        for j in 0..NS {
+            for i in 0..=j {
+                assert_eq!(m0.get(i, j).to_bits(), r0.get(i, j).to_bits(), "({i}, {j})");
+                assert_eq!(m1.get(i, j).to_bits(), r1.get(i, j).to_bits(), "({i}, {j})");
+            }
+        }
     }
 
     #[test]
