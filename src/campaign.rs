@@ -369,7 +369,7 @@ fn drive(
             let mut b = Batch::with_capacity();
             while sim.fill(&mut b) {
                 if let Some(t) = twin.as_deref_mut() {
-                    b.twin.iter().for_each(|m| t(m));
+                    b.twin.iter().for_each(&mut *t);
                 }
                 take(&b)?;
             }
@@ -418,7 +418,7 @@ fn drive(
                         // Ends when the simulation is done (or stopped) and dropped its
                         // sender; a closed return channel is no error here.
                         while let Ok(v) = twin_full_rx.recv() {
-                            v.iter().for_each(|m| t(m));
+                            v.iter().for_each(&mut *t);
                             let _ = twin_free_tx.send(v);
                         }
                     });

@@ -484,8 +484,17 @@ fn run_campaign(
     finish(out, &report, plots)
 }
 
-/// The final estimate, the streams in memory (with `plots`) and the fault score of a
-/// campaign recorded as it runs: to DIR/telemetry.h5 with `record`.
+/// What a recorded campaign gives: the final estimate, the streams in memory, the fault
+/// score and the run's bound.
+type Recorded = (
+    taiji::msg::EstimateMsg,
+    Option<taiji::telemetry::Telemetry>,
+    Option<taiji::faults::FaultScore>,
+    Option<taiji::crlb::Crlb>,
+);
+
+/// The final estimate, the streams in memory (with `plots`), the fault score and the
+/// run's bound of a campaign recorded as it runs: to DIR/telemetry.h5 with `record`.
 fn recorded_campaign(
     s: &Scenario,
     seed: u64,
@@ -494,15 +503,7 @@ fn recorded_campaign(
     record: Option<Compression>,
     plots: bool,
     tick: impl FnMut(f64),
-) -> Result<
-    (
-        taiji::msg::EstimateMsg,
-        Option<taiji::telemetry::Telemetry>,
-        Option<taiji::faults::FaultScore>,
-        Option<taiji::crlb::Crlb>,
-    ),
-    CliError,
-> {
+) -> Result<Recorded, CliError> {
     // The recording streams to disk as the campaign runs; figures need the streams in
     // memory.
     let mut file = match record {
