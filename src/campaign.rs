@@ -67,7 +67,7 @@ impl Threads {
 /// costs nothing per tick (~0.5 ms of work per batch), few enough to stay in cache.
 pub const BATCH: usize = 256;
 /// Batches in flight: how far the simulation may run ahead of the estimator.
-pub const POOL: usize = 4;
+pub const POOL: usize = 16;
 
 /// Run the campaign; `progress` is called with the fraction done now and then.
 pub fn run(s: &Scenario, seed: u64, method: Method, progress: impl FnMut(f64)) -> CampaignResult {
@@ -135,6 +135,8 @@ struct Batch {
     /// Per tick, only when recording: the truth and the sample.
     truth: Vec<TruthState>,
     sample: Vec<SensorSample>,
+    /// The noise-free twin's delivered samples (`Twin`), when there is one.
+    twin: Vec<SensorSample>,
 }
 
 impl Batch {
@@ -146,12 +148,28 @@ impl Batch {
             records: Vec::new(),
             truth: Vec::new(),
             sample: Vec::new(),
+            twin: Vec::with_capacity(BATCH + 8),
         }
     }
 }
 
+/// Something that takes the noise-free twin's samples in tick order (the Cramér–Rao
+/// bound's estimator pass, `crlb::run_with_bound`): with [`Threads::Two`] on a third
+/// thread, beside the simulation and the run's estimator.
+pub type TwinTake<'t> = &'t mut (dyn FnMut(&SensorSample) + Send);
+
+/// The campaign's noise-free twin: the same motion (`Plant::noise_free_twin`) through a
+/// noise-free front-end, losing what the run loses (`Injector::losses_only`): the
+/// stream `samples` and `samples_losing` give the bound, without simulating the
+/// motion a second time.
+struct Twin {
+    fee: FrontEnd,
+    inj: Option<Injector>,
+    prev: Option<SensorSample>,
+}
+
 /// The simulating side: commander, plant, front-end and the fault injector (none:
-/// every tick delivers its sample once).
+/// every tick delivers its sample once), and the noise-free twin if asked.
 struct Sim {
     commander: Commander,
     plant: Plant,
@@ -162,6 +180,7 @@ struct Sim {
     prev: Option<SensorSample>,
     next: u64,
     n: u64,
+    twin: Option<Twin>,
 }
 
 impl Sim {
@@ -177,6 +196,7 @@ impl Sim {
             prev: None,
             next: 0,
             n,
+            twin: None,
         }
     }
 
@@ -188,11 +208,15 @@ impl Sim {
         b.records.clear();
         b.truth.clear();
         b.sample.clear();
+        b.twin.clear();
         let end = (self.next + BATCH as u64).min(self.n);
         for tick in self.next..end {
             // The chain, each stage through its one lifecycle (`stage::Stage`).
             let cmd = self.commander.process(tick, &());
             let truth = self.plant.process(tick, &cmd);
+            if let Some(tw) = self.twin.as_mut() {
+                tw.step(tick, &self.plant.noise_free_twin(&truth), &mut b.twin);
+            }
             let mut sample = self.fee.process(tick, &truth);
             let (d0, r0) = (b.delivered.len(), b.records.len());
             if let Some(inj) = self.inj.as_mut() {
@@ -218,6 +242,24 @@ impl Sim {
         }
         self.next = end;
         !b.counts.is_empty()
+    }
+}
+
+impl Twin {
+    /// One tick of the twin: its sample, what the bus delivers of it, into `out` (as
+    /// `Sim::fill` with `samples_losing`'s injector, or none).
+    fn step(&mut self, tick: u64, truth: &TruthState, out: &mut Vec<SensorSample>) {
+        let mut sample = self.fee.process(tick, truth);
+        if let Some(inj) = self.inj.as_mut() {
+            inj.corrupt(&mut sample, &mut |_| {});
+            inj.bus_records(tick, &mut |_| {});
+            for (d, _, _) in inj.annotated_deliveries(tick) {
+                out.push(inj.delivered(d, &sample, self.prev.as_ref()));
+            }
+        } else {
+            out.push(sample);
+        }
+        self.prev = Some(sample);
     }
 }
 
@@ -301,44 +343,86 @@ pub fn samples_losing(
 /// Every message `sim` delivers, handed to `take` in order (nothing is recorded, so
 /// nothing can fail).
 fn deliver(sim: Sim, threads: Threads, mut take: impl FnMut(&SensorSample)) {
-    let all: Result<(), TelemetryError> = drive(threads, sim, |b| {
-        b.delivered.iter().for_each(|(m, ..)| take(m));
-        Ok(())
-    });
+    let all: Result<(), TelemetryError> = drive(
+        threads,
+        sim,
+        |b| {
+            b.delivered.iter().for_each(|(m, ..)| take(m));
+            Ok(())
+        },
+        None,
+    );
     debug_assert!(all.is_ok());
 }
 
 /// Simulate batch after batch and hand each to `take`, on the calling thread, until
-/// the end or `take`'s first error.
+/// the end or `take`'s first error; the twin's samples of each batch (if any) to
+/// `twin`, in order, on a thread of their own with [`Threads::Two`].
 fn drive(
     threads: Threads,
     mut sim: Sim,
     mut take: impl FnMut(&Batch) -> Result<(), TelemetryError>,
+    mut twin: Option<TwinTake<'_>>,
 ) -> Result<(), TelemetryError> {
     match threads {
         Threads::One => {
             let mut b = Batch::with_capacity();
             while sim.fill(&mut b) {
+                if let Some(t) = twin.as_deref_mut() {
+                    b.twin.iter().for_each(&mut *t);
+                }
                 take(&b)?;
             }
             Ok(())
         }
         Threads::Two => {
             // Full batches to `take`, emptied ones back: a fixed pool, no allocation
-            // once warm, and the simulation never more than POOL batches ahead.
+            // once warm, and the simulation never more than POOL batches ahead. The
+            // twin's samples go the same way to a third thread, in buffers of their own.
             let (full_tx, full_rx) = mpsc::sync_channel::<Batch>(POOL);
             let (free_tx, free_rx) = mpsc::sync_channel::<Batch>(POOL);
             for _ in 0..POOL {
                 let _ = free_tx.send(Batch::with_capacity());
             }
+            let (twin_full_tx, twin_full_rx) = mpsc::sync_channel::<Vec<SensorSample>>(POOL);
+            let (twin_free_tx, twin_free_rx) = mpsc::sync_channel::<Vec<SensorSample>>(POOL);
+            if twin.is_some() {
+                for _ in 0..POOL {
+                    let _ = twin_free_tx.send(Vec::with_capacity(BATCH + 8));
+                }
+            }
+            let twin_on = twin.is_some();
             std::thread::scope(|sc| {
                 sc.spawn(move || {
                     while let Ok(mut b) = free_rx.recv() {
-                        if !sim.fill(&mut b) || full_tx.send(b).is_err() {
+                        if !sim.fill(&mut b) {
+                            break;
+                        }
+                        if twin_on {
+                            let Ok(mut empty) = twin_free_rx.recv() else {
+                                break;
+                            };
+                            empty.clear();
+                            std::mem::swap(&mut b.twin, &mut empty);
+                            if twin_full_tx.send(empty).is_err() {
+                                break;
+                            }
+                        }
+                        if full_tx.send(b).is_err() {
                             break;
                         }
                     }
                 });
+                if let Some(t) = twin.take() {
+                    sc.spawn(move || {
+                        // Ends when the simulation is done (or stopped) and dropped its
+                        // sender; a closed return channel is no error here.
+                        while let Ok(v) = twin_full_rx.recv() {
+                            v.iter().for_each(&mut *t);
+                            let _ = twin_free_tx.send(v);
+                        }
+                    });
+                }
                 // Owned here, so that an error or a panic in `take` drops them and the
                 // simulation, its channels closed, stops instead of waiting forever.
                 let (full_rx, free_tx) = (full_rx, free_tx);
@@ -353,6 +437,29 @@ fn drive(
     }
 }
 
+/// [`run_with`] with the noise-free twin's samples handed to `twin` on the simulating
+/// thread (`crlb::run_with_bound`): the run's estimates are those of [`run`], bit for
+/// bit, and `twin` takes the stream `samples_losing` (or `samples`) gives at `seed`.
+pub fn run_beside(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    threads: Threads,
+    progress: impl FnMut(f64),
+    rec: Option<&mut dyn Sink>,
+    take: TwinTake<'_>,
+) -> Result<CampaignResult, TelemetryError> {
+    let twin = Twin {
+        fee: FrontEnd::new(s, seed, false),
+        inj: s
+            .faults
+            .loses_data()
+            .then(|| Injector::new(s, seed).losses_only()),
+        prev: None,
+    };
+    run_twin(s, seed, method, threads, progress, rec, Some((twin, take)))
+}
+
 fn run_with(
     s: &Scenario,
     seed: u64,
@@ -361,10 +468,27 @@ fn run_with(
     progress: impl FnMut(f64),
     rec: Option<&mut dyn Sink>,
 ) -> Result<CampaignResult, TelemetryError> {
+    run_twin(s, seed, method, threads, progress, rec, None)
+}
+
+fn run_twin(
+    s: &Scenario,
+    seed: u64,
+    method: Method,
+    threads: Threads,
+    progress: impl FnMut(f64),
+    rec: Option<&mut dyn Sink>,
+    twin: Option<(Twin, TwinTake<'_>)>,
+) -> Result<CampaignResult, TelemetryError> {
+    let (twin, twin_take) = match twin {
+        Some((t, take)) => (Some(t), Some(take)),
+        None => (None, None),
+    };
     let st = Stages::new(s, seed, method);
     let inj = Injector::new(s, seed);
     let n = s.n_samples();
     let sim = Sim {
+        twin,
         commander: st.commander,
         plant: st.plant,
         fee: st.fee,
@@ -382,7 +506,7 @@ fn run_with(
         progress,
         n,
     };
-    drive(threads, sim, |b| est.take(b))?;
+    drive(threads, sim, |b| est.take(b), twin_take)?;
     let Est {
         mut estimator,
         score,
@@ -448,11 +572,16 @@ mod tests {
             let sim = Sim::clean(st.commander, st.plant, st.fee, s.n_samples());
             let mut taken = 0;
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                drive(Threads::Two, sim, |_| {
-                    taken += 1;
-                    assert!(taken < 3, "the estimator side fails");
-                    Ok(())
-                })
+                drive(
+                    Threads::Two,
+                    sim,
+                    |_| {
+                        taken += 1;
+                        assert!(taken < 3, "the estimator side fails");
+                        Ok(())
+                    },
+                    None,
+                )
             }));
             let _ = done_tx.send((r.is_err(), taken));
         });

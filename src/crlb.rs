@@ -169,6 +169,35 @@ pub fn bound_at(curve: &[(u64, Option<Crlb>)], tick: u64) -> Option<Crlb> {
     Some(out)
 }
 
+/// The campaign at `seed` (`campaign::run_beside`) and the bound of that run
+/// (`crlb_on` of `s` at `seed`), bit for bit: its noise-free samples are the twin of
+/// the run's simulation (the same motion, simulated once), taken by the bound's
+/// estimator pass on the simulating thread while the run's estimator takes the run's
+/// on the other. `None` for the bound where it is singular.
+pub fn run_with_bound(
+    s: &Scenario,
+    seed: u64,
+    method: crate::estimate::Method,
+    threads: Threads,
+    progress: impl FnMut(f64),
+    rec: Option<&mut dyn crate::telemetry::Sink>,
+) -> Result<(crate::campaign::CampaignResult, Option<Crlb>), crate::telemetry::TelemetryError> {
+    let sb = Scenario { seed, ..s.clone() };
+    let mut est = noise_free_estimator(&sb);
+    let res = crate::campaign::run_beside(
+        s,
+        seed,
+        method,
+        threads,
+        progress,
+        rec,
+        &mut |m: &SensorSample| {
+            est.step(m);
+        },
+    )?;
+    Ok((res, bound_of(&sb, &est)))
+}
+
 /// The joint estimator that accumulates the bound's statistics (it never solves).
 fn noise_free_estimator(s: &Scenario) -> JointEstimator {
     let priors = s.priors();
@@ -237,6 +266,7 @@ fn bound_of(s: &Scenario, est: &JointEstimator) -> Option<Crlb> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimate::Method;
 
     /// The default scenario, `duration_s` long, its maneuver planned.
     fn planned(duration_s: f64) -> Scenario {
@@ -269,6 +299,33 @@ mod tests {
         let b0_other = crlb_on(&other_seed(&clean), Threads::One).unwrap();
         assert!(moved(&b1_other, &b1) > 1e-3, "{b1:?}\n{b1_other:?}");
         assert!(moved(&b0_other, &b0) < 1e-2, "{b0:?}\n{b0_other:?}");
+    }
+
+    /// The bound beside the run (its noise-free twin) is the bound of its own campaign,
+    /// bit for bit, on one thread or three, with and without lost data (dropouts of
+    /// both IS and the star tracker, ticks the bus never delivers), and the run's
+    /// estimate is the run's alone.
+    #[test]
+    fn the_bound_beside_the_run_is_the_runs_bound_to_the_bit() {
+        let clean = planned(2000.0);
+        let mut lossy = clean.clone();
+        lossy.faults.is_dropout_rate = 0.02;
+        lossy.faults.star_dropout_rate = 0.02;
+        lossy.faults.missing_rate = 0.005;
+        for s in [clean, lossy] {
+            let want = crlb_on(&s, Threads::One).unwrap();
+            let alone = crate::campaign::run_on(&s, s.seed, Method::Joint, Threads::One, |_| {});
+            for threads in [Threads::One, Threads::Two] {
+                let (r, got) =
+                    run_with_bound(&s, s.seed, Method::Joint, threads, |_| {}, None).unwrap();
+                assert_eq!(got.unwrap(), want, "{threads:?}");
+                assert_eq!(
+                    bytemuck::bytes_of(&r.estimate),
+                    bytemuck::bytes_of(&alone.estimate),
+                    "{threads:?}"
+                );
+            }
+        }
     }
 
     fn other_seed(s: &Scenario) -> Scenario {

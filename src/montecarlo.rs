@@ -211,18 +211,30 @@ pub fn run_seeds(
                         }
                         let mut sc = s.clone();
                         sc.seed = seed;
-                        let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
                         // Each run has the bound of its own motion and of the ticks it
-                        // lost (`crlb`): one more noise-free campaign a seed, but where
-                        // neither torque noise nor losses make the seed matter.
-                        // `bound` (`campaign_bounds`): the maneuver's, the same for
-                        // every seed, and the run's where the seed does not matter; a
-                        // seed whose own bound is singular has none (infinite).
-                        let run = if crate::crlb::seed_matters(&sc) {
-                            crate::crlb::crlb_on(&sc, Threads::One)
-                                .unwrap_or(crate::crlb::Crlb::INFINITE)
+                        // lost (`crlb`): one more estimator pass a seed over the
+                        // noise-free twin of its own simulation (`crlb::run_with_bound`,
+                        // the motion simulated once), but where neither torque noise
+                        // nor losses make the seed matter. `bound` (`campaign_bounds`):
+                        // the maneuver's, the same for every seed, and the run's where
+                        // the seed does not matter; a seed whose own bound is singular
+                        // has none (infinite).
+                        let (r, run) = if crate::crlb::seed_matters(&sc) {
+                            let (r, b) = crate::crlb::run_with_bound(
+                                &sc,
+                                seed,
+                                method,
+                                Threads::One,
+                                |_| {},
+                                None,
+                            )
+                            .unwrap_or_else(|e| {
+                                unreachable!("a campaign that records nothing cannot fail: {e}")
+                            });
+                            (r, b.unwrap_or(crate::crlb::Crlb::INFINITE))
                         } else {
-                            bound.run
+                            let r = campaign::run_on(&sc, seed, method, Threads::One, |_| {});
+                            (r, bound.run)
                         };
                         let b = crate::crlb::Bounds {
                             run,

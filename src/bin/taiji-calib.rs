@@ -445,26 +445,33 @@ fn run_campaign(
     let seed = seed.unwrap_or(s.seed);
     let s = Scenario { seed, ..s };
     let t0 = std::time::Instant::now();
-    // The bounds' noise-free campaigns run beside the campaign itself (the run's at its
-    // seed: its torque noise's motion and the data it lost; and the maneuver's alone).
-    let bounds = {
+    // The maneuver's bound (its motion alone) on a thread beside the campaign; the
+    // run's (at its seed: its torque noise's motion and the data it lost) from the
+    // campaign's own simulation (`crlb::run_with_bound`).
+    let maneuver = {
         let s = s.clone();
-        std::thread::spawn(move || taiji::plan::bounds(&s).ok_or(CliError::Unexcited))
+        std::thread::spawn(move || taiji::plan::maneuver_bound(&s))
     };
     let bar = Bar::new(1000, "campaign");
     let tick = |f: f64| bar.set((f * 1000.0) as u64);
-    let (estimate, tel, faults) = if record.is_some() || plots {
+    let (estimate, tel, faults, run_bound) = if record.is_some() || plots {
         // The recording streams to the folder as the campaign runs.
         out_dir(out)?;
         recorded_campaign(&s, seed, method, out, record, plots, tick)?
     } else {
-        let res = taiji::campaign::run(&s, seed, method, tick);
-        (res.estimate, None, res.faults)
+        let threads = taiji::campaign::Threads::available();
+        let (res, bound) = taiji::crlb::run_with_bound(&s, seed, method, threads, tick, None)
+            .unwrap_or_else(|e| unreachable!("a campaign that records nothing cannot fail: {e}"));
+        (res.estimate, None, res.faults, bound)
     };
     bar.finish();
-    let bounds = bounds
+    let maneuver = maneuver
         .join()
-        .unwrap_or_else(|e| std::panic::resume_unwind(e))?;
+        .unwrap_or_else(|e| std::panic::resume_unwind(e));
+    let bounds = taiji::crlb::Bounds {
+        run: run_bound.ok_or(CliError::Unexcited)?,
+        maneuver,
+    };
     let mut report = Report::with_bounds(&s, seed, "in-process", method.name(), &estimate, &bounds);
     if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
         m.search = Some(p.search_json());
@@ -477,8 +484,17 @@ fn run_campaign(
     finish(out, &report, plots)
 }
 
-/// The final estimate, the streams in memory (with `plots`) and the fault score of a
-/// campaign recorded as it runs: to DIR/telemetry.h5 with `record`.
+/// What a recorded campaign gives: the final estimate, the streams in memory, the fault
+/// score and the run's bound.
+type Recorded = (
+    taiji::msg::EstimateMsg,
+    Option<taiji::telemetry::Telemetry>,
+    Option<taiji::faults::FaultScore>,
+    Option<taiji::crlb::Crlb>,
+);
+
+/// The final estimate, the streams in memory (with `plots`), the fault score and the
+/// run's bound of a campaign recorded as it runs: to DIR/telemetry.h5 with `record`.
 fn recorded_campaign(
     s: &Scenario,
     seed: u64,
@@ -487,14 +503,7 @@ fn recorded_campaign(
     record: Option<Compression>,
     plots: bool,
     tick: impl FnMut(f64),
-) -> Result<
-    (
-        taiji::msg::EstimateMsg,
-        Option<taiji::telemetry::Telemetry>,
-        Option<taiji::faults::FaultScore>,
-    ),
-    CliError,
-> {
+) -> Result<Recorded, CliError> {
     // The recording streams to disk as the campaign runs; figures need the streams in
     // memory.
     let mut file = match record {
@@ -515,7 +524,9 @@ fn recorded_campaign(
         memory: tel.as_mut(),
         file: file.as_mut(),
     };
-    let res = taiji::campaign::run_into(s, seed, method, tick, &mut sink)?;
+    let threads = taiji::campaign::Threads::available();
+    let (res, bound) =
+        taiji::crlb::run_with_bound(s, seed, method, threads, tick, Some(&mut sink))?;
     if let Some(f) = file {
         let (r, d) = res
             .faults
@@ -527,7 +538,7 @@ fn recorded_campaign(
         t.faults = f.records.clone();
         t.faults_detected = f.detected.clone();
     }
-    Ok((res.estimate, tel, res.faults))
+    Ok((res.estimate, tel, res.faults, bound))
 }
 
 /// How `replay` reads its recording.

@@ -57,9 +57,26 @@ pub struct Plant {
     hold_kp: Vector3<f64>,
     hold_kd: Vector3<f64>,
     q0: nalgebra::UnitQuaternion<f64>,
+    /// The last step's TM and SRP accelerations without the SRP's fluctuation and the
+    /// thrusters' force noise (`noise_free_twin`).
+    twin_a: ([[f64; 3]; 2], [f64; 3]),
 }
 
 impl Plant {
+    /// The last step's truth `truth` as a plant of the same motion without the SRP's
+    /// fluctuation and the thrusters' force noise gives it, bit for bit: the
+    /// Cramér–Rao bound's noise-free campaign (`crlb`), whose plant keeps the torque
+    /// noise and the thrusters' jitter (the motion), beside the run's own, so the run
+    /// simulates its motion once. Neither noise moves the spacecraft (they are
+    /// accelerations of the TMs, drawn from streams of their own).
+    pub fn noise_free_twin(&self, truth: &TruthState) -> TruthState {
+        TruthState {
+            a_tm_b: self.twin_a.0,
+            a_srp_b: self.twin_a.1,
+            ..*truth
+        }
+    }
+
     pub fn new(s: &Scenario, seed: u64, noise: PlantNoise) -> Self {
         let inertia = Matrix3::from_fn(|i, j| s.spacecraft.inertia_kg_m2[i][j]);
         let fs = s.sample_rate_hz;
@@ -109,6 +126,7 @@ impl Plant {
                 Vector3::from_fn(|a, _| 2.0 * 0.7 * inertia[(a, a)] * w)
             },
             q0: nalgebra::UnitQuaternion::identity(),
+            twin_a: ([[0.0; 3]; 2], [0.0; 3]),
         }
     }
 
@@ -174,6 +192,13 @@ impl Plant {
                 a_srp[a] += self.force_sigma * gauss(&mut self.rng_force);
             }
         }
+        // The same expressions a plant without the SRP's fluctuation and the force
+        // noise evaluates (`delta` 0, no force term): the same bits as its step.
+        let a_srp_twin = sun_b / n * (self.g0 + 0.0);
+        self.twin_a = (
+            std::array::from_fn(|i| (a_couple[i] / n + a_srp_twin).into()),
+            a_srp_twin.into(),
+        );
         let q = self.body.q_bn.quaternion();
         let a_tm: [[f64; 3]; 2] = std::array::from_fn(|i| (a_couple[i] / n + a_srp).into());
         let out = TruthState {
