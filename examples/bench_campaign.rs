@@ -197,7 +197,10 @@ fn main() {
     };
     line("simulation (commander, plant, front-end)", sim);
     line("estimator (with its solves)", est);
-    line("noise-free simulation (the bound alone; `run` twins its own)", sim0);
+    line(
+        "noise-free simulation (the bound alone; `run` twins its own)",
+        sim0,
+    );
     line("estimator without solves (the bound's pass)", est0);
     println!(
         "  {:<58} {:.3} s   (its two threads)",
