@@ -82,7 +82,7 @@ pub fn run_on(
     threads: Threads,
     progress: impl FnMut(f64),
 ) -> CampaignResult {
-    match run_with(s, seed, method, threads, progress, None) {
+    match run_with(s, seed, method, threads, progress, None, None) {
         Ok(r) => r,
         Err(e) => unreachable!("a campaign that records nothing cannot fail: {e}"),
     }
@@ -98,7 +98,7 @@ pub fn run_recorded(
 ) -> (CampaignResult, Telemetry) {
     let mut tel = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, s.n_samples());
     let threads = Threads::available();
-    let res = match run_with(s, seed, method, threads, progress, Some(&mut tel)) {
+    let res = match run_with(s, seed, method, threads, progress, Some(&mut tel), None) {
         Ok(r) => r,
         Err(e) => unreachable!("recording to memory cannot fail: {e}"),
     };
@@ -119,7 +119,15 @@ pub fn run_into(
     progress: impl FnMut(f64),
     sink: &mut dyn Sink,
 ) -> Result<CampaignResult, TelemetryError> {
-    run_with(s, seed, method, Threads::available(), progress, Some(sink))
+    run_with(
+        s,
+        seed,
+        method,
+        Threads::available(),
+        progress,
+        Some(sink),
+        None,
+    )
 }
 
 /// A run of consecutive ticks as the estimator's side takes them.
@@ -219,19 +227,16 @@ impl Sim {
             }
             let mut sample = self.fee.process(tick, &truth);
             let (d0, r0) = (b.delivered.len(), b.records.len());
-            if let Some(inj) = self.inj.as_mut() {
-                if self.faults {
-                    inj.corrupt(&mut sample, &mut |r| b.records.push(r));
-                    inj.bus_records(tick, &mut |r| b.records.push(r));
-                }
-                // What the bus delivers this tick (just the sample without bus faults).
-                for (d, of, second) in inj.annotated_deliveries(tick) {
-                    let m = inj.delivered(d, &sample, self.prev.as_ref());
-                    b.delivered.push((m, of, d, second));
-                }
-            } else {
-                b.delivered.push((sample, tick, Delivery::This, false));
-            }
+            let (records, delivered) = (&mut b.records, &mut b.delivered);
+            bus_tick(
+                self.inj.as_mut(),
+                self.faults,
+                tick,
+                &mut sample,
+                self.prev.as_ref(),
+                &mut |r| records.push(r),
+                &mut |m| delivered.push(m),
+            );
             b.counts
                 .push((b.delivered.len() - d0, b.records.len() - r0));
             if self.record {
@@ -245,20 +250,48 @@ impl Sim {
     }
 }
 
+/// One tick on the bus: with `faults` the injector corrupts `sample` and logs its
+/// records (to `log`), then each message the bus delivers this tick goes to `out`
+/// (message, tick it carries, delivery, second copy); without an injector, the sample
+/// once.
+fn bus_tick(
+    inj: Option<&mut Injector>,
+    faults: bool,
+    tick: u64,
+    sample: &mut SensorSample,
+    prev: Option<&SensorSample>,
+    log: &mut impl FnMut(FaultRecord),
+    out: &mut impl FnMut((SensorSample, u64, Delivery, bool)),
+) {
+    let Some(inj) = inj else {
+        out((*sample, tick, Delivery::This, false));
+        return;
+    };
+    if faults {
+        inj.corrupt(sample, log);
+        inj.bus_records(tick, log);
+    }
+    // What the bus delivers this tick (just the sample without bus faults).
+    for (d, of, second) in inj.annotated_deliveries(tick) {
+        out((inj.delivered(d, sample, prev), of, d, second));
+    }
+}
+
 impl Twin {
     /// One tick of the twin: its sample, what the bus delivers of it, into `out` (as
     /// `Sim::fill` with `samples_losing`'s injector, or none).
     fn step(&mut self, tick: u64, truth: &TruthState, out: &mut Vec<SensorSample>) {
         let mut sample = self.fee.process(tick, truth);
-        if let Some(inj) = self.inj.as_mut() {
-            inj.corrupt(&mut sample, &mut |_| {});
-            inj.bus_records(tick, &mut |_| {});
-            for (d, _, _) in inj.annotated_deliveries(tick) {
-                out.push(inj.delivered(d, &sample, self.prev.as_ref()));
-            }
-        } else {
-            out.push(sample);
-        }
+        let inj = self.inj.as_mut();
+        bus_tick(
+            inj,
+            true,
+            tick,
+            &mut sample,
+            self.prev.as_ref(),
+            &mut |_| {},
+            &mut |m| out.push(m.0),
+        );
         self.prev = Some(sample);
     }
 }
@@ -449,17 +482,10 @@ pub fn run_beside(
     rec: Option<&mut dyn Sink>,
     take: TwinTake<'_>,
 ) -> Result<CampaignResult, TelemetryError> {
-    let twin = Twin {
-        fee: FrontEnd::new(s, seed, false),
-        inj: s
-            .faults
-            .loses_data()
-            .then(|| Injector::new(s, seed).losses_only()),
-        prev: None,
-    };
-    run_twin(s, seed, method, threads, progress, rec, Some((twin, take)))
+    run_with(s, seed, method, threads, progress, rec, Some(take))
 }
 
+/// The campaign, and with `twin_take` its noise-free twin (`run_beside`).
 fn run_with(
     s: &Scenario,
     seed: u64,
@@ -467,23 +493,16 @@ fn run_with(
     threads: Threads,
     progress: impl FnMut(f64),
     rec: Option<&mut dyn Sink>,
+    twin_take: Option<TwinTake<'_>>,
 ) -> Result<CampaignResult, TelemetryError> {
-    run_twin(s, seed, method, threads, progress, rec, None)
-}
-
-fn run_twin(
-    s: &Scenario,
-    seed: u64,
-    method: Method,
-    threads: Threads,
-    progress: impl FnMut(f64),
-    rec: Option<&mut dyn Sink>,
-    twin: Option<(Twin, TwinTake<'_>)>,
-) -> Result<CampaignResult, TelemetryError> {
-    let (twin, twin_take) = match twin {
-        Some((t, take)) => (Some(t), Some(take)),
-        None => (None, None),
-    };
+    let twin = twin_take.is_some().then(|| Twin {
+        fee: FrontEnd::new(s, seed, false),
+        inj: s
+            .faults
+            .loses_data()
+            .then(|| Injector::new(s, seed).losses_only()),
+        prev: None,
+    });
     let st = Stages::new(s, seed, method);
     let inj = Injector::new(s, seed);
     let n = s.n_samples();
@@ -614,6 +633,7 @@ mod tests {
                 threads,
                 |_| calls += 1,
                 Some(&mut tel),
+                None,
             );
             (r.unwrap(), tel, calls)
         };
@@ -669,7 +689,15 @@ mod tests {
         for threads in [Threads::One, Threads::Two] {
             let mut sink = Failing { left: 3000 };
             let mut last = 0.0;
-            let r = run_with(&s, 1, Method::Joint, threads, |f| last = f, Some(&mut sink));
+            let r = run_with(
+                &s,
+                1,
+                Method::Joint,
+                threads,
+                |f| last = f,
+                Some(&mut sink),
+                None,
+            );
             let e = r.err().map(|e| e.to_string());
             assert_eq!(
                 e.as_deref(),
