@@ -127,7 +127,37 @@ pub struct MonteCarlo {
     pub params: Vec<ParamStats>,
     /// Mean of (error/σ)² per parameter group: β, k, r.
     pub chi2_by_group: [f64; 3],
+    /// Where each group's mean may fall for these seeds alone: the 95 % interval of
+    /// the mean over seeds resampled with replacement (bootstrap, `seed_interval`).
+    /// An honest σ puts 1 inside; its width says how many seeds a verdict needs (a
+    /// seed's six β errors are mostly one common scale error, so β's mean over 30
+    /// seeds scatters by about ±0.4).
+    pub chi2_interval_by_group: [[f64; 2]; 3],
     pub reports: Vec<Report>,
+}
+
+/// Resamples of the seeds behind `seed_interval`.
+const BOOTSTRAP_RESAMPLES: usize = 4000;
+
+/// The 95 % interval (2.5 and 97.5 percentiles) of the mean of `per_seed` over
+/// `BOOTSTRAP_RESAMPLES` resamples of the seeds with replacement. A seed's parameters
+/// are resampled together, so whatever their errors share (β's common scale, IS1's
+/// and IS2's alike) widens the interval as it widens the mean's true scatter. Its
+/// own fixed random stream: the same seeds give the same interval.
+pub fn seed_interval(per_seed: &[f64]) -> [f64; 2] {
+    use rand::{Rng as _, SeedableRng};
+    let n = per_seed.len();
+    if n == 0 {
+        return [f64::NAN; 2];
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5eed_b007);
+    let mut means: Vec<f64> = (0..BOOTSTRAP_RESAMPLES)
+        .map(|_| (0..n).map(|_| per_seed[rng.gen_range(0..n)]).sum::<f64>() / n as f64)
+        .collect();
+    means.sort_by(f64::total_cmp);
+    let at =
+        |q: f64| means[((q * BOOTSTRAP_RESAMPLES as f64) as usize).min(BOOTSTRAP_RESAMPLES - 1)];
+    [at(0.025), at(0.975)]
 }
 
 /// Run seeds `first_seed` … `first_seed + runs − 1` on every core and summarise them.
@@ -328,6 +358,25 @@ pub fn summarise(
             }
         }
     }
+    // Each seed's mean (error/σ)² per group, for the mean's interval over seeds.
+    let per_seed = |g: usize| -> Vec<f64> {
+        reports
+            .iter()
+            .map(|r| {
+                let sum: f64 = r
+                    .inertial_sensors
+                    .iter()
+                    .take(n_is)
+                    .flat_map(|x| {
+                        let q = [&x.beta, &x.k, &x.com_offset][g];
+                        (0..3).map(move |a| ((q.estimate[a] - q.truth[a]) / q.sigma[a]).powi(2))
+                    })
+                    .sum();
+                sum / (3 * n_is) as f64
+            })
+            .collect()
+    };
+    let chi2_interval_by_group = std::array::from_fn(|g| seed_interval(&per_seed(g)));
     let met = reports.iter().filter(|r| r.requirements.met).count() as u64;
     let verified = reports.iter().filter(|r| r.requirements.verified).count() as u64;
     let mut worst_z = 0.0f64;
@@ -349,6 +398,7 @@ pub fn summarise(
         runs_meeting_requirements: met,
         params,
         chi2_by_group: std::array::from_fn(|g| group[g].0 / group[g].1.max(1) as f64),
+        chi2_interval_by_group,
         reports,
     }
 }
@@ -436,6 +486,12 @@ impl MonteCarlo {
             "Mean (error/σ)² by group: β {:.2}, k {:.2}, r {:.2}",
             self.chi2_by_group[0], self.chi2_by_group[1], self.chi2_by_group[2]
         );
+        let iv = &self.chi2_interval_by_group;
+        let _ = writeln!(
+            o,
+            "  95 % interval of each mean over these seeds (bootstrap): β {:.2}–{:.2}, k {:.2}–{:.2}, r {:.2}–{:.2} (an honest σ puts 1 inside)",
+            iv[0][0], iv[0][1], iv[1][0], iv[1][1], iv[2][0], iv[2][1]
+        );
         let _ = writeln!(
             o,
             "Runs meeting every requirement: {} of {}; verified by the estimator: {} of {}; worst |err/σ| {:.2}",
@@ -445,5 +501,40 @@ impl MonteCarlo {
             let _ = writeln!(o, "Faults over all runs: {}", crate::report::fault_line(f));
         }
         o
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{gauss, stream, Stream};
+
+    #[test]
+    fn a_seed_interval_of_equal_values_is_that_value() {
+        assert_eq!(seed_interval(&[1.5; 7]), [1.5, 1.5]);
+        assert!(seed_interval(&[]).iter().all(|x| x.is_nan()));
+    }
+
+    #[test]
+    fn a_seed_interval_holds_the_mean_and_narrows_as_seeds_are_added() {
+        // Honest errors: (err/σ)² of one standard normal per seed.
+        let mut rng = stream(7, Stream::Priors);
+        let z2: Vec<f64> = (0..1000).map(|_| gauss(&mut rng).powi(2)).collect();
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let few = seed_interval(&z2[..30]);
+        let many = seed_interval(&z2);
+        for (iv, v) in [(few, &z2[..30]), (many, &z2[..])] {
+            assert!(
+                iv[0] < mean(v) && mean(v) < iv[1],
+                "{iv:?} around {}",
+                mean(v)
+            );
+        }
+        // χ²₁'s mean over n seeds has σ √(2/n): a 95 % width of 1.01 at 30 seeds, 0.175 at 1000.
+        let (w30, w1000) = (few[1] - few[0], many[1] - many[0]);
+        assert!((0.5..1.6).contains(&w30), "{w30}");
+        assert!((0.12..0.25).contains(&w1000), "{w1000}");
+        assert!(many[0] < 1.0 && 1.0 < many[1], "{many:?}");
+        assert_eq!(seed_interval(&z2), many, "its own fixed stream");
     }
 }
