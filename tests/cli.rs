@@ -90,6 +90,15 @@ fn run_at_a_seed_is_the_monte_carlos_run_of_that_seed() {
     };
     let run = read(one.join("report.json"));
     let mc = read(mc.join("montecarlo.json"));
+    // One seed: every resample of the seeds is that seed, so each group's interval
+    // over the seeds is its mean alone.
+    for g in 0..3 {
+        let m = mc["chi2_by_group"][g].as_f64().unwrap();
+        for end in 0..2 {
+            let v = mc["chi2_interval_by_group"][g][end].as_f64().unwrap();
+            assert!((v - m).abs() <= 1e-12 * m, "group {g}: {v} against {m}");
+        }
+    }
     let theirs = &mc["reports"][0];
     assert_eq!(theirs["seed"], 3);
     for (a, b) in run["inertial_sensors"]
