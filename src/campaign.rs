@@ -470,23 +470,11 @@ fn drive(
     }
 }
 
-/// [`run_with`] with the noise-free twin's samples handed to `twin` on the simulating
-/// thread (`crlb::run_with_bound`): the run's estimates are those of [`run`], bit for
-/// bit, and `twin` takes the stream `samples_losing` (or `samples`) gives at `seed`.
-pub fn run_beside(
-    s: &Scenario,
-    seed: u64,
-    method: Method,
-    threads: Threads,
-    progress: impl FnMut(f64),
-    rec: Option<&mut dyn Sink>,
-    take: TwinTake<'_>,
-) -> Result<CampaignResult, TelemetryError> {
-    run_with(s, seed, method, threads, progress, rec, Some(take))
-}
-
-/// The campaign, and with `twin_take` its noise-free twin (`run_beside`).
-fn run_with(
+/// The campaign, and with `twin_take` its noise-free twin: the twin's samples are
+/// handed to it on the simulating thread (`crlb::run_with_bound`), the run's estimates
+/// are those of [`run`] bit for bit, and it takes the stream `samples_losing` (or
+/// `samples`) gives at `seed`.
+pub fn run_with(
     s: &Scenario,
     seed: u64,
     method: Method,

@@ -169,7 +169,7 @@ pub fn bound_at(curve: &[(u64, Option<Crlb>)], tick: u64) -> Option<Crlb> {
     Some(out)
 }
 
-/// The campaign at `seed` (`campaign::run_beside`) and the bound of that run
+/// The campaign at `seed` (`campaign::run_with`) and the bound of that run
 /// (`crlb_on` of `s` at `seed`), bit for bit: its noise-free samples are the twin of
 /// the run's simulation (the same motion, simulated once), taken by the bound's
 /// estimator pass on the simulating thread while the run's estimator takes the run's
@@ -184,16 +184,16 @@ pub fn run_with_bound(
 ) -> Result<(crate::campaign::CampaignResult, Option<Crlb>), crate::telemetry::TelemetryError> {
     let sb = Scenario { seed, ..s.clone() };
     let mut est = noise_free_estimator(&sb);
-    let res = crate::campaign::run_beside(
+    let res = crate::campaign::run_with(
         s,
         seed,
         method,
         threads,
         progress,
         rec,
-        &mut |m: &SensorSample| {
+        Some(&mut |m: &SensorSample| {
             est.step(m);
-        },
+        }),
     )?;
     Ok((res, bound_of(&sb, &est)))
 }
