@@ -804,6 +804,61 @@ mod tests {
         assert!((ratio - 1.0).abs() < 0.15, "{ratio}");
     }
 
+    /// The angle's walk within a tick is what the IS's mean misses: ω̇ white over the
+    /// plant's ten sub-steps a tick, the angle at the tick's end off by
+    /// ∫(dt − s)(ω̇ − ω̄) ds, its variance var_tick dt⁴ (1 − 1/M²)/12; and the star
+    /// group's filter takes it, as the turn rows' do.
+    #[test]
+    fn the_walk_within_a_tick_is_what_the_mean_misses() {
+        let mut e = JointEstimator::new(test_config());
+        let dt = 1.0 / e.cfg.fs;
+        const M: usize = 10;
+        let h = dt / M as f64;
+        let sigma_sub = 1e-9; // rad/s² per sub-step
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut gauss = move || {
+            let mut u = || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            (-2.0 * u().ln()).sqrt() * (core::f64::consts::TAU * u()).cos()
+        };
+        let (mut last, mut sum_e2, n) = ([[0.0; 3]; 2], 0.0, 100_000u32);
+        for k in 0..n {
+            let x: [f64; M] = core::array::from_fn(|_| sigma_sub * gauss());
+            let mean = x.iter().sum::<f64>() / M as f64;
+            // ∫ over sub-step j of (dt − s) ds = h (dt − j h) − h²/2.
+            let err: f64 = (0..M)
+                .map(|j| (x[j] - mean) * (h * (dt - j as f64 * h) - 0.5 * h * h))
+                .sum();
+            sum_e2 += err * err;
+            let mut dv = [[0.0; 3]; 2];
+            for (l, row) in dv.iter_mut().enumerate() {
+                row[0] = mean / e.cfg.beta_prior[l][0];
+            }
+            if k > 0 {
+                e.learn_jerk(0, &dv, &last);
+            }
+            last = dv;
+        }
+        let measured = sum_e2 / n as f64;
+        let var_tick = sigma_sub * sigma_sub / M as f64;
+        let exact = var_tick * dt.powi(4) * (1.0 - 1.0 / (M * M) as f64) / 12.0;
+        assert!((measured / exact - 1.0).abs() < 0.03, "{measured} {exact}");
+        let walk = e.intra_tick_walk(0);
+        assert!((walk / measured - 1.0).abs() < 0.1, "{walk} {measured}");
+        // The star filter's angle variance grows by it (the rest of its step held).
+        let mut quiet = e;
+        quiet.jerk_var = [0.0; 3];
+        let (dv, n_valid) = ([[0.0; 3]; 2], [2; 3]);
+        e.star_time_update(&dv, &n_valid);
+        quiet.star_time_update(&dv, &n_valid);
+        let grew = e.st_p[0][0][0] - quiet.st_p[0][0][0];
+        assert!((grew / walk - 1.0).abs() < 1e-9, "{grew} {walk}");
+    }
+
     /// The final solve iterates to `CONVERGED_STEP` but is called unconverged only when
     /// it may still be more than `UNCONVERGED_STEP` of σ from its point
     /// (`finish_converged`): a floor of floating-point noise a thousandth of σ is no

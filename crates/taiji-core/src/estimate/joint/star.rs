@@ -7,7 +7,8 @@ impl JointEstimator {
     /// Advance the star-tracker whitening filter by one sample: the angle error of the
     /// IS-propagated attitude ½(β1 Φ1 + β2 Φ2) grows as the double integral of the IS
     /// angular readout noise and drive ripple (per-sample variance from this sample's
-    /// voltages, integrated exactly as `step` integrates Φ).
+    /// voltages, integrated exactly as `step` integrates Φ), and by the motion within
+    /// each tick that the IS's means miss (`intra_tick_walk`).
     pub(super) fn star_time_update(&mut self, dv: &[[f64; 3]; 2], n_valid: &[usize; 3]) {
         let c = &self.cfg;
         let dt = 1.0 / c.fs;
@@ -29,8 +30,10 @@ impl JointEstimator {
             for x in self.st_x[a].iter_mut() {
                 x[0] += dt * x[1];
             }
+            // The thrusters' motion within the tick, which the IS's mean misses.
+            let walk = self.intra_tick_walk(a);
             let p = &mut self.st_p[a];
-            let p00 = p[0][0] + 2.0 * dt * p[0][1] + dt * dt * p[1][1] + q * g0 * g0;
+            let p00 = p[0][0] + 2.0 * dt * p[0][1] + dt * dt * p[1][1] + q * g0 * g0 + walk;
             let p01 = p[0][1] + dt * p[1][1] + q * g0 * g1;
             let p11 = p[1][1] + q * g1 * g1;
             *p = [[p00, p01], [p01, p11]];
