@@ -772,23 +772,31 @@ mod tests {
         assert_eq!(e.causes[CAUSE_TICK_MISSING], BRIDGE_PER_UPDATE);
     }
 
+    /// Unit normal draws for the tests (xorshift64 uniforms, Box–Muller): no_std, no
+    /// crate, the same numbers on every host.
+    fn gaussian(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            let mut u = || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            (-2.0 * u().ln()).sqrt() * (core::f64::consts::TAU * u()).cos()
+        }
+    }
+
     /// The bridge's process noise is what the line through a gap's neighbours misses:
     /// for white ω̇ of variance σ², 1.5 σ², whatever the maneuver's edges.
     #[test]
     fn the_bridge_noise_is_what_the_line_misses_edges_apart() {
         let mut e = JointEstimator::new(test_config());
         let sigma = 1e-10; // rad/s²
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut uniform = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
+        let mut gauss = gaussian(0x2545_f491_4f6c_dd1d);
         let mut last = [[0.0; 3]; 2];
         for k in 0..200_000u32 {
-            // Box–Muller; a square wave of 10⁴ σ with an edge every 1000 samples.
-            let g = (-2.0 * uniform().ln()).sqrt() * (core::f64::consts::TAU * uniform()).cos();
+            // A square wave of 10⁴ σ with an edge every 1000 samples.
+            let g = gauss();
             let level = if (k / 1000) % 2 == 0 { 1e4 } else { -1e4 };
             let x = sigma * (g + level);
             let mut dv = [[0.0; 3]; 2];
@@ -815,16 +823,7 @@ mod tests {
         const M: usize = 10;
         let h = dt / M as f64;
         let sigma_sub = 1e-9; // rad/s² per sub-step
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut gauss = move || {
-            let mut u = || {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            (-2.0 * u().ln()).sqrt() * (core::f64::consts::TAU * u()).cos()
-        };
+        let mut gauss = gaussian(0x9e37_79b9_7f4a_7c15);
         let (mut last, mut sum_e2, n) = ([[0.0; 3]; 2], 0.0, 100_000u32);
         for k in 0..n {
             let x: [f64; M] = core::array::from_fn(|_| sigma_sub * gauss());
