@@ -121,14 +121,15 @@ pub struct JointEstimator {
     /// (`m_turn` the filtered Grams, `tx` each signal's state (angles, rates: its columns),
     /// `tp` the state covariance [whitened units², per s, per s²]). The rows as the
     /// first sample set them (`turn_w`, channel space), their levers on ω̇'s noise
-    /// (`turn_lever`, for their white variance at each sample's drive) and on the
-    /// attitude error per axis, squared (`turn_z2` [whitened units per rad]²).
+    /// (`turn_lever`, for their white variance at each sample's drive and its
+    /// covariance with the attitude error's step) and on the attitude error per axis
+    /// (`turn_z` [whitened units per rad]).
     m_turn: [Packed; 2],
     tx: [SMatrix<f64, NS, 2>; 2],
     tp: [[[f64; 2]; 2]; 2],
     turn_w: SMatrix<f64, 2, 6>,
     turn_lever: [[f64; 3]; 2],
-    turn_z2: [[f64; 3]; 2],
+    turn_z: [[f64; 3]; 2],
     /// Per axis, the attitude error's covariance (angle [rad²], angle × rate, rate
     /// [rad²/s²]) added since the turn filters last stepped: the readout noise of
     /// each tick, and what bridged ticks and a kept corrupted IS cost.

@@ -25,7 +25,7 @@ impl JointEstimator {
             if let Some(e) = Self::plane_basis(&z) {
                 for (k, ek) in e.iter().enumerate() {
                     self.turn_w.set_row(k, &(linv.transpose() * ek).transpose());
-                    self.turn_z2[k] = core::array::from_fn(|a| ek.dot(&z[a]).powi(2));
+                    self.turn_z[k] = core::array::from_fn(|a| ek.dot(&z[a]));
                 }
                 self.turn_lever = self.row_levers(&self.turn_w);
             }

@@ -444,18 +444,18 @@ impl JointEstimator {
 
     /// The turn filters' time step: the attitude error (angle, rate) per row moves on
     /// (angle += dt rate) and takes the error covariance added since (`turn_pq`), per
-    /// axis times the row's lever squared (`turn_z2`): a sum of independent integrated
+    /// axis times the row's lever squared (`turn_z`, squared): a sum of independent integrated
     /// random walks is one, of the summed intensity (the two rows' cross terms are
     /// left out: one row holds the sun-plane axes' levers, the other the third's).
     #[inline(always)]
     pub(super) fn turn_time_update(&mut self) {
         let dt = 1.0 / self.cfg.fs;
         for k in 0..2 {
-            let z2 = &self.turn_z2[k];
+            let z = &self.turn_z[k];
             let mut q = [0.0; 3];
             for (a, pq) in self.turn_pq.iter().enumerate() {
                 for (qi, pi) in q.iter_mut().zip(pq) {
-                    *qi += z2[a] * pi;
+                    *qi += z[a] * z[a] * pi;
                 }
             }
             let p = &mut self.tp[k];
@@ -478,16 +478,33 @@ impl JointEstimator {
     /// innovation, whitened, into `m_turn`. `white`: each row's white variance at this
     /// sample's drive (`row_white_vars`). Inlined into `update_linear`, so that the
     /// AVX2 path vectorises its rank-one updates too (the same bits).
+    ///
+    /// The row's white noise and its attitude error share this tick's ω̇ readout
+    /// noise: the linear model's ω̇ × r carries it at once (lever `turn_lever`), and the
+    /// attitude the IS propagate takes it as the step that ends this tick (½ dt² in
+    /// angle, dt in rate, on the lever `turn_z`). Their covariance enters the gain
+    /// (`turn_cross`); without it, with the IS's angular noise above its linear noise
+    /// over r (one IS, angular noise 3.6× the default, the sun along −x), β's σ was
+    /// 1.4× cautious ((err/σ)² 0.50 over 100 seeds): the rows' white noise tells
+    /// the attitude error's steps, which the filter then ignored.
     #[inline(always)]
     fn update_turn(&mut self, s: &Sig, white: &[f64; 2]) {
         self.turn_time_update();
+        let cross = self.turn_cross();
         let mut sfs = [Sig::zeros(); 2];
         for (k, sf) in sfs.iter_mut().enumerate() {
             let k = k.min(1);
             let p = self.tp[k];
-            let sv = p[0][0] + white[k];
+            let mut c = cross[k];
+            let mut sv = p[0][0] + white[k] + 2.0 * c[0];
+            // A covariance the joint model cannot have (rounding at a degenerate
+            // lever) falls back to none.
+            if !(sv > 0.0 && sv.is_finite()) {
+                c = [0.0; 2];
+                sv = p[0][0] + white[k];
+            }
             let inv_sqrt = 1.0 / sv.sqrt();
-            let (g0, g1) = (p[0][0] / sv, p[1][0] / sv);
+            let (g0, g1) = ((p[0][0] + c[0]) / sv, (p[1][0] + c[1]) / sv);
             let (angle, rate) = self.tx[k].as_mut_slice().split_at_mut(NS);
             for (((f, x0), x1), sm) in sf
                 .iter_mut()
@@ -500,13 +517,44 @@ impl JointEstimator {
                 *x0 += g0 * innov;
                 *x1 += g1 * innov;
             }
+            // P − S g gᵀ (with c = 0: P − g P[0], as before).
             self.tp[k] = [
-                [p[0][0] - g0 * p[0][0], p[0][1] - g0 * p[0][1]],
-                [p[0][1] - g0 * p[0][1], p[1][1] - g1 * p[0][1]],
+                [p[0][0] - sv * g0 * g0, p[0][1] - sv * g0 * g1],
+                [p[0][1] - sv * g0 * g1, p[1][1] - sv * g1 * g1],
             ];
         }
         let [m0, m1] = &mut self.m_turn;
         rank1_pair(m0, m1, &sfs[0], &sfs[1]);
+    }
+
+    /// Per turn row, the covariance of its white noise with its attitude error's
+    /// step this tick (angle, rate) [whitened units², per s]. Both carry IS1's ω̇
+    /// readout noise n1 (readout and drive ripple, variance v_a this tick): the row's
+    /// residual holds −Σ_a lever_a (Σ_l w_l n_l)_a (the linear model's ω̇ × r / k) and
+    /// −Σ_a z_a δθ_a, δθ the propagated attitude's error, which n1 steps by (½ dt²,
+    /// dt) n1 (the attitude is IS1's alone). So the covariance is
+    /// (½ dt², dt) Σ_a z_a lever_a w_1 v_a.
+    #[inline(always)]
+    fn turn_cross(&self) -> [[f64; 2]; 2] {
+        let c = &self.cfg;
+        let dt = 1.0 / c.fs;
+        let w1 = self.w(0);
+        let mut v = [0.0; 3];
+        for (a, va) in v.iter_mut().enumerate() {
+            let wd = c.beta_prior[0][a] * self.dv_last[0][a];
+            *va = c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2);
+        }
+        core::array::from_fn(|k| {
+            let k = k.min(1);
+            let mut sum = 0.0;
+            for a in 0..3 {
+                sum += self.turn_z[k][a] * self.turn_lever[k][a] * w1 * v[a];
+            }
+            if !sum.is_finite() {
+                sum = 0.0;
+            }
+            [0.5 * dt * dt * sum, dt * sum]
+        })
     }
 
     /// Rows spanning the complement of the whitened common-mode subspace (`linv` times
