@@ -644,6 +644,21 @@ pub(super) fn test_config() -> EstimatorConfig {
     }
 }
 
+/// Unit normal draws for the tests (xorshift64 uniforms, Box–Muller): no_std, no
+/// crate, the same numbers on every host.
+#[cfg(test)]
+pub(super) fn gaussian(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        let mut u = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        (-2.0 * u().ln()).sqrt() * (core::f64::consts::TAU * u()).cos()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -771,20 +786,6 @@ mod tests {
         e.update(&quiet(10 + BRIDGE_PER_UPDATE));
         assert_eq!(e.next_tick(), 11 + BRIDGE_PER_UPDATE);
         assert_eq!(e.causes[CAUSE_TICK_MISSING], BRIDGE_PER_UPDATE);
-    }
-
-    /// Unit normal draws for the tests (xorshift64 uniforms, Box–Muller): no_std, no
-    /// crate, the same numbers on every host.
-    fn gaussian(mut seed: u64) -> impl FnMut() -> f64 {
-        move || {
-            let mut u = || {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            (-2.0 * u().ln()).sqrt() * (core::f64::consts::TAU * u()).cos()
-        }
     }
 
     /// The bridge's process noise is what the line through a gap's neighbours misses:
