@@ -21,7 +21,9 @@ pub const HEADER: usize = 32;
 /// (the Gram on ΔV1 and ΔV2), so their checkpoints are refused rather than misread.
 /// 3: the SRP's turn modelled (the turn rows' filters, IS1's attitude without the
 /// drift filter in the turn).
-pub const STATE_VERSION: u32 = 3;
+/// 4: the turn rows' levers on the attitude error signed (`turn_z`; 3 held them
+/// squared), for the covariance of the rows' white noise with the attitude's step.
+pub const STATE_VERSION: u32 = 4;
 
 /// The checkpoint's version word.
 const VERSION: u64 = LAYOUT_VERSION as u64 | (STATE_VERSION as u64) << 32;
