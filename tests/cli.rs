@@ -314,7 +314,7 @@ fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data(
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
-        text.contains("Warning: the written maneuver's bound is 23.8× the requirement")
+        text.contains("Warning: the written maneuver's bound is 24.0× the requirement")
             && text.contains("taiji-calib plan")
             && text.contains("Predicted from the bound: requirements met with probability 0.00 %"),
         "{text}"
@@ -322,7 +322,7 @@ fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data(
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("typo/report.json")).unwrap())
             .unwrap();
-    assert!(r["warnings"][0].as_str().unwrap().contains("23.8×"), "{r}");
+    assert!(r["warnings"][0].as_str().unwrap().contains("24.0×"), "{r}");
     assert!(
         r["predicted_probability_requirements_met"]
             .as_f64()
