@@ -55,15 +55,13 @@ impl JointEstimator {
             self.phi_hat[a] += dt * w_model[a];
         }
         self.q_model *= UnitQuaternion::from_scaled_axis(w_model * dt);
-        let c = &self.cfg;
         let (g0, g1) = (0.5 * dt * dt, dt);
         // IS1's ω̇ noise (readout and drive ripple) integrates twice into the propagated
         // attitude: a random walk of angle and rate that grows as t^1.5 (2×10⁻⁷ rad at
         // 10⁵ s) and, turning the 3×10⁻⁸ m/s² SRP, would pose as a CoM offset in long
         // campaigns: the turn filters' noise (`turn_pq`).
         for a in 0..3 {
-            let wd = c.beta_prior[0][a] * self.dv_last[0][a];
-            let q = c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2);
+            let q = self.readout_var(0, a, self.dv_last[0][a]);
             self.turn_pq[a][0] += self.intra_tick_walk(a);
             if q > 0.0 && q.is_finite() {
                 self.turn_pq[a][0] += q * g0 * g0;
@@ -71,6 +69,14 @@ impl JointEstimator {
                 self.turn_pq[a][2] += q * g1 * g1;
             }
         }
+    }
+
+    /// The variance of IS `l`'s ω̇ on axis `a` in a tick whose angular voltage is `dv`
+    /// [rad²/s⁴]: its readout noise and the drive ripple, which scales with the drive.
+    pub(super) fn readout_var(&self, l: usize, a: usize, dv: f64) -> f64 {
+        let c = &self.cfg;
+        let wd = c.beta_prior[l.min(1)][a.min(2)] * dv;
+        c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2)
     }
 
     /// The variance [rad²] a tick adds to the angle the IS's means propagate, on axis

@@ -16,8 +16,7 @@ impl JointEstimator {
         for a in 0..3 {
             let mut q = 0.0;
             for (l, dvl) in dv.iter().enumerate().take(self.n_is()) {
-                let wd = c.beta_prior[l][a] * dvl[a];
-                q += self.w(l).powi(2) * (c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2));
+                q += self.w(l).powi(2) * self.readout_var(l, a, dvl[a]);
             }
             if n_valid[a] == 0 {
                 // Bridged (the line drawn once data return): off by ω̇'s departure

@@ -536,14 +536,9 @@ impl JointEstimator {
     /// (½ dt², dt) Σ_a z_a lever_a w_1 v_a.
     #[inline(always)]
     fn turn_cross(&self) -> [[f64; 2]; 2] {
-        let c = &self.cfg;
-        let dt = 1.0 / c.fs;
+        let dt = 1.0 / self.cfg.fs;
         let w1 = self.w(0);
-        let mut v = [0.0; 3];
-        for (a, va) in v.iter_mut().enumerate() {
-            let wd = c.beta_prior[0][a] * self.dv_last[0][a];
-            *va = c.sigma_angular.powi(2) + (c.sigma_ripple * wd).powi(2);
-        }
+        let v: [f64; 3] = core::array::from_fn(|a| self.readout_var(0, a, self.dv_last[0][a]));
         core::array::from_fn(|k| {
             let k = k.min(1);
             let mut sum = 0.0;
