@@ -29,6 +29,13 @@ impl JointEstimator {
 
     /// Advance the angle integrators by one sample of `dv`; returns the interval means
     /// (Ψ, Φ) used by the linear model.
+    ///
+    /// The thrusters hold their torque over a tick, so within it ω̇ is the IS's mean,
+    /// Ψ a line and Φ a parabola: Ψ's mean is its midpoint, but Φ's mean is the
+    /// midpoint of its ends less dv dt²/12 (½ dt² against ⅓ of it). The IS measure the
+    /// SRP turned by that mean attitude; the ends' midpoint, dv dt²/12 ahead, turned
+    /// it as ω̇ × r does, a CoM offset of b dt²/12 along the SRP (2.2 nm of r_z at
+    /// 1 Hz: its err/σ had a mean of +0.29 over 800 seeds).
     pub(super) fn integrate(&mut self, dv: &[[f64; 3]; 2]) -> ([[f64; 3]; 2], [[f64; 3]; 2]) {
         let dt = 1.0 / self.cfg.fs;
         let mut psi_mid = [[0.0; 3]; 2];
@@ -38,7 +45,7 @@ impl JointEstimator {
                 let psi_new = self.psi[i][a] + dt * dv[i][a];
                 psi_mid[i][a] = 0.5 * (self.psi[i][a] + psi_new);
                 let phi_new = self.phi[i][a] + dt * psi_mid[i][a];
-                phi_mid[i][a] = 0.5 * (self.phi[i][a] + phi_new);
+                phi_mid[i][a] = 0.5 * (self.phi[i][a] + phi_new) - dt * dt * dv[i][a] / 12.0;
                 self.psi[i][a] = psi_new;
                 self.phi[i][a] = phi_new;
             }

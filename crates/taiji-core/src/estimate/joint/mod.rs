@@ -814,6 +814,31 @@ mod tests {
         assert!((ratio - 1.0).abs() < 0.15, "{ratio}");
     }
 
+    /// Φ's interval mean is the mean of the parabola the held torque draws within each
+    /// tick (θ_k + ω_k dt/2 + ω̇ dt²/6), not the midpoint of its ends: the attitude the
+    /// IS's SRP is turned by.
+    #[test]
+    fn the_angle_interval_mean_is_the_mean_over_the_tick() {
+        let mut e = JointEstimator::new(test_config());
+        let dt = 1.0 / e.cfg.fs;
+        let mut gauss = gaussian(0x5851_f42d_4c95_7f2d);
+        let (mut omega, mut theta) = (0.0, 0.0);
+        for _ in 0..1000 {
+            let c = 1e-3 * gauss(); // V: the IS's mean over the tick, held
+            let exact = theta + omega * dt / 2.0 + c * dt * dt / 6.0;
+            let (psi_mid, phi_mid) = e.integrate(&[[c, 0.0, 0.0]; 2]);
+            theta += omega * dt + 0.5 * c * dt * dt;
+            omega += c * dt;
+            for l in 0..2 {
+                assert!((phi_mid[l][0] - exact).abs() <= 1e-12 * theta.abs().max(1e-9));
+                assert!(
+                    (psi_mid[l][0] - (omega - 0.5 * c * dt)).abs() <= 1e-12 * omega.abs().max(1e-9)
+                );
+                assert!((e.phi[l][0] - theta).abs() <= 1e-12 * theta.abs().max(1e-9));
+            }
+        }
+    }
+
     /// The angle's walk within a tick is what the IS's mean misses: ω̇ white over the
     /// plant's ten sub-steps a tick, the angle at the tick's end off by
     /// ∫(dt − s)(ω̇ − ω̄) ds, its variance var_tick dt⁴ (1 − 1/M²)/12; and the star
