@@ -119,6 +119,25 @@ fn priors_farther_than_the_estimator_acquires_are_refused_naming_the_key() {
         e.contains("inertial_sensor[0].beta_prior") && e.contains("11.9 %"),
         "{e}"
     );
+    // r's prior error: 5 cm at most, as a prior given itself (a 100 m box once ran and
+    // ended unverified, exit 1, instead of being refused).
+    for m in ["0.2", "100"] {
+        let e = err(&format!("[ground_calibration]\ncom_offset_error_m = {m}"));
+        assert!(
+            e.contains("ground_calibration.com_offset_error_m") && e.contains("at most 0.05 m"),
+            "{e}"
+        );
+    }
+    Scenario::from_toml_str("[ground_calibration]\ncom_offset_error_m = 0.05").unwrap();
+}
+
+#[test]
+fn a_non_finite_com_offset_is_called_not_finite() {
+    let e = err("[[inertial_sensor]]\ncom_offset_m = [nan, 0.1, 0.0]");
+    assert!(
+        e.contains("inertial_sensor[0].com_offset_m") && e.contains("not a finite number"),
+        "{e}"
+    );
 }
 
 #[test]

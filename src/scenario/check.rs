@@ -12,6 +12,9 @@ use std::path::Path;
 /// σ at 0.12; at 0.15 eight runs of ten ended UNVERIFIED, the gates having rejected
 /// the samples that would have corrected β), with a margin.
 pub const MAX_BETA_PRIOR_REL: f64 = 0.1;
+/// Farthest r's prior may be from the truth, per component [m]: the schema's limit, as
+/// far as the estimator's first solves were tried from.
+pub const MAX_COM_PRIOR_ERROR_M: f64 = 0.05;
 
 /// The error of a value out of range, naming its key.
 fn err<T>(key: &str, msg: &str) -> Result<T, ScenarioError> {
@@ -284,7 +287,17 @@ impl Scenario {
         nonneg(
             "ground_calibration.com_offset_error_m",
             gc.com_offset_error_m,
-        )
+        )?;
+        if gc.com_offset_error_m > MAX_COM_PRIOR_ERROR_M {
+            return err(
+                "ground_calibration.com_offset_error_m",
+                &format!(
+                    "{} m is more than a prior may be off: r's prior may be at most {} m (5 cm) from the truth per component, as inertial_sensor[i].com_offset_prior_m",
+                    gc.com_offset_error_m, MAX_COM_PRIOR_ERROR_M
+                ),
+            );
+        }
+        Ok(())
     }
 
     /// `[[inertial_sensor]]`: one or two, each with plausible offsets and priors.
@@ -299,7 +312,13 @@ impl Scenario {
             let key = |k: &str| format!("inertial_sensor[{i}].{k}");
             for a in 0..3 {
                 let r = is.com_offset_m[a];
-                if !r.is_finite() || r.abs() > 2.0 {
+                if !r.is_finite() {
+                    return err(
+                        &key("com_offset_m"),
+                        &format!("component {a} = {r} is not a finite number of metres"),
+                    );
+                }
+                if r.abs() > 2.0 {
                     return err(
                         &key("com_offset_m"),
                         &format!("component {a} = {r} m is not a plausible CoM offset (|r| ≤ 2 m)"),
@@ -318,7 +337,7 @@ impl Scenario {
             }
             if let Some(rp) = is.com_offset_prior_m {
                 for (a, v) in rp.iter().enumerate() {
-                    if !v.is_finite() || (v - is.com_offset_m[a]).abs() > 0.05 {
+                    if !v.is_finite() || (v - is.com_offset_m[a]).abs() > MAX_COM_PRIOR_ERROR_M {
                         return err(
                             &key("com_offset_prior_m"),
                             &format!(
