@@ -583,7 +583,7 @@ impl Recording {
                         header: Header::at(start + k as u64, ticks[k], fs),
                         star: StarSample {
                             q_bn: std::array::from_fn(|j| star_q[4 * k + j]),
-                            valid: u8::from(star_valid[k] != 0),
+                            valid: star_valid[k].min(255) as u8,
                             _pad: [0; 7],
                         },
                         ..Default::default()
