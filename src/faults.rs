@@ -473,7 +473,14 @@ impl Injector {
             log(r(KIND_GARBAGE_HEADER));
         }
         if self.delayed(tick) {
-            log(r(KIND_REORDER));
+            // With the next tick lost the held sample comes alone in the next turn, after
+            // the one before it: late, but in order, nothing for the estimator to
+            // reject. Harmless (σ 0), not missed.
+            let mut rec = r(KIND_REORDER);
+            if self.bus_active(tick + 1) && self.missing(tick + 1) {
+                rec.sigmas = 0.0;
+            }
+            log(rec);
         } else if self.missing(tick) {
             log(r(KIND_MISSING));
         } else if hash_unit(self.seed, tick, 3) < self.cfg.duplicate_rate {
@@ -628,6 +635,32 @@ mod tests {
         }
         // Duplicates add, missing ticks remove, reorders keep the count.
         assert!((9_500..10_500).contains(&this), "{this}");
+    }
+
+    #[test]
+    fn a_reorder_before_a_lost_tick_arrives_in_order_and_is_scored_harmless() {
+        let s =
+            Scenario::from_toml_str("[faults]\nreorder_rate = 0.3\nmissing_rate = 0.3\n").unwrap();
+        let inj = Injector::new(&s, 4);
+        let (mut alone, mut reordered) = (0, 0);
+        for t in 0..2_000 {
+            let mut recs = Vec::new();
+            inj.bus_records(t, &mut |r| recs.push(r));
+            for r in recs.iter().filter(|r| r.kind == KIND_REORDER) {
+                let next = inj.deliveries(t + 1);
+                if next.contains(&Delivery::This) {
+                    // Sent after the next one: out of order, for the estimator to catch.
+                    assert!(r.sigmas.is_infinite());
+                    reordered += 1;
+                } else {
+                    // The next one lost: the held sample comes alone, in order.
+                    assert_eq!(&next[..], &[Delivery::Previous]);
+                    assert_eq!(r.sigmas, 0.0);
+                    alone += 1;
+                }
+            }
+        }
+        assert!(alone > 10 && reordered > 10, "{alone} {reordered}");
     }
 }
 

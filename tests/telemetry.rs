@@ -422,7 +422,10 @@ fn a_recording_with_bus_faults_replays_bit_for_bit_faults_scored_alike() {
     assert!(matches!(o.status.code(), Some(0 | 1)), "{o:?}");
     let (a, b) = (report(&live), report(&again));
     assert_eq!(estimates(&b), estimates(&a));
-    assert_eq!(b["samples_rejected_by_cause"], a["samples_rejected_by_cause"]);
+    assert_eq!(
+        b["samples_rejected_by_cause"],
+        a["samples_rejected_by_cause"]
+    );
     let kinds = a["faults"]["by_kind"].as_object().unwrap();
     for k in ["duplicate", "reorder", "missing", "garbage_header", "upset"] {
         assert!(kinds[k]["injected"].as_u64().unwrap() > 0, "{k}: {kinds:?}");
