@@ -132,6 +132,10 @@ pub struct Report {
     /// Parameters whose estimate is mostly the estimator's prior (data share < 50 %).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub prior_dominated: Vec<String>,
+    /// Parameters the data calibrated no better than the ground calibration claims
+    /// (σ at or above `ground_calibration`'s error): its value is the one to keep.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ground_better: Vec<String>,
     /// What the user should know before trusting the result (also printed).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
@@ -252,6 +256,7 @@ impl Report {
             maneuver: Some(crate::plan::describe(s, Some(&maneuver), None)),
             predicted_probability_requirements_met: None,
             prior_dominated: Vec::new(),
+            ground_better: Vec::new(),
             warnings: Vec::new(),
         }
         .with_prior_judgement(s, &maneuver)
@@ -288,6 +293,7 @@ impl Report {
                 }
             }
         }
+        self.ground_better = self.ground_better_than_data(s);
         self.predicted_probability_requirements_met = p.is_finite().then_some(p);
         let (worst, name) = crate::plan::worst_ratio(s, maneuver);
         if !s.maneuver.planned && worst > 1.0 {
@@ -321,7 +327,46 @@ impl Report {
                 self.prior_dominated.join("; ")
             ));
         }
+        if !self.ground_better.is_empty() {
+            self.warnings.push(format!(
+                "not better than the ground calibration (σ at or above ground_calibration's error; keep the ground value): {}",
+                self.ground_better.join("; ")
+            ));
+        }
         self
+    }
+
+    /// β and r whose σ is at or above the ground calibration's stated error
+    /// (`ground_calibration.beta_rel_error`, relative; `com_offset_error_m`): the run
+    /// told less than the ground knew. The estimator's own prior is far wider (5 % of
+    /// β, 5 cm), so a data share near 1 does not say this.
+    fn ground_better_than_data(&self, s: &Scenario) -> Vec<String> {
+        let gc = &s.ground_calibration;
+        let axes = ["x", "y", "z"];
+        let mut out = Vec::new();
+        for is in &self.inertial_sensors {
+            for a in 0..3 {
+                let b = &is.beta;
+                let rel = (b.sigma[a] / b.truth[a]).abs();
+                if gc.beta_rel_error > 0.0 && rel >= gc.beta_rel_error {
+                    out.push(format!(
+                        "IS{} β{} (σ {:.1e} relative, the ground's {:.1e})",
+                        is.id, axes[a], rel, gc.beta_rel_error
+                    ));
+                }
+                let r = &is.com_offset;
+                if gc.com_offset_error_m > 0.0 && r.sigma[a] >= gc.com_offset_error_m {
+                    out.push(format!(
+                        "IS{} r{} (σ {:.2} mm, the ground's {:.2} mm)",
+                        is.id,
+                        axes[a],
+                        r.sigma[a] * 1e3,
+                        gc.com_offset_error_m * 1e3
+                    ));
+                }
+            }
+        }
+        out
     }
 
     /// One row per parameter and axis, formatted as the tables print it.
@@ -337,12 +382,13 @@ impl Report {
             for (name, q, rel) in groups {
                 for a in 0..3 {
                     let err = q.estimate[a] - q.truth[a];
-                    let (error, sigma, crlb, requirement, pass) = if rel {
+                    let (error, sigma, crlb, crlb_with_prior, requirement, pass) = if rel {
                         let e = err / q.truth[a];
                         (
                             format!("{:+.2e}", e),
                             format!("{:.2e}", q.sigma[a] / q.truth[a]),
                             format!("{:.2e}", q.crlb[a] / q.truth[a]),
+                            format!("{:.2e}", q.crlb_with_prior[a] / q.truth[a]),
                             "3.0e-4".to_string(),
                             e.abs() < REQ_SCALE_FACTOR_REL,
                         )
@@ -351,6 +397,7 @@ impl Report {
                             format!("{:+.2} µm", err * 1e6),
                             format!("{:.2} µm", q.sigma[a] * 1e6),
                             format!("{:.2} µm", q.crlb[a] * 1e6),
+                            format!("{:.2} µm", q.crlb_with_prior[a] * 1e6),
                             "75 µm".to_string(),
                             err.abs() < REQ_COM_M,
                         )
@@ -362,6 +409,9 @@ impl Report {
                         sigma,
                         error,
                         crlb,
+                        crlb_with_prior,
+                        data_share: q.data_share[a],
+                        prior_tightens: q.crlb_with_prior[a] < 0.99 * q.crlb[a],
                         requirement,
                         pass,
                         z: if q.sigma[a] > 0.0 {
@@ -405,25 +455,31 @@ impl Report {
         );
         let _ = writeln!(
             o,
-            "{:<10} {:>14} {:>14} {:>11} {:>11} {:>11} {:>9} {:>5} {:>11}",
-            "parameter", "truth", "estimate", "1σ", "error", "CRLB", "req", "pass", "err/σ"
+            "{:<10} {:>14} {:>14} {:>11} {:>11} {:>11} {:>7} {:>9} {:>5} {:>11}",
+            "parameter", "truth", "estimate", "1σ", "error", "CRLB", "data", "req", "pass", "err/σ"
         );
-        for r in self.rows() {
+        let rows = self.rows();
+        for r in &rows {
             let _ = writeln!(
                 o,
-                "{:<10} {:>14.6e} {:>14.6e} {:>11} {:>11} {:>11} {:>9} {:>5} {:>+11.2}",
+                "{:<10} {:>14.6e} {:>14.6e} {:>11} {:>11} {:>11} {:>7} {:>9} {:>5} {:>+11.2}",
                 r.name,
                 r.truth,
                 r.estimate,
                 r.sigma,
                 r.error,
                 r.crlb,
+                share(r.data_share),
                 r.requirement,
                 if r.pass { "ok" } else { "FAIL" },
                 r.z
             );
         }
-        let _ = writeln!(o, "(β, k: 1σ, error and CRLB relative; r: absolute)");
+        let _ = writeln!(
+            o,
+            "(β, k: 1σ, error and CRLB relative; r: absolute. CRLB: the data's bound alone; data: the share of σ's information from the data, not the estimator's prior)"
+        );
+        let _ = writeln!(o, "{}", with_prior_line(&rows));
         if let Some(m) = &self.maneuver {
             let _ = writeln!(o, "{}", m.line());
         }
@@ -555,10 +611,48 @@ pub struct Row {
     pub sigma: String,
     pub error: String,
     pub crlb: String,
+    /// The bound with the estimator's prior, formatted as `crlb`.
+    pub crlb_with_prior: String,
+    /// How much of σ's information came from the data (0–1; NaN without a prior).
+    pub data_share: f64,
+    /// The prior tightens the bound by more than 1 %.
+    pub prior_tightens: bool,
     pub requirement: String,
     pub pass: bool,
     /// error / σ.
     pub z: f64,
+}
+
+/// A data share as the table prints it: "100 %", "97.3 %", "—" without a prior.
+fn share(v: f64) -> String {
+    if v.is_nan() {
+        "—".into()
+    } else if v >= 0.9995 {
+        "100 %".into()
+    } else {
+        format!("{:.1} %", 100.0 * v)
+    }
+}
+
+/// The bound with the estimator's prior, beside the data's: where the prior tightens
+/// it by more than 1 %, those parameters (bound without → with); else that it does not.
+fn with_prior_line(rows: &[Row]) -> String {
+    let moved: Vec<String> = rows
+        .iter()
+        // k's bound moves with β's (k = G β).
+        .filter(|r| r.prior_tightens && !r.name.contains(" k"))
+        .map(|r| format!("{} {} → {}", r.name, r.crlb, r.crlb_with_prior))
+        .collect();
+    if rows.iter().all(|r| r.data_share.is_nan()) {
+        "CRLB with the estimator's prior: — (this method's prior is its own)".into()
+    } else if moved.is_empty() {
+        "CRLB with the estimator's prior (5 % of β and k, 5 cm of r): within 1 % of the data's for every parameter".into()
+    } else {
+        format!(
+            "CRLB with the estimator's prior (5 % of β and k, 5 cm of r), where it is tighter than the data's: {}",
+            moved.join("; ")
+        )
+    }
 }
 
 /// "upset 9 injected, 6 detected, 3 missed; star_jump …" from a report's `faults`: each
@@ -631,6 +725,46 @@ mod prior_tests {
         // The paper's filter has a prior of its own: nothing is judged.
         let p = Report::new(&s, 1, "in-process", "paper", &e, &crlb);
         assert!(p.prior_dominated.is_empty() && p.inertial_sensors[0].beta.data_share[0].is_nan());
+        // The data share per parameter in the table, the prior's bound under it.
+        assert!(
+            t.lines()
+                .any(|l| l.starts_with("IS1 βy") && l.contains("0.0 %")),
+            "{t}"
+        );
+        assert!(
+            t.lines()
+                .any(|l| l.starts_with("IS1 βx") && l.contains("100 %")),
+            "{t}"
+        );
+        assert!(t.contains("CRLB with the estimator's prior"), "{t}");
+    }
+
+    /// A σ no better than the ground calibration's stated error is said so, though
+    /// the data share (against the estimator's far wider prior) is near 1.
+    #[test]
+    fn a_sigma_above_the_ground_calibrations_error_says_keep_the_ground_value() {
+        let s = Scenario::default();
+        let crlb = crate::crlb::crlb(&s).unwrap();
+        let mut e = at_truth_with_sigma(&s, &crlb);
+        let none = Report::new(&s, 1, "in-process", "joint", &e, &crlb);
+        assert!(none.ground_better.is_empty(), "{:?}", none.ground_better);
+        // IS2's βz at 0.9 %, the ground's 0.5 %; IS1's r_x at 3 mm, the ground's 2 mm.
+        e.beta_sigma[1][2] = 9e-3 * s.inertial_sensor[1].beta[2];
+        e.r_sigma[0][0] = 3e-3;
+        let r = Report::new(&s, 1, "in-process", "joint", &e, &crlb);
+        assert!(r.inertial_sensors[1].beta.data_share[2] > 0.95);
+        assert_eq!(r.ground_better.len(), 2, "{:?}", r.ground_better);
+        assert!(r
+            .ground_better
+            .iter()
+            .any(|g| g.starts_with("IS2 βz (σ 9.0e-3 relative, the ground's 5.0e-3)")));
+        assert!(r
+            .ground_better
+            .iter()
+            .any(|g| g.starts_with("IS1 rx (σ 3.00 mm, the ground's 2.00 mm)")));
+        assert!(r
+            .table()
+            .contains("Warning: not better than the ground calibration"));
     }
 
     /// The parameters stand against the run's bound; the maneuver's line, the

@@ -143,7 +143,7 @@ impl Group {
     }
 
     /// Column headers, every number's unit in its header.
-    fn columns(&self) -> [String; 9] {
+    fn columns(&self) -> [String; 11] {
         let d = if self.relative { "ppm" } else { self.unit };
         [
             "parameter".into(),
@@ -152,6 +152,8 @@ impl Group {
             format!("1σ [{d}]"),
             format!("error [{d}]"),
             format!("CRLB [{d}]"),
+            format!("CRLB with prior [{d}]"),
+            "data share".into(),
             format!("requirement [{d}]"),
             "pass".into(),
             "error/σ".into(),
@@ -159,7 +161,7 @@ impl Group {
     }
 
     /// One row per IS and axis; pass and error/σ as the report's own rows judge them.
-    fn rows(&self, r: &Report) -> Vec<[String; 9]> {
+    fn rows(&self, r: &Report) -> Vec<[String; 11]> {
         let judged: std::collections::HashMap<String, crate::report::Row> = r
             .rows()
             .into_iter()
@@ -192,6 +194,16 @@ impl Group {
                     format!("{:.dp$}", (q.sigma[a] * derived).abs()),
                     format!("{:+.dp$}", err * derived),
                     format!("{:.dp$}", (q.crlb[a] * derived).abs()),
+                    if q.crlb_with_prior[a].is_nan() {
+                        "—".into()
+                    } else {
+                        format!("{:.dp$}", (q.crlb_with_prior[a] * derived).abs())
+                    },
+                    if q.data_share[a].is_nan() {
+                        "—".into()
+                    } else {
+                        format!("{:.1} %", 100.0 * q.data_share[a])
+                    },
                     format!("{req:.0}"),
                     pass.into(),
                     format!("{z:+.2}"),

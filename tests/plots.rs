@@ -100,7 +100,7 @@ fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
     for header in [
         "| truth [rad s⁻² V⁻¹] | estimate [rad s⁻² V⁻¹] | 1σ [ppm] | error [ppm] |",
         "| truth [m s⁻² V⁻¹] | estimate [m s⁻² V⁻¹] | 1σ [ppm] | error [ppm] |",
-        "| truth [µm] | estimate [µm] | 1σ [µm] | error [µm] | CRLB [µm] | requirement [µm] |",
+        "| truth [µm] | estimate [µm] | 1σ [µm] | error [µm] | CRLB [µm] | CRLB with prior [µm] | data share | requirement [µm] |",
     ] {
         assert!(md.contains(header), "report.md lacks {header:?}");
     }
