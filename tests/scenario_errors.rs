@@ -37,6 +37,22 @@ fn wrong_types_are_rejected() {
 }
 
 #[test]
+fn a_file_that_does_not_parse_gets_one_line_with_where_and_the_key() {
+    for (text, at) in [
+        (
+            "name = \"x\"\nduration_s = \"long\"",
+            "line 2, column 14 (`duration_s = \"long\"`)",
+        ),
+        ("[srp\ndc_m_s2 = 1e-8", "line 1"),
+        ("[[inertial_sensor]]\ncom_offset_m = [0.2, 0.1]", "line 2"),
+        ("[thrusters]\nx = 1", "line 1, column 2 (`[thrusters]`)"),
+    ] {
+        let e = err(text);
+        assert!(!e.contains('\n') && e.contains(at), "{e}");
+    }
+}
+
+#[test]
 fn negative_duration_and_zero_rate_are_rejected() {
     assert!(err("duration_s = -5.0").contains("duration_s"));
     assert!(err("sample_rate_hz = 0.0").contains("sample_rate_hz"));

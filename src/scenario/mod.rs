@@ -31,9 +31,11 @@ pub enum ScenarioError {
         #[source]
         source: std::io::Error,
     },
-    /// Not TOML, an unknown key or a value of the wrong type.
-    #[error("scenario is not valid: {}", source.to_string().trim_end())]
+    /// Not TOML, an unknown key or a value of the wrong type: one line, where
+    /// (`at`, "line L, column C") and what.
+    #[error("scenario is not valid: {at}: {}", source.message().trim_end().replace('\n', "; "))]
     Parse {
+        at: String,
         #[source]
         source: toml::de::Error,
     },
