@@ -71,7 +71,10 @@ impl Scenario {
                 }
                 None => "the file".to_string(),
             };
-            ScenarioError::Parse { at, source }
+            ScenarioError::Parse {
+                at,
+                source: Box::new(source),
+            }
         })?;
         let given = keys_set(text);
         s.plan_pending = !WAVEFORM_KEYS.iter().any(|k| given.iter().any(|g| g == k));

@@ -37,7 +37,7 @@ pub enum ScenarioError {
     Parse {
         at: String,
         #[source]
-        source: toml::de::Error,
+        source: Box<toml::de::Error>,
     },
     /// A value out of its range or at odds with another key.
     #[error("`{key}`: {msg}")]
