@@ -111,11 +111,15 @@ pub enum LaunchError {
         #[source]
         source: std::io::Error,
     },
-    #[error("launch description {origin}: {source}")]
+    #[error(
+        "launch description {origin}: {at}: {}",
+        crate::scenario::toml_message(source)
+    )]
     Parse {
         origin: String,
+        at: String,
         #[source]
-        source: toml::de::Error,
+        source: Box<toml::de::Error>,
     },
     /// Valid TOML, but not a process set this software can run.
     #[error("launch description {origin}: {problem}")]
@@ -151,7 +155,8 @@ impl LaunchDescription {
     pub fn parse(text: &str, origin: &str) -> Result<Self, LaunchError> {
         let d: LaunchDescription = toml::from_str(text).map_err(|source| LaunchError::Parse {
             origin: origin.into(),
-            source,
+            at: crate::scenario::toml_error_at(text, &source),
+            source: Box::new(source),
         })?;
         d.check().map_err(|problem| LaunchError::Invalid {
             origin: origin.into(),
@@ -295,7 +300,11 @@ mod tests {
         )
         .unwrap_err()
         .to_string();
-        assert!(e.contains("restart"), "{e}");
+        // One line: where, the line itself, the parser's message.
+        assert!(
+            e.contains("restart") && e.contains("(`restart = \"sometimes\"`)") && !e.contains('\n'),
+            "{e}"
+        );
         let e = LaunchDescription::parse(
             &DEFAULT.replace("heartbeat_timeout_s = ", "heartbeat_timeout_s = -"),
             "x",

@@ -51,30 +51,9 @@ fn blame_second(given: Given, first: &str, second: &str) -> bool {
 impl Scenario {
     /// Parse and validate a TOML text.
     pub fn from_toml_str(text: &str) -> Result<Self, ScenarioError> {
-        let mut s: Scenario = toml::from_str(text).map_err(|source| {
-            // Line and column (1-based) of where the parser stopped.
-            let at = match source.span() {
-                Some(sp) => {
-                    let before = &text[..sp.start.min(text.len())];
-                    let line = before.matches('\n').count() + 1;
-                    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-                    // The line itself names the key (a type error's message does not).
-                    let src: String = text
-                        .lines()
-                        .nth(line - 1)
-                        .unwrap_or("")
-                        .trim()
-                        .chars()
-                        .take(60)
-                        .collect();
-                    format!("line {line}, column {col} (`{src}`)")
-                }
-                None => "the file".to_string(),
-            };
-            ScenarioError::Parse {
-                at,
-                source: Box::new(source),
-            }
+        let mut s: Scenario = toml::from_str(text).map_err(|source| ScenarioError::Parse {
+            at: super::toml_error_at(text, &source),
+            source: Box::new(source),
         })?;
         let given = keys_set(text);
         s.plan_pending = !WAVEFORM_KEYS.iter().any(|k| given.iter().any(|g| g == k));

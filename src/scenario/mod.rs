@@ -33,7 +33,7 @@ pub enum ScenarioError {
     },
     /// Not TOML, an unknown key or a value of the wrong type: one line, where
     /// (`at`, "line L, column C") and what.
-    #[error("scenario is not valid: {at}: {}", source.message().trim_end().replace('\n', "; "))]
+    #[error("scenario is not valid: {at}: {}", toml_message(source))]
     Parse {
         at: String,
         #[source]
@@ -49,6 +49,31 @@ pub enum ScenarioError {
         #[source]
         source: Box<ScenarioError>,
     },
+}
+
+/// Where a TOML parser stopped, for a one-line error: "line L, column C (`the line`)",
+/// 1-based; the line itself names the key (a type error's message does not).
+pub fn toml_error_at(text: &str, e: &toml::de::Error) -> String {
+    let Some(sp) = e.span() else {
+        return "the file".to_string();
+    };
+    let before = &text[..sp.start.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    let src: String = text
+        .lines()
+        .nth(line - 1)
+        .unwrap_or("")
+        .trim()
+        .chars()
+        .take(60)
+        .collect();
+    format!("line {line}, column {col} (`{src}`)")
+}
+
+/// A TOML parser's message on one line.
+pub fn toml_message(e: &toml::de::Error) -> String {
+    e.message().trim_end().replace('\n', "; ")
 }
 
 impl ScenarioError {
