@@ -347,7 +347,8 @@ impl Report {
         for is in &self.inertial_sensors {
             for a in 0..3 {
                 let b = &is.beta;
-                let rel = (b.sigma[a] / b.truth[a]).abs();
+                // Relative to the estimate: a judgement the run makes without truth.
+                let rel = (b.sigma[a] / b.estimate[a]).abs();
                 if gc.beta_rel_error > 0.0 && rel >= gc.beta_rel_error {
                     out.push(format!(
                         "IS{} β{} (σ {:.1e} relative, the ground's {:.1e})",
