@@ -129,6 +129,17 @@ pub struct Report {
     /// the run, from the maneuver and the noise model alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted_probability_requirements_met: Option<f64>,
+    /// The same if the errors were one common error (the smallest probability of one
+    /// parameter): the bound gives each σ, not how the errors go together, so the
+    /// probability lies between this and the product above (β's six errors are
+    /// mostly one common scale error, which puts it nearer this one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted_probability_requirements_met_upper: Option<f64>,
+    /// Both from the run's bound (its thrusters' random motion at this seed
+    /// included, which can calibrate what the maneuver alone cannot), [product,
+    /// smallest]: known after the run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probability_requirements_met_run_bound: Option<[f64; 2]>,
     /// Parameters whose estimate is mostly the estimator's prior (data share < 50 %).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub prior_dominated: Vec<String>,
@@ -255,6 +266,8 @@ impl Report {
             estimator_loop_allocations: None,
             maneuver: Some(crate::plan::describe(s, Some(&maneuver), None)),
             predicted_probability_requirements_met: None,
+            predicted_probability_requirements_met_upper: None,
+            probability_requirements_met_run_bound: None,
             prior_dominated: Vec::new(),
             ground_better: Vec::new(),
             warnings: Vec::new(),
@@ -268,19 +281,31 @@ impl Report {
     fn with_prior_judgement(mut self, s: &Scenario, maneuver: &Crlb) -> Self {
         let axes = ["x", "y", "z"];
         let with_prior = |c: f64, p: f64| 1.0 / (1.0 / (c * c) + 1.0 / (p * p)).sqrt();
-        let mut p = 1.0;
+        // Per prediction: the product (independent errors) and the smallest (one
+        // common error).
+        let (mut p, mut p_run) = ([1.0, 1.0], [1.0, 1.0]);
+        let take = |acc: &mut [f64; 2], q: f64| {
+            acc[0] *= q;
+            acc[1] = acc[1].min(q);
+        };
         for (i, is) in self.inertial_sensors.iter().enumerate() {
             for a in 0..3 {
                 let b = &is.beta;
-                p *= within(
-                    REQ_SCALE_FACTOR_REL * b.truth[a].abs(),
-                    with_prior(maneuver.beta[i][a], b.prior_sigma[a]),
+                let req_b = REQ_SCALE_FACTOR_REL * b.truth[a].abs();
+                take(
+                    &mut p,
+                    within(req_b, with_prior(maneuver.beta[i][a], b.prior_sigma[a])),
                 );
+                take(&mut p_run, within(req_b, b.crlb_with_prior[a]));
                 let r = &is.com_offset;
-                p *= within(
-                    REQ_COM_M,
-                    with_prior(maneuver.com_offset_m[i][a], r.prior_sigma[a]),
+                take(
+                    &mut p,
+                    within(
+                        REQ_COM_M,
+                        with_prior(maneuver.com_offset_m[i][a], r.prior_sigma[a]),
+                    ),
                 );
+                take(&mut p_run, within(REQ_COM_M, r.crlb_with_prior[a]));
                 for (name, q) in [("β", &is.beta), ("r", &is.com_offset)] {
                     if q.data_share[a] < PRIOR_DOMINATED_SHARE {
                         self.prior_dominated.push(format!(
@@ -294,7 +319,10 @@ impl Report {
             }
         }
         self.ground_better = self.ground_better_than_data(s);
-        self.predicted_probability_requirements_met = p.is_finite().then_some(p);
+        let fin = |v: [f64; 2]| v.iter().all(|x| x.is_finite());
+        self.predicted_probability_requirements_met = fin(p).then_some(p[0]);
+        self.predicted_probability_requirements_met_upper = fin(p).then_some(p[1]);
+        self.probability_requirements_met_run_bound = fin(p_run).then_some(p_run);
         let (worst, name) = crate::plan::worst_ratio(s, maneuver);
         if !s.maneuver.planned && worst > 1.0 {
             let how = if worst.is_finite() {
@@ -304,12 +332,13 @@ impl Report {
             };
             self.warnings.push(format!(
                 "the written maneuver's {how}: the maneuver alone cannot calibrate it{}; `taiji-calib plan` plans a maneuver that does",
-                match self.predicted_probability_requirements_met {
-                    Some(p) => format!(
-                        ", and the bound predicts the requirements met with probability {:.2} %",
-                        100.0 * p
-                    ),
-                    None => String::new(),
+                if fin(p) {
+                    format!(
+                        ", and the bound predicts the requirements met with probability {}",
+                        range_pct(p)
+                    )
+                } else {
+                    String::new()
                 }
             ));
         }
@@ -538,12 +567,8 @@ impl Report {
         if let Some(f) = &self.faults {
             let _ = writeln!(o, "Faults: {}", fault_line(f));
         }
-        if let Some(p) = self.predicted_probability_requirements_met {
-            let _ = writeln!(
-                o,
-                "Predicted from the bound: requirements met with probability {:.2} %",
-                100.0 * p
-            );
+        if let Some(line) = prediction_line(self) {
+            let _ = writeln!(o, "{line}");
         }
         for w in &self.warnings {
             let _ = writeln!(o, "Warning: {w}");
@@ -622,6 +647,43 @@ pub struct Row {
     pub pass: bool,
     /// error / σ.
     pub z: f64,
+}
+
+/// A probability, or the range between independent errors and one common error.
+fn range_pct([lo, hi]: [f64; 2]) -> String {
+    if hi - lo >= 0.005 {
+        format!("{:.2}–{:.2} %", 100.0 * lo, 100.0 * hi)
+    } else {
+        format!("{:.2} %", 100.0 * lo)
+    }
+}
+
+/// "Predicted from the bound: …": the maneuver's prediction (a range where the
+/// errors' going together matters), and the run's bound's where it differs (its
+/// thrusters' random motion calibrated more than the maneuver's motion).
+pub fn prediction_line(r: &Report) -> Option<String> {
+    let lo = r.predicted_probability_requirements_met?;
+    let p = [
+        lo,
+        r.predicted_probability_requirements_met_upper.unwrap_or(lo),
+    ];
+    let mut line = format!(
+        "Predicted from the bound: requirements met with probability {}",
+        range_pct(p)
+    );
+    if let Some(q) = r.probability_requirements_met_run_bound {
+        if (q[0] - p[0]).abs() >= 0.005 || (q[1] - p[1]).abs() >= 0.005 {
+            let _ = write!(
+                line,
+                " (the maneuver's motion alone; with this run's thruster motion, its bound gives {})",
+                range_pct(q)
+            );
+        }
+    }
+    if p[1] - p[0] >= 0.005 {
+        line.push_str("; a range: from errors independent to one common error");
+    }
+    Some(line)
 }
 
 /// A data share as the table prints it: "100 %", "97.3 %", "—" without a prior.

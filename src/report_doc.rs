@@ -67,11 +67,8 @@ fn notes(r: &Report) -> Vec<String> {
     if let Some(m) = &r.maneuver {
         v.push(m.line());
     }
-    if let Some(p) = r.predicted_probability_requirements_met {
-        v.push(format!(
-            "Predicted from the bound: requirements met with probability {:.2} %",
-            100.0 * p
-        ));
+    if let Some(line) = crate::report::prediction_line(r) {
+        v.push(line);
     }
     for w in &r.warnings {
         v.push(format!("**Warning**: {w}"));
