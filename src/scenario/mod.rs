@@ -57,7 +57,12 @@ pub fn toml_error_at(text: &str, e: &toml::de::Error) -> String {
     let Some(sp) = e.span() else {
         return "the file".to_string();
     };
-    let before = &text[..sp.start.min(text.len())];
+    // A byte offset; never slice inside a character (no panic on any input).
+    let mut end = sp.start.min(text.len());
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    let before = &text[..end];
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     let src: String = text
