@@ -46,7 +46,10 @@ fn a_file_that_does_not_parse_gets_one_line_with_where_and_the_key() {
         ("[srp\ndc_m_s2 = 1e-8", "line 1"),
         ("[[inertial_sensor]]\ncom_offset_m = [0.2, 0.1]", "line 2"),
         ("[thrusters]\nx = 1", "line 1, column 2 (`[thrusters]`)"),
-        ("name = \"βγ\"\nseed = \"ζ\"", "line 2, column 8 (`seed = \"ζ\"`)"),
+        (
+            "name = \"βγ\"\nseed = \"ζ\"",
+            "line 2, column 8 (`seed = \"ζ\"`)",
+        ),
         ("name = \"x\" ζ", "line 1"),
     ] {
         let e = err(text);
