@@ -45,7 +45,7 @@ impl Quantity {
         self.prior_sigma = prior_sigma;
         for a in 0..3 {
             let (c, p) = (self.crlb[a], prior_sigma[a]);
-            self.crlb_with_prior[a] = 1.0 / (1.0 / (c * c) + 1.0 / (p * p)).sqrt();
+            self.crlb_with_prior[a] = bound_with_prior(c, p);
             self.data_share[a] = (1.0 - (self.sigma[a] / p).powi(2)).clamp(0.0, 1.0);
         }
         self
@@ -154,6 +154,11 @@ pub struct Report {
 
 /// A data share below this: the parameter is named prior-dominated.
 pub const PRIOR_DOMINATED_SHARE: f64 = 0.5;
+
+/// A bound `c` with a prior of 1σ `p`: their informations add.
+fn bound_with_prior(c: f64, p: f64) -> f64 {
+    1.0 / (1.0 / (c * c) + 1.0 / (p * p)).sqrt()
+}
 
 /// P(|e| < req) for e ~ N(0, σ²).
 fn within(req: f64, sigma: f64) -> f64 {
@@ -280,7 +285,6 @@ impl Report {
     /// the warnings they call for.
     fn with_prior_judgement(mut self, s: &Scenario, maneuver: &Crlb) -> Self {
         let axes = ["x", "y", "z"];
-        let with_prior = |c: f64, p: f64| 1.0 / (1.0 / (c * c) + 1.0 / (p * p)).sqrt();
         // Per prediction: the product (independent errors) and the smallest (one
         // common error).
         let (mut p, mut p_run) = ([1.0, 1.0], [1.0, 1.0]);
@@ -294,7 +298,10 @@ impl Report {
                 let req_b = REQ_SCALE_FACTOR_REL * b.truth[a].abs();
                 take(
                     &mut p,
-                    within(req_b, with_prior(maneuver.beta[i][a], b.prior_sigma[a])),
+                    within(
+                        req_b,
+                        bound_with_prior(maneuver.beta[i][a], b.prior_sigma[a]),
+                    ),
                 );
                 take(&mut p_run, within(req_b, b.crlb_with_prior[a]));
                 let r = &is.com_offset;
@@ -302,7 +309,7 @@ impl Report {
                     &mut p,
                     within(
                         REQ_COM_M,
-                        with_prior(maneuver.com_offset_m[i][a], r.prior_sigma[a]),
+                        bound_with_prior(maneuver.com_offset_m[i][a], r.prior_sigma[a]),
                     ),
                 );
                 take(&mut p_run, within(REQ_COM_M, r.crlb_with_prior[a]));

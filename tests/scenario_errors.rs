@@ -126,14 +126,7 @@ fn implausible_priors_are_rejected() {
 #[test]
 fn priors_farther_than_the_estimator_acquires_are_refused_naming_the_key() {
     // β's prior 10 % off is acquired (measured); 15 % and 30 % are not: refused.
-    for rel in ["0.15", "0.3"] {
-        let e = err(&format!("[ground_calibration]\nbeta_rel_error = {rel}"));
-        assert!(
-            e.contains("ground_calibration.beta_rel_error") && e.contains("at most 0.1"),
-            "{e}"
-        );
-    }
-    Scenario::from_toml_str("[ground_calibration]\nbeta_rel_error = 0.1").unwrap();
+    ground_key_refused_above("beta_rel_error", &["0.15", "0.3"], "at most 0.1", "0.1");
     // 12 % off on one axis, given as the prior itself.
     let e = err("[[inertial_sensor]]\nbeta_prior = [6.18e-8, 5.52143e-8, 7.36191e-8]");
     assert!(
@@ -142,14 +135,25 @@ fn priors_farther_than_the_estimator_acquires_are_refused_naming_the_key() {
     );
     // r's prior error: 5 cm at most, as a prior given itself (a 100 m box once ran and
     // ended unverified, exit 1, instead of being refused).
-    for m in ["0.2", "100"] {
-        let e = err(&format!("[ground_calibration]\ncom_offset_error_m = {m}"));
+    ground_key_refused_above(
+        "com_offset_error_m",
+        &["0.2", "100"],
+        "at most 0.05 m",
+        "0.05",
+    );
+}
+
+/// `[ground_calibration] key = v`: each of `refused` names the key and `limit`; `kept`
+/// loads.
+fn ground_key_refused_above(key: &str, refused: &[&str], limit: &str, kept: &str) {
+    for v in refused {
+        let e = err(&format!("[ground_calibration]\n{key} = {v}"));
         assert!(
-            e.contains("ground_calibration.com_offset_error_m") && e.contains("at most 0.05 m"),
+            e.contains(&format!("ground_calibration.{key}")) && e.contains(limit),
             "{e}"
         );
     }
-    Scenario::from_toml_str("[ground_calibration]\ncom_offset_error_m = 0.05").unwrap();
+    Scenario::from_toml_str(&format!("[ground_calibration]\n{key} = {kept}")).unwrap();
 }
 
 #[test]
