@@ -508,7 +508,8 @@ fn other_sample_rates_and_dropouts_stay_honest_a_few_cells_of_the_matrix() {
              [faults]\nis_dropout_rate = 0.01\nstar_dropout_rate = 0.02\n",
         ),
         // Every lost tick a rate step that both the star group and the turn rows see
-        // (`SHARED_STEP_GROUPS`): counted once in each, β's σ was 1.3–1.8× optimistic.
+        // (`STEP_IN_STAR`, `STEP_IN_TURN`): counted once in each, β's σ was 1.3–1.8×
+        // optimistic.
         ("10 Hz, ticks missing", "[faults]\nmissing_rate = 0.0025\n"),
     ] {
         let s = Scenario::from_toml_str(&format!("name = \"cell\"\n{text}")).unwrap();

@@ -222,17 +222,18 @@ impl JointEstimator {
             for l in 0..self.n_is() {
                 jump += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - self.dv_anchor[l][a]);
             }
-            let v = SHARED_STEP_GROUPS * (span * jump).powi(2) / 12.0;
+            let v = (span * jump).powi(2) / 12.0;
+            let (vs, vt) = (STEP_IN_STAR * v, STEP_IN_TURN * v);
             if v.is_finite() {
                 let h = 0.5 * span;
                 let p = &mut self.st_p[a];
-                p[0][0] += v * h * h;
-                p[0][1] += v * h;
-                p[1][0] += v * h;
-                p[1][1] += v;
-                self.turn_pq[a][0] += v * h * h;
-                self.turn_pq[a][1] += v * h;
-                self.turn_pq[a][2] += v;
+                p[0][0] += vs * h * h;
+                p[0][1] += vs * h;
+                p[1][0] += vs * h;
+                p[1][1] += vs;
+                self.turn_pq[a][0] += vt * h * h;
+                self.turn_pq[a][1] += vt * h;
+                self.turn_pq[a][2] += vt;
             }
         }
         for l in 0..2 {
@@ -245,7 +246,7 @@ impl JointEstimator {
     /// that turns the SRP.
     pub(super) fn turn_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        self.turn_pq[a][2] += SHARED_STEP_GROUPS * dt * dt * self.jerk_var[a];
+        self.turn_pq[a][2] += STEP_IN_TURN * dt * dt * self.jerk_var[a];
     }
 
     /// Add this linear sample to the excitation's moments (`rate_moments`,

@@ -326,13 +326,21 @@ const STAR_RELEARN_GAP_S: f64 = 1.0;
 const BRIDGE_PER_UPDATE: u64 = 8;
 /// A bridged tick's rate step is one unknown that two groups see, the star tracker's
 /// and the turn rows' (the same ramp of the attitude in both), each filter taking it
-/// as its own. Their joint likelihood with one step of variance v gives the scale it
-/// confounds the information I/(1 + v I), I = I₁ + I₂ what both groups learn of the
-/// step; each group taking 2v gives Σ Iₖ/(1 + 2v Iₖ), equal to it when the groups learn
-/// alike and below it otherwise (x/(1 + 2vx) is concave), never above. Taken once in
-/// each (v, not 2v), β's σ read 1.3–1.7× optimistic at 10 Hz with 5 % IS dropouts or
-/// 0.1–0.25 % of ticks lost on the bus (30–100 seeds); with 2v, 0.75–1.04.
-const SHARED_STEP_GROUPS: f64 = 2.0;
+/// as its own: the star group at c₁ v, the turn rows at c₂ v. With signatures h₁, h₂
+/// of the one step (variance v) in the two groups, c₁ h₁h₁ᵀ ⊕ c₂ h₂h₂ᵀ covers its joint
+/// covariance (h₁; h₂)(h₁; h₂)ᵀ whenever 1/c₁ + 1/c₂ ≤ 1, so no split of that kind is
+/// optimistic; taken once in each (c = 1, the cross term missed) β's σ read 1.3–1.7×
+/// optimistic at 10 Hz with 5 % IS dropouts or 0.1–0.25 % of ticks lost on the bus.
+/// Where the split falls is a trade, as the step confounds β in the star group and r in
+/// the turn rows. Measured, β / r (err/σ)² over 100 seeds, an outside review's
+/// scenario with bus faults and the default with 5 % IS dropouts: 2, 2: 0.65 / 0.97
+/// and 0.71 / 0.85; 4/3, 4: 0.85 / 0.94 and 0.84 / 0.83; 1.2, 6: 0.91 / 0.92 and
+/// 0.89 / 0.81; 1.01, 101: 0.98 / 0.79 and 0.99 / 0.66 (docs/integrity.md, known gaps).
+/// The exact joint (one filter both groups share) is not built: its Grams would pair
+/// every signal of one group with every signal of the other.
+const STEP_IN_STAR: f64 = 4.0 / 3.0;
+/// The turn rows' share of a bridged tick's rate step (`STEP_IN_STAR`).
+const STEP_IN_TURN: f64 = 4.0;
 
 /// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
 const ALPHA_LIN: f64 = 1.0 / 64.0;

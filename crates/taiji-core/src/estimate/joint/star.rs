@@ -20,8 +20,8 @@ impl JointEstimator {
             }
             if n_valid[a] == 0 {
                 // Bridged (the line drawn once data return): off by ω̇'s departure
-                // from that line, a step the turn rows see too (`SHARED_STEP_GROUPS`).
-                q += SHARED_STEP_GROUPS * self.jerk_var[a];
+                // from that line, a step the turn rows see too (`STEP_IN_STAR`).
+                q += STEP_IN_STAR * self.jerk_var[a];
             } else {
                 // Borrowed voltages carry the other IS's noise in full.
                 q *= self.n_is() as f64 / n_valid[a] as f64;
