@@ -341,6 +341,8 @@ const BRIDGE_PER_UPDATE: u64 = 8;
 const STEP_IN_STAR: f64 = 4.0 / 3.0;
 /// The turn rows' share of a bridged tick's rate step (`STEP_IN_STAR`).
 const STEP_IN_TURN: f64 = 4.0;
+// The split never counts more than the joint likelihood of the one step.
+const _: () = assert!(1.0 / STEP_IN_STAR + 1.0 / STEP_IN_TURN <= 1.0 + 1e-12);
 
 /// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
 const ALPHA_LIN: f64 = 1.0 / 64.0;
