@@ -294,26 +294,16 @@ impl Report {
         };
         for (i, is) in self.inertial_sensors.iter().enumerate() {
             for a in 0..3 {
-                let b = &is.beta;
-                let req_b = REQ_SCALE_FACTOR_REL * b.truth[a].abs();
-                take(
-                    &mut p,
-                    within(
-                        req_b,
-                        bound_with_prior(maneuver.beta[i][a], b.prior_sigma[a]),
-                    ),
-                );
-                take(&mut p_run, within(req_b, b.crlb_with_prior[a]));
-                let r = &is.com_offset;
-                take(
-                    &mut p,
-                    within(
-                        REQ_COM_M,
-                        bound_with_prior(maneuver.com_offset_m[i][a], r.prior_sigma[a]),
-                    ),
-                );
-                take(&mut p_run, within(REQ_COM_M, r.crlb_with_prior[a]));
-                for (name, q) in [("β", &is.beta), ("r", &is.com_offset)] {
+                let req_b = REQ_SCALE_FACTOR_REL * is.beta.truth[a].abs();
+                for (name, q, req, of_maneuver) in [
+                    ("β", &is.beta, req_b, maneuver.beta[i][a]),
+                    ("r", &is.com_offset, REQ_COM_M, maneuver.com_offset_m[i][a]),
+                ] {
+                    take(
+                        &mut p,
+                        within(req, bound_with_prior(of_maneuver, q.prior_sigma[a])),
+                    );
+                    take(&mut p_run, within(req, q.crlb_with_prior[a]));
                     if q.data_share[a] < PRIOR_DOMINATED_SHARE {
                         self.prior_dominated.push(format!(
                             "IS{} {name}{} (data share {:.1} %: it is the estimator's prior)",
