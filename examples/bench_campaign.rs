@@ -3,13 +3,13 @@
 //! (accelerated), real-time latency of the set and the machine's own timing floor; run
 //! it through `tools/bench` (`--in-process`: the first part only).
 use std::time::Instant;
-use taiji::campaign::{self, Stages, Threads};
-use taiji::commander::Commander;
-use taiji::estimate::{JointEstimator, Method};
-use taiji::fee::FrontEnd;
-use taiji::model::plant::{Plant, PlantNoise};
-use taiji::msg::SensorSample;
-use taiji::scenario::Scenario;
+use taiji::analysis::campaign::{self, Stages, Threads};
+use taiji::sim::commander::Commander;
+use taiji::sim::estimate::{JointEstimator, Method};
+use taiji::sim::fee::FrontEnd;
+use taiji::sim::model::plant::{Plant, PlantNoise};
+use taiji::sim::msg::SensorSample;
+use taiji::sim::scenario::Scenario;
 
 /// Wall time the default campaign's whole process should take on two cores [s]
 /// (half the 0.66 s it took before the campaign was pipelined and sped up).
@@ -189,7 +189,7 @@ fn main() {
         }
     });
     let bound = times(3, |_| {
-        std::hint::black_box(taiji::crlb::crlb(&s));
+        std::hint::black_box(taiji::analysis::crlb::crlb(&s));
     });
     println!("stages alone, one thread each (median of 3; wall, and the thread's CPU time):");
     let line = |what: &str, (wall, cpu): (f64, f64)| {
@@ -292,7 +292,7 @@ fn main() {
         "  missed deadlines {} (estimate out > 1 period after the tick was due)   samples lost {}",
         t["missed_deadlines"], t["samples_lost"]
     );
-    if let Some(line) = taiji::report::scheduling_line(t) {
+    if let Some(line) = taiji::analysis::report::scheduling_line(t) {
         println!("  scheduling  {line}");
     }
     platform_floor(20_000, 1_000_000);
@@ -303,8 +303,8 @@ fn main() {
 /// absolute deadlines `period_ns` apart, nothing else of ours running. Its overshoots
 /// beyond one period are deadlines no process set on this machine can meet.
 fn platform_floor(ticks: u64, period_ns: u64) {
-    let fifo = taiji::timing::enter_fifo(43).is_ok();
-    let t0 = taiji::timing::monotonic_ns() + period_ns;
+    let fifo = taiji::bus::timing::enter_fifo(43).is_ok();
+    let t0 = taiji::bus::timing::monotonic_ns() + period_ns;
     let mut over: Vec<u64> = Vec::with_capacity(ticks as usize);
     for k in 0..ticks {
         let due = t0 + k * period_ns;
@@ -321,7 +321,7 @@ fn platform_floor(ticks: u64, period_ns: u64) {
                 std::ptr::null_mut(),
             )
         };
-        over.push(taiji::timing::monotonic_ns().saturating_sub(due));
+        over.push(taiji::bus::timing::monotonic_ns().saturating_sub(due));
     }
     over.sort_unstable();
     let q = |f: f64| over[((over.len() - 1) as f64 * f) as usize] as f64 / 1e3;

@@ -9,7 +9,7 @@ fn main() {
         .unwrap_or(1_000_000);
     let seed: u64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(1);
     let t0 = std::time::Instant::now();
-    let s = taiji::fuzz::run(cases, seed);
+    let s = taiji::analysis::fuzz::run(cases, seed);
     println!(
         "{} samples stepped ({} rejected for some cause), {} non-finite estimates, {:.1} s",
         s.steps,
@@ -17,7 +17,7 @@ fn main() {
         s.non_finite,
         t0.elapsed().as_secs_f64()
     );
-    let by_cause: Vec<String> = taiji::msg::CAUSE_NAMES
+    let by_cause: Vec<String> = taiji::sim::msg::CAUSE_NAMES
         .iter()
         .zip(s.causes)
         .filter(|(_, c)| *c > 0)

@@ -6,7 +6,7 @@
 //!   tunnel_ping ping --bus-prefix P --count 2000
 use iceoryx2::prelude::*;
 use std::time::{Duration, Instant};
-use taiji::timing::monotonic_ns;
+use taiji::bus::timing::monotonic_ns;
 
 fn service(
     node: &Node<ipc::Service>,
@@ -47,7 +47,7 @@ fn main() -> Result<(), String> {
     let wait_s: f64 = opt("--wait-s", "30")
         .parse()
         .map_err(|e| format!("--wait-s: {e}"))?;
-    let cfg = taiji::bus::config(&prefix).map_err(|e| e.to_string())?;
+    let cfg = taiji::bus::wiring::config(&prefix).map_err(|e| e.to_string())?;
     let node = NodeBuilder::new()
         .config(&cfg)
         .create::<ipc::Service>()

@@ -1,7 +1,7 @@
 //! Single-event upsets in the estimator's own memory, through its C ABI:
 //!   cargo run --release --example upset_campaign -- [TRIALS] [DURATION_S] [SEED]
 //! Prints the table of outcomes (docs/integrity.md, "Upsets in the estimator's memory").
-use taiji::upset::{run, Campaign};
+use taiji::analysis::upset::{run, Campaign};
 
 fn main() {
     let arg = |k: usize, d: f64| {

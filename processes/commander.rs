@@ -1,4 +1,4 @@
-//! `taiji-commander`: wiring only — see `taiji::process::commander`.
+//! `taiji-commander`: wiring only — see `taiji::runtime::process::commander`.
 use clap::Parser;
 
 #[derive(Parser)]
@@ -9,12 +9,12 @@ use clap::Parser;
 )]
 struct Args {
     #[command(flatten)]
-    stage: taiji::process::StageArgs,
+    stage: taiji::runtime::process::StageArgs,
 }
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
-    taiji::process::main_of("taiji-commander", || {
-        taiji::process::commander::run(&args.stage)
+    taiji::runtime::process::main_of("taiji-commander", || {
+        taiji::runtime::process::commander::run(&args.stage)
     })
 }

@@ -1,4 +1,4 @@
-//! `taiji-estimator`: wiring only — see `taiji::process::estimator`.
+//! `taiji-estimator`: wiring only — see `taiji::runtime::process::estimator`.
 use clap::Parser;
 
 #[derive(Parser)]
@@ -9,17 +9,17 @@ use clap::Parser;
 )]
 struct Args {
     #[command(flatten)]
-    stage: taiji::process::estimator::EstimatorArgs,
+    stage: taiji::runtime::process::estimator::EstimatorArgs,
 }
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
-    taiji::process::main_of("taiji-estimator", || {
-        taiji::process::estimator::run(&args.stage)
+    taiji::runtime::process::main_of("taiji-estimator", || {
+        taiji::runtime::process::estimator::run(&args.stage)
     })
 }
 
 /// Count every heap allocation, so the filter loop can report (and a test can check)
 /// that it made none.
 #[global_allocator]
-static ALLOC: taiji::alloc_count::CountingAlloc = taiji::alloc_count::CountingAlloc;
+static ALLOC: taiji::bus::alloc_count::CountingAlloc = taiji::bus::alloc_count::CountingAlloc;

@@ -1,4 +1,4 @@
-//! `taiji-fee`: wiring only — see `taiji::process::fee`.
+//! `taiji-fee`: wiring only — see `taiji::runtime::process::fee`.
 use clap::Parser;
 
 #[derive(Parser)]
@@ -9,10 +9,12 @@ use clap::Parser;
 )]
 struct Args {
     #[command(flatten)]
-    stage: taiji::process::StageArgs,
+    stage: taiji::runtime::process::StageArgs,
 }
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
-    taiji::process::main_of("taiji-fee", || taiji::process::fee::run(&args.stage))
+    taiji::runtime::process::main_of("taiji-fee", || {
+        taiji::runtime::process::fee::run(&args.stage)
+    })
 }

@@ -1,4 +1,4 @@
-//! `taiji-plant`: wiring only — see `taiji::process::plant`.
+//! `taiji-plant`: wiring only — see `taiji::runtime::process::plant`.
 use clap::Parser;
 
 #[derive(Parser)]
@@ -9,10 +9,12 @@ use clap::Parser;
 )]
 struct Args {
     #[command(flatten)]
-    stage: taiji::process::StageArgs,
+    stage: taiji::runtime::process::StageArgs,
 }
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
-    taiji::process::main_of("taiji-plant", || taiji::process::plant::run(&args.stage))
+    taiji::runtime::process::main_of("taiji-plant", || {
+        taiji::runtime::process::plant::run(&args.stage)
+    })
 }

@@ -1,4 +1,4 @@
-//! `taiji-recorder`: wiring only — see `taiji::process::recorder`.
+//! `taiji-recorder`: wiring only — see `taiji::runtime::process::recorder`.
 use clap::Parser;
 
 #[derive(Parser)]
@@ -9,12 +9,12 @@ use clap::Parser;
 )]
 struct Args {
     #[command(flatten)]
-    stage: taiji::process::StageArgs,
+    stage: taiji::runtime::process::StageArgs,
 }
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
-    taiji::process::main_of("taiji-recorder", || {
-        taiji::process::recorder::run(&args.stage)
+    taiji::runtime::process::main_of("taiji-recorder", || {
+        taiji::runtime::process::recorder::run(&args.stage)
     })
 }

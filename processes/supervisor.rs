@@ -1,12 +1,12 @@
-//! `taiji-supervisor`: wiring only — see `taiji::process::supervisor`.
+//! `taiji-supervisor`: wiring only — see `taiji::runtime::process::supervisor`.
 use clap::Parser;
-use taiji::process::supervisor::{run, Outcome, SupervisorArgs};
+use taiji::runtime::process::supervisor::{run, Outcome, SupervisorArgs};
 
 fn main() -> std::process::ExitCode {
-    taiji::process::init_logging();
+    taiji::runtime::process::init_logging();
     let mut args = SupervisorArgs::parse();
     if let Some(format) = args.graph {
-        print!("{}", taiji::topology::graph(format));
+        print!("{}", taiji::bus::topology::graph(format));
         return std::process::ExitCode::SUCCESS;
     }
     args.record |= args.plots;
@@ -26,7 +26,7 @@ fn main() -> std::process::ExitCode {
                 println!(
                     "Telemetry: {}",
                     args.out
-                        .join(taiji::process::recorder::TELEMETRY_FILE)
+                        .join(taiji::runtime::process::recorder::TELEMETRY_FILE)
                         .display()
                 );
             }
@@ -43,29 +43,31 @@ fn main() -> std::process::ExitCode {
 #[derive(Debug, thiserror::Error)]
 enum ReportsError {
     #[error(transparent)]
-    Report(#[from] taiji::report::ReportError),
+    Report(#[from] taiji::analysis::report::ReportError),
     /// The recording could not be read back for the figures.
     #[error(transparent)]
     Telemetry(#[from] taiji::telemetry::TelemetryError),
     #[error(transparent)]
-    Plot(#[from] taiji::plots::PlotError),
+    Plot(#[from] taiji::analysis::plots::PlotError),
 }
 
 /// report.json, report.md, report.html, and the figures from the recording.
 fn write_reports(
     args: &SupervisorArgs,
-    report: &taiji::report::Report,
+    report: &taiji::analysis::report::Report,
 ) -> Result<(), ReportsError> {
     let dir = report_dir(args);
-    taiji::report::write(dir, report)?;
+    taiji::analysis::report::write(dir, report)?;
     // The figures live beside the recording; report.html links them only from there.
     let plots = args.plots && dir == args.out;
     if plots {
-        let path = args.out.join(taiji::process::recorder::TELEMETRY_FILE);
+        let path = args
+            .out
+            .join(taiji::runtime::process::recorder::TELEMETRY_FILE);
         let (tel, s) = taiji::telemetry::read::full(&path)?;
-        taiji::plots::write_all(&tel, &s, &args.out)?;
+        taiji::analysis::plots::write_all(&tel, &s, &args.out)?;
     }
-    Ok(taiji::report_doc::write(report, dir, plots)?)
+    Ok(taiji::analysis::report_doc::write(report, dir, plots)?)
 }
 
 /// Where the reports go: `--report-dir`, else `--out`.

@@ -1,10 +1,10 @@
 //! NaN/Inf samples, saturation and star-tracker gaps are rejected and counted; the
 //! estimate stays finite and the campaign still converges.
 
-use taiji::campaign::Stages;
-use taiji::estimate::Method;
-use taiji::msg::FLAG_SATURATED_LINEAR;
-use taiji::scenario::Scenario;
+use taiji::analysis::campaign::Stages;
+use taiji::sim::estimate::Method;
+use taiji::sim::msg::FLAG_SATURATED_LINEAR;
+use taiji::sim::scenario::Scenario;
 
 #[test]
 fn non_finite_and_saturated_samples_are_rejected_and_counted() {
@@ -52,7 +52,7 @@ fn a_star_tracker_outage_is_survived() {
         "[star_tracker]\noutages_s = [[2000.0, 2600.0], [7000.0, 7100.0]]\n",
     )
     .unwrap();
-    let res = taiji::campaign::run(&s, 5, Method::Joint, |_| {});
+    let res = taiji::analysis::campaign::run(&s, 5, Method::Joint, |_| {});
     for i in 0..2 {
         for a in 0..3 {
             assert!(

@@ -7,8 +7,8 @@ use std::os::unix::fs::PermissionsExt;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-use taiji::bus;
-use taiji::msg::Control;
+use taiji::bus::wiring;
+use taiji::sim::msg::Control;
 
 const CHILD_ENV: &str = "TAIJI_BUS_TEST_CHILD";
 const PREFIX_ENV: &str = "TAIJI_BUS_TEST_PREFIX";
@@ -61,27 +61,27 @@ fn main() {
 fn bus_child(role: &str, prefix: &str) {
     if role == "lock" {
         // Hold the prefix until killed.
-        let _lock = match bus::claim_prefix(prefix).unwrap() {
-            bus::Claim::Won(lock) => lock,
-            bus::Claim::Held { pid } => panic!("prefix held by {pid:?}"),
+        let _lock = match wiring::claim_prefix(prefix).unwrap() {
+            wiring::Claim::Won(lock) => lock,
+            wiring::Claim::Held { pid } => panic!("prefix held by {pid:?}"),
         };
         loop {
             std::thread::sleep(Duration::from_secs(1));
         }
     }
-    let node = bus::node(&format!("child-{role}"), prefix).unwrap();
+    let node = wiring::node(&format!("child-{role}"), prefix).unwrap();
     if role == "pub" {
-        let p = bus::publisher::<Control>(&node, SERVICE).unwrap();
+        let p = wiring::publisher::<Control>(&node, SERVICE).unwrap();
         for i in 0.. {
             let mut c = Control::default();
             c.header.seq = i;
-            bus::publish(&p, c).unwrap();
+            wiring::publish(&p, c).unwrap();
             std::thread::sleep(Duration::from_millis(5));
         }
     } else {
-        let s = bus::subscriber::<Control>(&node, SERVICE).unwrap();
+        let s = wiring::subscriber::<Control>(&node, SERVICE).unwrap();
         loop {
-            while bus::receive(&s).unwrap().is_some() {}
+            while wiring::receive(&s).unwrap().is_some() {}
             std::thread::sleep(Duration::from_millis(5));
         }
     }
@@ -130,7 +130,7 @@ fn cleanup_of_a_connection_abandoned_half_made_does_not_hang() {
     let path = &conns[0].0;
     let f = std::fs::OpenOptions::new().write(true).open(path).unwrap();
     f.set_len(0).unwrap();
-    f.set_modified(std::time::SystemTime::now() - 2 * bus::ABANDONED_AFTER)
+    f.set_modified(std::time::SystemTime::now() - 2 * wiring::ABANDONED_AFTER)
         .unwrap();
     drop(f);
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o200)).unwrap();
@@ -138,7 +138,7 @@ fn cleanup_of_a_connection_abandoned_half_made_does_not_hang() {
     // The cleanup must come back (on a thread, so a hang fails the test instead).
     let (tx, rx) = std::sync::mpsc::channel();
     let p = prefix.clone();
-    std::thread::spawn(move || tx.send(bus::cleanup_stale(&p)));
+    std::thread::spawn(move || tx.send(wiring::cleanup_stale(&p)));
     let survey = rx
         .recv_timeout(Duration::from_secs(60))
         .expect("the cleanup hung on the abandoned connection")
@@ -147,7 +147,7 @@ fn cleanup_of_a_connection_abandoned_half_made_does_not_hang() {
     assert!(survey.alive.is_empty(), "{:?}", survey.alive);
     assert!(!path.exists(), "{} left behind", path.display());
     // With no node left, the prefix's global object goes too: nothing of it remains.
-    let released = bus::release(&prefix).unwrap();
+    let released = wiring::release(&prefix).unwrap();
     assert_eq!(released.global_mgmt, 1);
     assert!(shm_of(&prefix).is_empty(), "{:?}", shm_of(&prefix));
 }
@@ -164,7 +164,7 @@ fn shm_of(prefix: &str) -> Vec<String> {
 fn a_prefix_is_held_by_one_claimant_and_freed_when_it_dies() {
     let prefix = format!("tjlock{}_", std::process::id());
     let mut holder = child("lock", &prefix);
-    let path = bus::lock_path(&prefix).unwrap();
+    let path = wiring::lock_path(&prefix).unwrap();
     let pid = holder.id();
     let t0 = Instant::now();
     while std::fs::read_to_string(&path).ok() != Some(pid.to_string()) {
@@ -175,28 +175,28 @@ fn a_prefix_is_held_by_one_claimant_and_freed_when_it_dies() {
         std::thread::sleep(Duration::from_millis(10));
     }
     assert!(matches!(
-        bus::claim_prefix(&prefix).unwrap(),
-        bus::Claim::Held { pid: Some(p) } if p == pid
+        wiring::claim_prefix(&prefix).unwrap(),
+        wiring::Claim::Held { pid: Some(p) } if p == pid
     ));
     // kill -9: no chance to unlock, yet the kernel releases the lock with the process.
     holder.kill().unwrap();
     holder.wait().unwrap();
-    let bus::Claim::Won(lock) = bus::claim_prefix(&prefix).unwrap() else {
+    let wiring::Claim::Won(lock) = wiring::claim_prefix(&prefix).unwrap() else {
         panic!("the prefix is still held after its holder died");
     };
     // Held, even against this same process; released and its file gone when dropped.
     assert!(matches!(
-        bus::claim_prefix(&prefix).unwrap(),
-        bus::Claim::Held { .. }
+        wiring::claim_prefix(&prefix).unwrap(),
+        wiring::Claim::Held { .. }
     ));
     drop(lock);
     assert!(!path.exists());
-    let bus::Claim::Won(again) = bus::claim_prefix(&prefix).unwrap() else {
+    let wiring::Claim::Won(again) = wiring::claim_prefix(&prefix).unwrap() else {
         panic!("the prefix is still held after its lock was dropped");
     };
     drop(again);
     // A release with no global object to remove removes nothing.
-    assert_eq!(bus::release(&prefix).unwrap().global_mgmt, 0);
+    assert_eq!(wiring::release(&prefix).unwrap().global_mgmt, 0);
 }
 
 fn sweep_removes_only_empty_unreadable_objects_old_enough() {
@@ -210,12 +210,12 @@ fn sweep_removes_only_empty_unreadable_objects_old_enough() {
         std::fs::set_permissions(&path, std::fs::Permissions::from_mode(mode)).unwrap();
         path
     };
-    let old = 2 * bus::ABANDONED_AFTER;
+    let old = 2 * wiring::ABANDONED_AFTER;
     let abandoned = make("abandoned", 0, 0o200, old);
     let young = make("young", 0, 0o200, Duration::ZERO);
     let readable = make("readable", 0, 0o600, old);
     let sized = make("sized", 64, 0o200, old);
-    assert_eq!(bus::sweep_abandoned(&prefix, bus::ABANDONED_AFTER), 1);
+    assert_eq!(wiring::sweep_abandoned(&prefix, wiring::ABANDONED_AFTER), 1);
     assert!(!abandoned.exists());
     for p in [young, readable, sized] {
         assert!(p.exists(), "{} removed", p.display());

@@ -3,8 +3,8 @@
 //! and our error says what happened instead of iceoryx2's bare `IncompatibleTypes`.
 
 use iceoryx2::prelude::*;
-use taiji::bus;
-use taiji::msg::EstimateMsg;
+use taiji::bus::wiring;
+use taiji::sim::msg::EstimateMsg;
 
 /// What an older build's estimate looked like on the bus: same name, other layout.
 #[derive(Debug, Clone, Copy, ZeroCopySend)]
@@ -18,16 +18,16 @@ struct OldEstimate {
 #[test]
 fn a_peer_with_another_layout_is_refused_with_a_clear_message() {
     let prefix = format!("tjlayout{}_", std::process::id());
-    let node = bus::node("old-build", &prefix).unwrap();
+    let node = wiring::node("old-build", &prefix).unwrap();
     // The old build's estimator created the service first.
-    let sn: ServiceName = bus::SVC_ESTIMATE.try_into().unwrap();
+    let sn: ServiceName = wiring::SVC_ESTIMATE.try_into().unwrap();
     let _old = node
         .service_builder(&sn)
         .publish_subscribe::<OldEstimate>()
         .open_or_create()
         .unwrap();
-    let ours = bus::node("new-build", &prefix).unwrap();
-    let Err(e) = bus::subscriber::<EstimateMsg>(&ours, bus::SVC_ESTIMATE) else {
+    let ours = wiring::node("new-build", &prefix).unwrap();
+    let Err(e) = wiring::subscriber::<EstimateMsg>(&ours, wiring::SVC_ESTIMATE) else {
         panic!("a service of another layout must be refused");
     };
     let e = e.to_string();
@@ -36,5 +36,5 @@ fn a_peer_with_another_layout_is_refused_with_a_clear_message() {
     drop(ours);
     drop(_old);
     drop(node);
-    let _ = bus::release(&prefix);
+    let _ = wiring::release(&prefix);
 }

@@ -3,10 +3,10 @@
 //! wrong table, garbage samples, torn checkpoints. Every call returns a code; none may
 //! panic (a panic here fails the test; in the C library it would abort the host).
 
-use taiji::capi::*;
-use taiji::estimate::EstimatorConfig;
-use taiji::msg::{EstimateMsg, SensorSample};
-use taiji::scenario::Scenario;
+use taiji::sim::capi::*;
+use taiji::sim::estimate::EstimatorConfig;
+use taiji::sim::msg::{EstimateMsg, SensorSample};
+use taiji::sim::scenario::Scenario;
 
 const CONFIG_SIZE: usize = std::mem::size_of::<EstimatorConfig>();
 const SAMPLE_SIZE: usize = std::mem::size_of::<SensorSample>();
@@ -88,7 +88,7 @@ fn size_and_alignment_are_queried_not_assumed() {
     );
     assert!(taiji_checkpoint_size() < taiji_estimator_size());
     assert_eq!(taiji_abi_version(), TAIJI_ABI_VERSION);
-    assert_eq!(taiji_layout_version(), taiji::msg::LAYOUT_VERSION);
+    assert_eq!(taiji_layout_version(), taiji::sim::msg::LAYOUT_VERSION);
 }
 
 #[test]
@@ -306,7 +306,7 @@ fn garbage_samples_give_codes_and_a_finite_or_flagged_estimate() {
         .flatten()
         .chain(out.r_b.iter().flatten())
         .all(|v| v.is_finite());
-    assert!(finite || out.status & taiji::msg::ST_UNVERIFIED != 0);
+    assert!(finite || out.status & taiji::sim::msg::ST_UNVERIFIED != 0);
 }
 
 #[test]
@@ -356,7 +356,7 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
         let mut other = ck[..32].to_vec();
         other.extend((0..state_len).map(|k| (k * 7 % 251) as u8));
         other[16..24].copy_from_slice(&(state_len as u64).to_le_bytes());
-        let sum = taiji::estimate::snapshot::fnv1a(&other[32..]);
+        let sum = taiji::sim::estimate::snapshot::fnv1a(&other[32..]);
         other[24..32].copy_from_slice(&sum.to_le_bytes());
         // SAFETY: the ABI checks every pointer it is given; these are valid for the sizes passed.
         let rc = unsafe {
@@ -367,7 +367,7 @@ fn a_checkpoint_restores_the_same_estimator_and_a_torn_one_is_refused() {
     // One of the same size whose state means something else (an older build's: 0 in
     // the version word's high half, its angular Gram on ΔV1 and ΔV2) is too.
     let mut older = ck.clone();
-    older[8..16].copy_from_slice(&(taiji::msg::LAYOUT_VERSION as u64).to_le_bytes());
+    older[8..16].copy_from_slice(&(taiji::sim::msg::LAYOUT_VERSION as u64).to_le_bytes());
     // SAFETY: as above.
     let rc = unsafe {
         taiji_estimator_restore(q, mem2.len() * 8, older.as_ptr(), older.len(), &config())
@@ -479,7 +479,7 @@ fn finish_is_terminal_and_idempotent() {
     }
     assert_eq!(a, b, "a second finish changed the estimate");
     assert_eq!(a, c);
-    assert_ne!(a.flags & taiji::msg::EST_FINAL, 0);
+    assert_ne!(a.flags & taiji::sim::msg::EST_FINAL, 0);
     let mut buf = vec![0u8; taiji_checkpoint_size()];
     // SAFETY: as above.
     unsafe {
@@ -595,7 +595,7 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
 /// bits of one solved with zeroed scratch).
 #[test]
 fn the_solve_work_memory_is_checked_and_its_contents_do_not_matter() {
-    let c = taiji::upset::Campaign::new(200.0, 3);
+    let c = taiji::analysis::upset::Campaign::new(200.0, 3);
     let n = taiji_solve_work_size();
     assert!(n > 64 * 1024, "the Jacobian alone is 55 kB");
     let mut out = [EstimateMsg::default(); 2];

@@ -1,11 +1,11 @@
 //! The in-process campaign: requirements, determinism, and that the estimator stands on
 //! sensor data alone.
 
-use taiji::campaign;
-use taiji::estimate::Method;
-use taiji::msg::EstimateMsg;
-use taiji::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
-use taiji::scenario::Scenario;
+use taiji::analysis::campaign;
+use taiji::analysis::report::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use taiji::sim::estimate::Method;
+use taiji::sim::msg::EstimateMsg;
+use taiji::sim::scenario::Scenario;
 
 fn short() -> Scenario {
     // Three 3 mHz periods per axis in 3 000 s.
@@ -109,8 +109,8 @@ fn one_inertial_sensor_only_is_supported() {
 
 /// Honesty and efficiency over 30 seeds: mean (error/σ)² per group within [0.5, 2] and
 /// the RMS error of every parameter within 2× its Cramér–Rao bound.
-fn assert_honest_and_efficient(s: &Scenario) -> taiji::montecarlo::MonteCarlo {
-    let mc = taiji::montecarlo::run(s, 1, 30, Method::Joint).unwrap();
+fn assert_honest_and_efficient(s: &Scenario) -> taiji::analysis::montecarlo::MonteCarlo {
+    let mc = taiji::analysis::montecarlo::run(s, 1, 30, Method::Joint).unwrap();
     for (g, chi2) in ["β", "k", "r"].iter().zip(mc.chi2_by_group) {
         assert!(
             (0.5..=2.0).contains(&chi2),

@@ -141,7 +141,7 @@ fn montecarlo_with_no_runs_or_seeds_past_the_end_is_a_user_error() {
 
 #[test]
 fn a_scenario_name_with_a_newline_is_refused() {
-    let e = taiji::scenario::Scenario::from_toml_str("name = \"a\\n# injected\"\n")
+    let e = taiji::sim::scenario::Scenario::from_toml_str("name = \"a\\n# injected\"\n")
         .unwrap_err()
         .to_string();
     assert!(e.contains("name"), "{e}");

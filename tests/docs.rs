@@ -6,9 +6,9 @@ use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use taiji::estimate::Method;
-use taiji::report::Report;
-use taiji::scenario::Scenario;
+use taiji::analysis::report::Report;
+use taiji::sim::estimate::Method;
+use taiji::sim::scenario::Scenario;
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -151,7 +151,7 @@ fn every_key_of_a_default_runs_report_is_documented() {
 #[test]
 fn every_key_of_montecarlo_json_is_documented() {
     let s = Scenario::from_toml_str("name = \"short\"\nduration_s = 3000.0\n").unwrap();
-    let mc = taiji::montecarlo::run(&s, 1, 1, Method::Joint).unwrap();
+    let mc = taiji::analysis::montecarlo::run(&s, 1, 1, Method::Joint).unwrap();
     let mut v = serde_json::to_value(&mc).unwrap();
     // The runs' reports are report.json's, checked above.
     v.as_object_mut().unwrap().remove("reports");
@@ -274,7 +274,7 @@ fn sig2(x: f64) -> String {
 
 /// β's bound as "lo–hi×10⁻⁶" (relative, over every IS and axis) and r's worst per axis
 /// as "x / y / z µm".
-fn bound_numbers(s: &Scenario, c: &taiji::crlb::Crlb) -> (String, String) {
+fn bound_numbers(s: &Scenario, c: &taiji::analysis::crlb::Crlb) -> (String, String) {
     let mut beta = Vec::new();
     let mut r_um = [0.0f64; 3];
     for (i, is) in s.inertial_sensor.iter().enumerate() {
@@ -299,14 +299,17 @@ fn bound_numbers(s: &Scenario, c: &taiji::crlb::Crlb) -> (String, String) {
 /// model, planner or defaults fails this test until the docs say the new number.
 fn computed_numbers() -> std::collections::BTreeMap<&'static str, String> {
     let s = Scenario::load_or_default(None).unwrap();
-    let shortest = taiji::plan::min_duration(&s, 3.0).unwrap();
-    let (planned, info) = taiji::plan::resolve(s).unwrap();
+    let shortest = taiji::analysis::plan::min_duration(&s, 3.0).unwrap();
+    let (planned, info) = taiji::analysis::plan::resolve(s).unwrap();
     let info = info.expect("the default scenario is planned");
     // The run's bound at the scenario's seed (`crlb`), and the maneuver's alone at the
     // scenario's rate (the planner's tables).
-    let run = taiji::crlb::crlb(&planned).unwrap();
-    let maneuver =
-        taiji::crlb::maneuver_bound_on(&planned, taiji::campaign::Threads::available()).unwrap();
+    let run = taiji::analysis::crlb::crlb(&planned).unwrap();
+    let maneuver = taiji::analysis::crlb::maneuver_bound_on(
+        &planned,
+        taiji::analysis::campaign::Threads::available(),
+    )
+    .unwrap();
     let (beta, r) = bound_numbers(&planned, &run);
     let (beta_m, r_m) = bound_numbers(&planned, &maneuver);
     [
@@ -373,7 +376,7 @@ fn every_file_of_a_run_folder_is_in_the_table_of_report_md() {
         "report.html",
         "telemetry.h5",
         "plots/",
-        taiji::process::supervisor::PLANNED_SCENARIO_FILE,
+        taiji::runtime::process::supervisor::PLANNED_SCENARIO_FILE,
         "estimator_table.json",
         "montecarlo.json",
     ] {

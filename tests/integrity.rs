@@ -4,11 +4,11 @@
 //! order makes the estimator panic or print a non-finite number.
 
 mod tmpdir;
-use taiji::campaign;
-use taiji::estimate::{Estimator, EstimatorConfig, Method};
-use taiji::msg::*;
-use taiji::report::Report;
-use taiji::scenario::Scenario;
+use taiji::analysis::campaign;
+use taiji::analysis::report::Report;
+use taiji::sim::estimate::{Estimator, EstimatorConfig, Method};
+use taiji::sim::msg::*;
+use taiji::sim::scenario::Scenario;
 
 fn with_faults(faults: &str) -> Scenario {
     Scenario::from_toml_str(&format!("[faults]\n{faults}\n")).unwrap()
@@ -18,7 +18,7 @@ fn with_faults(faults: &str) -> Scenario {
 fn run(s: &Scenario, seed: u64) -> Report {
     let res = campaign::run(s, seed, Method::Joint, |_| {});
     // The bound of this seed's run (its thrusters' random motion).
-    let crlb = taiji::crlb::crlb(&Scenario { seed, ..s.clone() }).unwrap();
+    let crlb = taiji::analysis::crlb::crlb(&Scenario { seed, ..s.clone() }).unwrap();
     let mut r = Report::new(s, seed, "in-process", "joint", &res.estimate, &crlb);
     r.faults = res.faults.map(|f| f.summary());
     r
@@ -109,7 +109,7 @@ fn bus_duplicates_reorders_losses_and_garbage_headers_are_counted_not_believed()
 /// noise levels.
 fn run_with_config(seed: u64, cfg: EstimatorConfig) -> EstimateMsg {
     let s = Scenario::default();
-    let mut st = taiji::campaign::Stages::new(&s, seed, Method::Joint);
+    let mut st = taiji::analysis::campaign::Stages::new(&s, seed, Method::Joint);
     st.estimator = Estimator::new(Method::Joint, cfg);
     for tick in 0..s.n_samples() {
         let cmd = st.commander.step(tick);
@@ -145,7 +145,7 @@ fn a_noise_model_that_does_not_fit_is_flagged_and_its_sigma_inflated() {
 #[test]
 fn before_the_first_solve_the_status_says_there_is_no_solution() {
     let s = Scenario::default();
-    let mut st = taiji::campaign::Stages::new(&s, 1, Method::Joint);
+    let mut st = taiji::analysis::campaign::Stages::new(&s, 1, Method::Joint);
     let cmd = st.commander.step(0);
     let truth = st.plant.step(0, &cmd.torque_cmd_b);
     let e = st.estimator.step(&st.fee.step(&truth));
@@ -161,15 +161,15 @@ fn an_unconverged_first_solve_says_so_and_is_solved_again_at_once() {
         "name = \"strong\"\nseed = 5\nduration_s = 1500.0\n[maneuver]\nfrequency_hz = 1e-2\n",
     )
     .unwrap();
-    let st = taiji::campaign::Stages::new(&s, s.seed, Method::Joint);
+    let st = taiji::analysis::campaign::Stages::new(&s, s.seed, Method::Joint);
     let mut est = st.estimator;
     let mut solves = Vec::new();
-    taiji::campaign::samples(
+    taiji::analysis::campaign::samples(
         &s,
         st.commander,
         st.plant,
         st.fee,
-        taiji::campaign::Threads::One,
+        taiji::analysis::campaign::Threads::One,
         |m| {
             let e = est.step(m);
             if solves
@@ -206,7 +206,7 @@ fn an_unconverged_first_solve_says_so_and_is_solved_again_at_once() {
 /// `cargo run --release --example fuzz_estimator -- 1000000` runs a longer campaign.
 #[test]
 fn arbitrary_samples_and_tick_orders_never_panic_nor_give_non_finite_estimates() {
-    let cases = taiji::fuzz::run(200_000, 7);
+    let cases = taiji::analysis::fuzz::run(200_000, 7);
     assert_eq!(cases.non_finite, 0);
     assert!(cases.steps >= 200_000);
 }
@@ -293,7 +293,7 @@ fn a_recording_corrupted_with_h5py_replays_within_the_requirements_with_honest_s
 #[test]
 fn one_wild_tick_does_not_move_the_timeline_but_a_stream_that_starts_late_is_taken() {
     let s = Scenario::default();
-    let mut st = taiji::campaign::Stages::new(&s, 1, Method::Joint);
+    let mut st = taiji::analysis::campaign::Stages::new(&s, 1, Method::Joint);
     let mut samples = Vec::new();
     for tick in 0..50 {
         let cmd = st.commander.step(tick);
@@ -325,7 +325,7 @@ fn one_wild_tick_does_not_move_the_timeline_but_a_stream_that_starts_late_is_tak
 /// The planned default maneuver (what `taiji-calib run` flies) with `faults`.
 fn planned(toml: &str) -> Scenario {
     let s = Scenario::from_toml_str(toml).unwrap();
-    taiji::plan::resolve(s).unwrap().0
+    taiji::analysis::plan::resolve(s).unwrap().0
 }
 
 #[test]
@@ -476,10 +476,13 @@ fn without_thruster_noise_the_srp_level_waits_for_a_solution_that_can_tell_it() 
     // tested on the sequential one it planned for them before (the default's plan: the
     // maneuver's bound leaves the torque noise out).
     let mut s = planned("");
-    assert_eq!(s.maneuver.schedule, taiji::scenario::Schedule::Sequential);
+    assert_eq!(
+        s.maneuver.schedule,
+        taiji::sim::scenario::Schedule::Sequential
+    );
     s.thruster.torque_noise_nm_rthz = 0.0;
     for seed in [112, 198, 217, 297] {
-        let mc = taiji::montecarlo::run(&s, seed, 1, Method::Joint).unwrap();
+        let mc = taiji::analysis::montecarlo::run(&s, seed, 1, Method::Joint).unwrap();
         assert!(mc.worst_normalized < 4.5, "seed {seed}\n{}", mc.table());
         assert_eq!(mc.runs_verified, 1, "seed {seed}\n{}", mc.table());
     }
@@ -513,8 +516,8 @@ fn other_sample_rates_and_dropouts_stay_honest_a_few_cells_of_the_matrix() {
         ("10 Hz, ticks missing", "[faults]\nmissing_rate = 0.0025\n"),
     ] {
         let s = Scenario::from_toml_str(&format!("name = \"cell\"\n{text}")).unwrap();
-        let (s, _) = taiji::plan::resolve(s).unwrap();
-        let mc = taiji::montecarlo::run(&s, 1, 6, Method::Joint).unwrap();
+        let (s, _) = taiji::analysis::plan::resolve(s).unwrap();
+        let mc = taiji::analysis::montecarlo::run(&s, 1, 6, Method::Joint).unwrap();
         assert_eq!(mc.runs_meeting_requirements, 6, "{name}\n{}", mc.table());
         assert_eq!(mc.runs_verified, 6, "{name}\n{}", mc.table());
         assert!(mc.worst_normalized < 4.5, "{name}\n{}", mc.table());
@@ -543,13 +546,13 @@ fn the_estimators_state_goes_through_serde_and_back_byte_for_byte() {
     // (`array_serde`); a state with statistics in them comes back the same bytes.
     let s = planned("");
     let cfg = s.estimator_config(&s.priors());
-    let mut e = taiji::estimate::JointEstimator::new(cfg);
+    let mut e = taiji::sim::estimate::JointEstimator::new(cfg);
     let mut n = 0;
     campaign::samples(
         &s,
-        taiji::commander::Commander::new(&s),
-        taiji::model::plant::Plant::new(&s, 1, taiji::model::plant::PlantNoise::ALL),
-        taiji::fee::FrontEnd::new(&s, 1, true),
+        taiji::sim::commander::Commander::new(&s),
+        taiji::sim::model::plant::Plant::new(&s, 1, taiji::sim::model::plant::PlantNoise::ALL),
+        taiji::sim::fee::FrontEnd::new(&s, 1, true),
         campaign::Threads::One,
         |m| {
             if n < 700 {
@@ -559,7 +562,7 @@ fn the_estimators_state_goes_through_serde_and_back_byte_for_byte() {
         },
     );
     let text = serde_json::to_string(&e).unwrap();
-    let back: taiji::estimate::JointEstimator = serde_json::from_str(&text).unwrap();
+    let back: taiji::sim::estimate::JointEstimator = serde_json::from_str(&text).unwrap();
     assert_eq!(bytemuck::bytes_of(&back), bytemuck::bytes_of(&e));
 }
 

@@ -515,7 +515,7 @@ fn super_paths_resolve_from_files_and_folders() {
 #[test]
 fn the_architecture_page_shows_the_set_from_its_table() {
     let doc = std::fs::read_to_string(root().join("docs/architecture.md")).unwrap();
-    let graph = taiji::topology::graph(taiji::topology::GraphFormat::Mermaid);
+    let graph = taiji::bus::topology::graph(taiji::bus::topology::GraphFormat::Mermaid);
     assert!(
         doc.contains(&format!("```mermaid\n{graph}```")),
         "docs/architecture.md's graph is stale: paste `tools/launch --graph mermaid`"

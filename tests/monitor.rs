@@ -301,7 +301,7 @@ fn a_monitor_in_tmux_shows_the_run_and_stalled_or_detaching_monitors_change_noth
         }
     }
     // The status word, by name (early in a run it may still be anything).
-    let names = ["ok"].into_iter().chain(taiji::msg::STATUS_NAMES);
+    let names = ["ok"].into_iter().chain(taiji::sim::msg::STATUS_NAMES);
     let status = screen.split("status ").nth(2).unwrap_or_default();
     assert!(
         names.into_iter().any(|n| status.starts_with(n)) && screen.contains("(word 0x"),

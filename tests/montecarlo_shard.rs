@@ -268,7 +268,10 @@ fn results_of_another_campaign_are_refused() {
         .as_str()
         .unwrap()
         .replace("torque_amplitude_nm = [", "torque_amplitude_nm = [1e-6, ");
-    let hash = format!("{:016x}", taiji::estimate::snapshot::fnv1a(toml.as_bytes()));
+    let hash = format!(
+        "{:016x}",
+        taiji::sim::estimate::snapshot::fnv1a(toml.as_bytes())
+    );
     v["scenario_toml"] = toml.into();
     v["campaign"]["scenario_hash"] = hash.into();
     std::fs::write(&f, v.to_string()).unwrap();
@@ -352,7 +355,7 @@ fn every_key_of_a_result_file_is_documented() {
 
 #[test]
 fn a_report_with_nan_and_infinities_reads_back_bit_for_bit() {
-    use taiji::montecarlo::shard::{read_run_file, write_run_file};
+    use taiji::analysis::montecarlo::shard::{read_run_file, write_run_file};
     let mut f = read_run_file(&shards().join("run-1.json")).unwrap();
     let is = &mut f.report.inertial_sensors[1];
     is.beta.estimate[0] = f64::NAN;
@@ -371,7 +374,7 @@ fn a_report_with_nan_and_infinities_reads_back_bit_for_bit() {
         "{text}"
     );
     let back = read_run_file(&d.join("run-1.json")).unwrap();
-    let bits = |r: &taiji::report::Report| {
+    let bits = |r: &taiji::analysis::report::Report| {
         let v = serde_json::to_string(r).unwrap();
         let is = &r.inertial_sensors[1];
         let m = r.maneuver.as_ref().unwrap();

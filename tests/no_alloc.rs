@@ -3,10 +3,10 @@
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use taiji::campaign::Stages;
-use taiji::estimate::Method;
-use taiji::msg::SensorSample;
-use taiji::scenario::Scenario;
+use taiji::analysis::campaign::Stages;
+use taiji::sim::estimate::Method;
+use taiji::sim::msg::SensorSample;
+use taiji::sim::scenario::Scenario;
 
 struct Counting;
 static COUNTING: AtomicBool = AtomicBool::new(false);

@@ -3,9 +3,9 @@
 
 mod tmpdir;
 use nalgebra::{Matrix3, Vector3};
-use taiji::plan::{self, PlanOptions};
-use taiji::scenario::maneuver::{torque_boost, Timeline};
-use taiji::scenario::Scenario;
+use taiji::analysis::plan::{self, PlanOptions};
+use taiji::sim::scenario::maneuver::{torque_boost, Timeline};
+use taiji::sim::scenario::Scenario;
 
 fn load(text: &str) -> Scenario {
     Scenario::from_toml_str(text).unwrap_or_else(|e| panic!("{e}"))
@@ -19,7 +19,8 @@ fn planned(text: &str) -> (Scenario, plan::PlanInfo) {
 /// A Monte Carlo of `s` (seeds 1–12): every requirement met, each group's mean
 /// (err/σ)² near 1 (loosely: 12 seeds).
 fn flies_honest_on_12_seeds(s: &Scenario) {
-    let mc = taiji::montecarlo::run(s, 1, 12, taiji::estimate::Method::Joint).unwrap();
+    let mc =
+        taiji::analysis::montecarlo::run(s, 1, 12, taiji::sim::estimate::Method::Joint).unwrap();
     assert_eq!(mc.runs_meeting_requirements, 12, "{}", mc.table());
     for (g, v) in mc.chi2_by_group.iter().enumerate() {
         assert!(
@@ -46,9 +47,10 @@ fn a_2000_s_window_without_a_maneuver_is_planned_and_meets_every_requirement() {
     // A Monte Carlo of the planned maneuver: requirements met, σ honest, at the bound.
     flies_honest_on_12_seeds(&s);
     // The report records the plan.
-    let res = taiji::campaign::run(&s, 3, taiji::estimate::Method::Joint, |_| {});
-    let crlb = taiji::crlb::crlb(&s).unwrap();
-    let mut report = taiji::report::Report::new(&s, 3, "in-process", "joint", &res.estimate, &crlb);
+    let res = taiji::analysis::campaign::run(&s, 3, taiji::sim::estimate::Method::Joint, |_| {});
+    let crlb = taiji::analysis::crlb::crlb(&s).unwrap();
+    let mut report =
+        taiji::analysis::report::Report::new(&s, 3, "in-process", "joint", &res.estimate, &crlb);
     report.maneuver = Some(plan::describe(&s, Some(&crlb), Some(&p)));
     let json = serde_json::to_value(&report).unwrap();
     assert_eq!(json["maneuver"]["planned"], true);
@@ -326,7 +328,7 @@ fn any_truth_within_the_priors_uncertainty_flies_its_plan_and_one_outside_is_nam
 
 #[test]
 fn quiet_thrusters_get_a_maneuver_that_rocks_every_axis_from_the_start() {
-    use taiji::scenario::Schedule;
+    use taiji::sim::scenario::Schedule;
     // The default thrusters' torque noise rocks every axis on its own, far beyond the
     // estimator's test, and both schedules are weighed.
     let s = Scenario::load_or_default(None).unwrap();

@@ -5,10 +5,10 @@
 
 mod tmpdir;
 use std::process::Command;
-use taiji::estimate::Method;
-use taiji::plots::render::{panel_ranges, BandStyle, BLACK_INDEX, FIGURE_WIDTH};
-use taiji::report_doc::FIGURES;
-use taiji::scenario::Scenario;
+use taiji::analysis::plots::render::{panel_ranges, BandStyle, BLACK_INDEX, FIGURE_WIDTH};
+use taiji::analysis::report_doc::FIGURES;
+use taiji::sim::estimate::Method;
+use taiji::sim::scenario::Scenario;
 
 #[test]
 fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
@@ -118,10 +118,10 @@ fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
     assert!(html.contains(".fig svg{display:block;max-width:none"));
 }
 
-fn short_run_figures() -> Vec<taiji::plots::render::Figure> {
+fn short_run_figures() -> Vec<taiji::analysis::plots::render::Figure> {
     let s = Scenario::from_toml_str("name = \"short\"\nduration_s = 3000.0\n").unwrap();
-    let (_, tel) = taiji::campaign::run_recorded(&s, 3, Method::Joint, |_| {});
-    taiji::plots::figures(&tel, &s)
+    let (_, tel) = taiji::analysis::campaign::run_recorded(&s, 3, Method::Joint, |_| {});
+    taiji::analysis::plots::figures(&tel, &s)
 }
 
 #[test]

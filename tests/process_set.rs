@@ -14,8 +14,8 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
-use taiji::estimate::Method;
-use taiji::scenario::Scenario;
+use taiji::sim::estimate::Method;
+use taiji::sim::scenario::Scenario;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 
@@ -71,7 +71,7 @@ fn wait_for(what: &str, timeout: Duration, cond: impl FnMut() -> bool) {
 /// Node directories holding a file of this prefix: the nodes of one run, alive or dead
 /// (a directory's own name does not say its prefix).
 fn node_dirs(prefix: &str) -> Vec<PathBuf> {
-    let cfg = taiji::bus::config(prefix).unwrap();
+    let cfg = taiji::bus::wiring::config(prefix).unwrap();
     let Ok(dir) = std::fs::read_dir(cfg.global.node_dir().to_string()) else {
         return Vec::new();
     };
@@ -88,7 +88,7 @@ fn node_dirs(prefix: &str) -> Vec<PathBuf> {
 /// Every entry of this prefix in /dev/shm and the iceoryx2 node directory, its lock
 /// file, and whichever of `dirs` still exist.
 fn left_on_the_bus(prefix: &str, dirs: &[PathBuf]) -> Vec<PathBuf> {
-    let cfg = taiji::bus::config(prefix).unwrap();
+    let cfg = taiji::bus::wiring::config(prefix).unwrap();
     let mut left: Vec<PathBuf> = ["/dev/shm".to_string(), cfg.global.node_dir().to_string()]
         .iter()
         .filter_map(|d| std::fs::read_dir(d).ok())
@@ -97,7 +97,11 @@ fn left_on_the_bus(prefix: &str, dirs: &[PathBuf]) -> Vec<PathBuf> {
         .map(|e| e.path())
         .collect();
     left.extend(dirs.iter().filter(|d| d.exists()).cloned());
-    left.extend(taiji::bus::lock_path(prefix).ok().filter(|p| p.exists()));
+    left.extend(
+        taiji::bus::wiring::lock_path(prefix)
+            .ok()
+            .filter(|p| p.exists()),
+    );
     left
 }
 
@@ -223,7 +227,7 @@ fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     assert_eq!(t["latency_samples"], 3000);
     // Every stage says how it was scheduled (SCHED_FIFO where permitted, else normal).
     let sched = t["scheduling"].as_object().expect("timing.scheduling");
-    for stage in taiji::launch::required() {
+    for stage in taiji::runtime::launch::required() {
         let v = sched[stage].as_str().unwrap_or_default();
         assert!(
             v.starts_with("SCHED_FIFO") || v.starts_with("normal"),
@@ -294,8 +298,8 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
     assert_eq!(r["requirements"]["met"], true);
     assert_eq!(r["samples_used"], 100000);
     // And so is its recording, stream by stream.
-    let (s, _) = taiji::plan::resolve(Scenario::load(&sc).unwrap()).unwrap();
-    let (_, tel) = taiji::campaign::run_recorded(&s, 5, Method::Joint, |_| {});
+    let (s, _) = taiji::analysis::plan::resolve(Scenario::load(&sc).unwrap()).unwrap();
+    let (_, tel) = taiji::analysis::campaign::run_recorded(&s, 5, Method::Joint, |_| {});
     let reference = dir.join("in-process.h5");
     tel.write(
         &reference,
@@ -313,7 +317,7 @@ fn a_hung_estimator_is_killed_and_restarted_by_the_watchdog() {
     let out = dir.join("out");
     let pfx = prefix("h");
     // The shipped launch description with a 2 s heartbeat timeout.
-    let shipped = taiji::launch::DEFAULT;
+    let shipped = taiji::runtime::launch::DEFAULT;
     assert!(shipped.contains("heartbeat_timeout_s = 10.0"));
     let launch = dir.join("launch.toml");
     std::fs::write(
@@ -346,7 +350,10 @@ fn slow_checkpoint_disk_neither_stalls_the_set_nor_loses_a_sample() {
     // the front-end's ring fills and it waits for the estimator to report a newer
     // checkpoint on disk, which the writer finishes while the estimator has no sample.
     let child = supervisor(&sc, &out, &pfx, &[])
-        .env(taiji::process::estimator::FAULT_CHECKPOINT_DELAY, "100")
+        .env(
+            taiji::runtime::process::estimator::FAULT_CHECKPOINT_DELAY,
+            "100",
+        )
         .spawn()
         .unwrap();
     // And a restart in the middle resumes from whatever the slow disk holds.
@@ -539,7 +546,7 @@ fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
         t0.elapsed()
     );
     assert!(!out.join("report.json").exists());
-    for exe in taiji::launch::required() {
+    for exe in taiji::runtime::launch::required() {
         assert!(pids_with(&pfx, exe).is_empty(), "{exe} still running");
     }
     // An interrupted run cleans up after itself as well.
@@ -580,18 +587,19 @@ fn injected_faults_are_the_same_in_the_process_set_and_a_killed_estimator_change
     );
     let r = report(&out);
     assert_eq!(estimates(&r), in_process(&sc, 13));
-    let (s, _) = taiji::plan::resolve(Scenario::load(&sc).unwrap()).unwrap();
-    let res = taiji::campaign::run(&s, 13, Method::Joint, |_| {});
+    let (s, _) = taiji::analysis::plan::resolve(Scenario::load(&sc).unwrap()).unwrap();
+    let res = taiji::analysis::campaign::run(&s, 13, Method::Joint, |_| {});
     let by_cause: Vec<u64> = res.estimate.rejected_by_cause.to_vec();
-    let got: Vec<u64> = taiji::msg::CAUSE_NAMES
+    let got: Vec<u64> = taiji::sim::msg::CAUSE_NAMES
         .iter()
         .map(|n| r["samples_rejected_by_cause"][n].as_u64().unwrap())
         .collect();
     assert_eq!(got, by_cause);
     assert!(
-        by_cause[taiji::msg::CAUSE_TICK_ORDER] > 0 && by_cause[taiji::msg::CAUSE_TICK_JUMP] > 0
+        by_cause[taiji::sim::msg::CAUSE_TICK_ORDER] > 0
+            && by_cause[taiji::sim::msg::CAUSE_TICK_JUMP] > 0
     );
-    let (_, tel) = taiji::campaign::run_recorded(&s, 13, Method::Joint, |_| {});
+    let (_, tel) = taiji::analysis::campaign::run_recorded(&s, 13, Method::Joint, |_| {});
     let reference = dir.join("in-process.h5");
     tel.write(
         &reference,

@@ -1,6 +1,6 @@
 //! Bad scenario files get a clear error that names the key; never a panic.
 
-use taiji::scenario::Scenario;
+use taiji::sim::scenario::Scenario;
 
 fn err(text: &str) -> String {
     Scenario::from_toml_str(text)
@@ -183,12 +183,13 @@ fn every_shipped_scenario_loads_and_says_what_it_shows() {
                 "{} has no leading comment",
                 p.display()
             );
-            let s = taiji::scenario::Scenario::load(&p)
+            let s = taiji::sim::scenario::Scenario::load(&p)
                 .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             // Every shipped scenario leaves its maneuver to the planner.
             assert!(s.plan_pending, "{}", p.display());
-            let (s, _) = taiji::plan::resolve(s).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-            assert!(taiji::crlb::crlb(&s).is_some(), "{}", p.display());
+            let (s, _) = taiji::analysis::plan::resolve(s)
+                .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            assert!(taiji::analysis::crlb::crlb(&s).is_some(), "{}", p.display());
             names.push(s.name);
         }
     }

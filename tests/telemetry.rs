@@ -466,14 +466,14 @@ fn stream_bits(t: &taiji::telemetry::Telemetry) -> Vec<Vec<u64>> {
 }
 
 /// The recorded fields of an estimate row, as bits.
-fn row_bits(e: &taiji::msg::EstimateMsg, n_is: usize) -> Vec<u64> {
+fn row_bits(e: &taiji::sim::msg::EstimateMsg, n_is: usize) -> Vec<u64> {
     let mut v = vec![
         e.header.tick,
         e.solved_tick,
         e.n_used,
         e.n_rejected,
         e.status,
-        e.flags & taiji::msg::EST_FINAL,
+        e.flags & taiji::sim::msg::EST_FINAL,
     ];
     v.extend(e.rejected_by_cause);
     v.extend(e.chi2_per_dof.iter().map(|x| x.to_bits()));
@@ -485,22 +485,22 @@ fn row_bits(e: &taiji::msg::EstimateMsg, n_is: usize) -> Vec<u64> {
 
 #[test]
 fn a_recording_streamed_in_small_chunks_reads_back_identically() {
-    use taiji::estimate::Method;
+    use taiji::sim::estimate::Method;
     use taiji::telemetry::{read, Meta, Writer};
     let dir = tmp("chunks");
     // With `[faults]`, so that the fault log goes through the writer too.
-    let s = taiji::scenario::Scenario::from_toml_str(
+    let s = taiji::sim::scenario::Scenario::from_toml_str(
         "name = \"chunks\"\nseed = 3\nduration_s = 3000.0\n[faults]\nupset_rate = 1e-4\n\
          star_jumps = 2\nis_dropout_rate = 0.02\nduplicate_rate = 1e-3\n",
     )
     .unwrap();
-    let (live, mem) = taiji::campaign::run_recorded(&s, 3, Method::Joint, |_| {});
+    let (live, mem) = taiji::analysis::campaign::run_recorded(&s, 3, Method::Joint, |_| {});
     assert!(!mem.faults.is_empty() && mem.estimates.len() > 20);
     // Streamed as the campaign runs, 7 rows at a time (N is not a multiple of 7).
     let path = dir.join("streamed.h5");
     let meta = Meta::of(&s, 3, "joint", "in-process");
     let mut w = Writer::create(&path, &meta, s.n_samples(), 7).unwrap();
-    let res = taiji::campaign::run_into(&s, 3, Method::Joint, |_| {}, &mut w).unwrap();
+    let res = taiji::analysis::campaign::run_into(&s, 3, Method::Joint, |_| {}, &mut w).unwrap();
     let sc = res.faults.unwrap();
     w.finish(&sc.records, &sc.detected).unwrap();
     assert_eq!(
@@ -554,10 +554,10 @@ fn a_recording_streamed_in_small_chunks_reads_back_identically() {
 
 #[test]
 fn replay_reading_in_small_windows_matches_the_live_run_bit_for_bit() {
-    use taiji::estimate::Method;
+    use taiji::sim::estimate::Method;
     let dir = tmp("windows");
-    let s = taiji::scenario::Scenario::from_toml_str(SHORT).unwrap();
-    let (live, mem) = taiji::campaign::run_recorded(&s, 9, Method::Joint, |_| {});
+    let s = taiji::sim::scenario::Scenario::from_toml_str(SHORT).unwrap();
+    let (live, mem) = taiji::analysis::campaign::run_recorded(&s, 9, Method::Joint, |_| {});
     let path = dir.join("telemetry.h5");
     mem.write(
         &path,
@@ -569,7 +569,7 @@ fn replay_reading_in_small_windows_matches_the_live_run_bit_for_bit() {
         let mut rec = taiji::telemetry::read::open(&path).unwrap();
         rec.chunk_rows = window;
         let mut rows = Vec::new();
-        let r = taiji::replay::run_with_rows(
+        let r = taiji::analysis::replay::run_with_rows(
             &rec,
             Method::Joint,
             |_| {},
@@ -583,9 +583,9 @@ fn replay_reading_in_small_windows_matches_the_live_run_bit_for_bit() {
 
 #[test]
 fn a_recording_cut_short_keeps_every_written_chunk_and_opens_in_h5py() {
-    use taiji::msg::{Header, SensorSample, TruthState};
+    use taiji::sim::msg::{Header, SensorSample, TruthState};
     let dir = tmp("crash");
-    let s = taiji::scenario::Scenario::from_toml_str(SHORT).unwrap();
+    let s = taiji::sim::scenario::Scenario::from_toml_str(SHORT).unwrap();
     let path = dir.join("telemetry.h5");
     let meta = taiji::telemetry::Meta::of(&s, 9, "joint", "in-process");
     let mut w = taiji::telemetry::Writer::create(&path, &meta, s.n_samples(), 7).unwrap();
@@ -645,10 +645,10 @@ fn a_recording_cut_short_keeps_every_written_chunk_and_opens_in_h5py() {
 /// dropped, the file can be written again although the child still runs.
 #[test]
 fn a_child_started_while_a_recording_is_open_does_not_hold_its_lock() {
-    use taiji::estimate::Method;
+    use taiji::sim::estimate::Method;
     use taiji::telemetry::{read, Meta, Writer};
     let dir = tmp("child");
-    let s = taiji::scenario::Scenario::from_toml_str(
+    let s = taiji::sim::scenario::Scenario::from_toml_str(
         "name = \"child\"\nseed = 2\nduration_s = 3000.0\n",
     )
     .unwrap();
@@ -657,7 +657,7 @@ fn a_child_started_while_a_recording_is_open_does_not_hold_its_lock() {
     let record = |what: &str| {
         let mut w = Writer::create(&path, &meta, s.n_samples(), 64)
             .unwrap_or_else(|e| panic!("{what}: {e}"));
-        taiji::campaign::run_into(&s, 2, Method::Joint, |_| {}, &mut w).unwrap();
+        taiji::analysis::campaign::run_into(&s, 2, Method::Joint, |_| {}, &mut w).unwrap();
         w.finish(&[], &[]).unwrap();
     };
     record("first recording");

@@ -5,7 +5,7 @@
 //! gives back the reference result bit for bit. The full 10 000-flip campaign is
 //! `cargo run --release --example upset_campaign` (docs/integrity.md).
 
-use taiji::upset::{run, Campaign, Outcome};
+use taiji::analysis::upset::{run, Campaign, Outcome};
 
 #[test]
 fn random_upsets_are_all_found_and_repaired() {

@@ -3,7 +3,7 @@
 //! handle in the file (`write.rs` creates the datasets and streams the rows).
 
 use super::layout as l;
-use crate::msg::{EstimateMsg, SensorSample, TruthState};
+use crate::sim::msg::{EstimateMsg, SensorSample, TruthState};
 
 /// Element type of a dataset: little-endian IEEE double, unsigned 64- or 8-bit integer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -191,7 +191,7 @@ impl Column {
             Src::RSigma => per_is(self, &e.r_sigma),
             Src::NUsed => self.u64s(&[e.n_used]),
             Src::NRejected => self.u64s(&[e.n_rejected]),
-            Src::Final => self.byte(u8::from(e.flags & crate::msg::EST_FINAL != 0)),
+            Src::Final => self.byte(u8::from(e.flags & crate::sim::msg::EST_FINAL != 0)),
             Src::Status => self.u64s(&[e.status]),
             Src::ByCause => self.u64s(&e.rejected_by_cause),
             Src::Chi2 => self.f64s(&e.chi2_per_dof),
@@ -241,8 +241,8 @@ pub(super) fn estimate_columns(ni: usize) -> Vec<Column> {
             l::EST_REJECTED_BY_CAUSE,
             U64,
             Src::ByCause,
-            &[crate::msg::N_CAUSES],
+            &[crate::sim::msg::N_CAUSES],
         ),
-        Column::new(l::EST_CHI2, F64, Src::Chi2, &[crate::msg::N_GROUPS]),
+        Column::new(l::EST_CHI2, F64, Src::Chi2, &[crate::sim::msg::N_GROUPS]),
     ]
 }

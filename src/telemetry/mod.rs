@@ -12,7 +12,7 @@ mod write;
 
 pub use write::{Compression, CompressionParseError, Writer, CHUNK_ROWS};
 
-use crate::msg::{EstimateMsg, SensorSample, TruthState, EST_FINAL};
+use crate::sim::msg::{EstimateMsg, SensorSample, TruthState, EST_FINAL};
 use std::path::PathBuf;
 
 /// A recording that could not be written or read; the message names the file.
@@ -121,7 +121,7 @@ pub struct Telemetry {
     /// Estimate rows (see [`Telemetry::record_estimate`]).
     pub estimates: Vec<EstimateMsg>,
     /// Injected faults (`[faults]`) and how many of each one's samples were rejected.
-    pub faults: Vec<crate::faults::FaultRecord>,
+    pub faults: Vec<crate::sim::faults::FaultRecord>,
     pub faults_detected: Vec<u64>,
     gate: RowGate,
 }
@@ -273,7 +273,7 @@ impl Telemetry {
 }
 
 impl Meta {
-    pub fn of(s: &crate::scenario::Scenario, seed: u64, method: &str, mode: &str) -> Self {
+    pub fn of(s: &crate::sim::scenario::Scenario, seed: u64, method: &str, mode: &str) -> Self {
         Meta {
             scenario_toml: toml::to_string(s).unwrap_or_default(),
             scenario_name: s.name.clone(),

@@ -5,8 +5,8 @@
 
 use super::layout as l;
 use super::{Telemetry, TelemetryError};
-use crate::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
-use crate::scenario::Scenario;
+use crate::sim::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
+use crate::sim::scenario::Scenario;
 use hdf5::types::{VarLenAscii, VarLenUnicode};
 use hdf5::File;
 use ndarray::IxDyn;
@@ -23,7 +23,7 @@ pub struct Recording {
     /// The estimator the recording was made with (`method` attribute), if any.
     pub method: Option<String>,
     /// Faults injected into the recording (`/faults/*`, from a `[faults]` run).
-    pub faults: Vec<crate::faults::FaultRecord>,
+    pub faults: Vec<crate::sim::faults::FaultRecord>,
     /// Number of samples in the file (fewer than the scenario's in a truncated one).
     pub n: u64,
     /// Number of samples of the scenario.
@@ -317,7 +317,7 @@ struct Checked {
     scenario: Scenario,
     seed: u64,
     method: Option<String>,
-    faults: Vec<crate::faults::FaultRecord>,
+    faults: Vec<crate::sim::faults::FaultRecord>,
     n: u64,
     expected: u64,
     has_tick: bool,
@@ -658,7 +658,7 @@ impl Iterator for Samples<'_> {
 /// The fault log of a recording and how many samples of each fault were rejected.
 pub fn fault_log(
     path: &Path,
-) -> Result<(Vec<crate::faults::FaultRecord>, Vec<u64>), TelemetryError> {
+) -> Result<(Vec<crate::sim::faults::FaultRecord>, Vec<u64>), TelemetryError> {
     let r = load(path)?;
     guarded(&r, |r| {
         let recs = read_faults(r)?;
@@ -672,7 +672,7 @@ pub fn fault_log(
 }
 
 /// The `/faults/*` log, if the file has one.
-fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, TelemetryError> {
+fn read_faults(r: &Reader) -> Result<Vec<crate::sim::faults::FaultRecord>, TelemetryError> {
     if !r.has(l::FAULT_TICK) {
         return Ok(Vec::new());
     }
@@ -691,7 +691,7 @@ fn read_faults(r: &Reader) -> Result<Vec<crate::faults::FaultRecord>, TelemetryE
     let after = r.f64s(l::FAULT_AFTER, &[nf])?;
     let sigmas = r.f64s(l::FAULT_SIGMAS, &[nf])?;
     Ok((0..nf as usize)
-        .map(|i| crate::faults::FaultRecord {
+        .map(|i| crate::sim::faults::FaultRecord {
             tick: tick[i],
             kind: kind[i].min(255) as u8,
             field: field[i].min(255) as u8,
@@ -750,12 +750,12 @@ fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), Tele
     let rejected = r.ints(l::EST_N_REJECTED, m)?;
     let fin = r.ints(l::EST_FINAL, m)?;
     let status = r.ints(l::EST_STATUS, m)?;
-    let nc = crate::msg::N_CAUSES;
+    let nc = crate::sim::msg::N_CAUSES;
     let by_cause = r
         .shaped(l::EST_REJECTED_BY_CAUSE, &[m, nc as u64])?
         .read_raw::<u64>()
         .map_err(|e| r.err(format!("/{}: {e}", l::EST_REJECTED_BY_CAUSE)))?;
-    let chi2 = r.f64s(l::EST_CHI2, &[m, crate::msg::N_GROUPS as u64])?;
+    let chi2 = r.f64s(l::EST_CHI2, &[m, crate::sim::msg::N_GROUPS as u64])?;
     let block = |p: &str| r.f64s(p, &[m, ni, 3]);
     let (beta, beta_s, k, k_s, rr, rr_s) = (
         block(l::EST_BETA)?,
@@ -767,7 +767,7 @@ fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), Tele
     );
     let fs = s.sample_rate_hz;
     for row in 0..m as usize {
-        let mut e = crate::msg::EstimateMsg {
+        let mut e = crate::sim::msg::EstimateMsg {
             header: Header::at(
                 row as u64,
                 ((e_time[row] * fs).round() as u64).saturating_sub(1),
@@ -778,14 +778,14 @@ fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), Tele
             n_rejected: rejected[row],
             status: status[row],
             flags: if fin[row] != 0 {
-                crate::msg::EST_FINAL
+                crate::sim::msg::EST_FINAL
             } else {
                 0
             },
             ..Default::default()
         };
         e.rejected_by_cause = std::array::from_fn(|c| by_cause[row * nc + c]);
-        let ng = crate::msg::N_GROUPS;
+        let ng = crate::sim::msg::N_GROUPS;
         e.chi2_per_dof = std::array::from_fn(|g| chi2[row * ng + g]);
         for i in 0..ni as usize {
             let at = |v: &[f64], a: usize| v[(row * ni as usize + i) * 3 + a];

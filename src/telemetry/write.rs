@@ -15,8 +15,8 @@
 use super::columns::{estimate_columns, sample_columns, Buf, Column, Kind};
 use super::layout as l;
 use super::{Meta, RowGate, Telemetry, TelemetryError};
-use crate::faults::FaultRecord;
-use crate::msg::{EstimateMsg, Header, IsSample, SensorSample, StarSample, TruthState};
+use crate::sim::faults::FaultRecord;
+use crate::sim::msg::{EstimateMsg, Header, IsSample, SensorSample, StarSample, TruthState};
 use hdf5::types::VarLenUnicode;
 use ndarray::{ArrayViewD, IxDyn};
 use std::path::{Path, PathBuf};
@@ -520,7 +520,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("taiji-grow-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("grow.h5");
-        let s = crate::scenario::Scenario::default();
+        let s = crate::sim::scenario::Scenario::default();
         let mut meta = Meta::of(&s, 1, "joint", "in-process");
         meta.n_is = 1;
         // 10 samples at 10 Hz, two rows a chunk; 9 estimate rows.

@@ -3,8 +3,8 @@
 
 use serde_json::Value;
 use std::path::Path;
-use taiji::estimate::Method;
-use taiji::scenario::Scenario;
+use taiji::sim::estimate::Method;
+use taiji::sim::scenario::Scenario;
 
 pub fn report(out: &Path) -> Value {
     let text = std::fs::read_to_string(out.join("report.json")).expect("report.json");
@@ -35,11 +35,12 @@ pub fn estimates(r: &Value) -> Vec<Value> {
 pub fn in_process(scenario: &Path, seed: u64) -> Vec<Value> {
     // Planned as the supervisor plans it, when the file gives no maneuver; the seed is
     // the scenario's from there on, as `--seed` makes it.
-    let (s, _) = taiji::plan::resolve(Scenario::load(scenario).unwrap()).unwrap();
+    let (s, _) = taiji::analysis::plan::resolve(Scenario::load(scenario).unwrap()).unwrap();
     let s = Scenario { seed, ..s };
-    let res = taiji::campaign::run(&s, seed, Method::Joint, |_| {});
-    let crlb = taiji::crlb::crlb(&s).unwrap();
-    let r = taiji::report::Report::new(&s, seed, "in-process", "joint", &res.estimate, &crlb);
+    let res = taiji::analysis::campaign::run(&s, seed, Method::Joint, |_| {});
+    let crlb = taiji::analysis::crlb::crlb(&s).unwrap();
+    let r =
+        taiji::analysis::report::Report::new(&s, seed, "in-process", "joint", &res.estimate, &crlb);
     // Through the same text form as report.json, so both sides parse identically.
     let text = serde_json::to_string(&r).unwrap();
     estimates(&serde_json::from_str(&text).unwrap())

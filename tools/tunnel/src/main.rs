@@ -54,7 +54,7 @@ struct TunnelArgs {
     lease_ms: u64,
 }
 
-/// The iceoryx2 configuration of a run, as `taiji::bus::config` makes it: the default
+/// The iceoryx2 configuration of a run, as `taiji::bus::wiring::config` makes it: the default
 /// with the run's resource prefix; dead nodes are the supervisor's to clean.
 fn iceoryx_config(prefix: &str) -> Result<Config, String> {
     let mut c = Config::default();

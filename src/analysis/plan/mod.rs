@@ -1,0 +1,844 @@
+//! Maneuver planner: the square-wave maneuver that minimises the worst ratio of
+//! Cramér–Rao bound to requirement over every calibrated parameter (β, k and r of
+//! every IS) for a given window, under the IS range, thruster, attitude, rate and
+//! star-tracker-outage constraints (docs/planning.md).
+//!
+//! The search: for each schedule (sequential axes; simultaneous axes at frequency
+//! ratios 1 : 2 : 4, each axis taking the slow wave in turn) and a grid of frequencies
+//! that fill the window with whole periods, the torque amplitude is the largest every
+//! constraint allows (more torque is always more information); each candidate's bound
+//! is computed from its noise-free campaign at a reduced sample rate, the best is
+//! refined (start phase, axis order, pausing in outages), and the winner's bound is
+//! computed again at the scenario's own rate.
+
+use crate::analysis::campaign::Threads;
+use crate::analysis::crlb::{crlb_at_rate, maneuver_bound_on, Crlb};
+use crate::sim::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
+use crate::sim::scenario::maneuver::{
+    axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline,
+};
+use crate::sim::scenario::{k_from_beta, Maneuver, Scenario, Schedule};
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+use std::time::Instant;
+use taiji_core::estimate::joint::rocking;
+use taiji_core::model::noise::white_sigma;
+
+/// Samples per candidate in the search: its sample rate is this over the window.
+const SEARCH_SAMPLES: f64 = 10_000.0;
+/// Least samples per period of the fastest axis in the search.
+const SEARCH_SAMPLES_PER_PERIOD: f64 = 32.0;
+/// Highest maneuver frequency searched [Hz]: above it the angles are too small to
+/// calibrate β, and the IS noise rises.
+const MAX_FREQUENCY_HZ: f64 = 0.02;
+/// Most samples of the final bound (a longer campaign's is computed at a lower rate).
+const FINAL_SAMPLES: f64 = 2.0e6;
+/// Largest attitude excursion [rad] of a planned maneuver at the default SRP noise
+/// (scaled by 1.1×10⁻¹¹ over `srp.asd_at_3mhz`): the estimator models the turn of the
+/// DC SRP with the attitude but not that of its fluctuation, whose product with the
+/// angle biases r beyond the bound at larger angles (Monte Carlo, RMS/CRLB of rz:
+/// 1.19 at 5.5×10⁻⁴ rad, 1.24 at 6×10⁻⁴, 1.9 at 1.4×10⁻³, 9 at 5×10⁻³; docs/planning.md).
+pub const MODEL_ATTITUDE_RAD: f64 = 5.5e-4;
+
+/// The attitude limit of the plan: the scenario's, within the estimator's model.
+pub fn attitude_limit(s: &Scenario) -> (f64, &'static str) {
+    let model = MODEL_ATTITUDE_RAD * (1.1e-11 / s.srp.asd_at_3mhz).min(1.0);
+    let user = s.maneuver.max_attitude_rad;
+    if user > 0.0 && user <= model {
+        (user, "maneuver.max_attitude_rad")
+    } else {
+        (model, "estimator model (attitude limit)")
+    }
+}
+
+/// Periods per axis (sequential) or of the slow axis (simultaneous) of the coarse
+/// grid; the best of each schedule is then refined with the counts between its
+/// neighbours.
+const PERIODS: [u64; 9] = [1, 2, 4, 8, 16, 32, 64, 128, 256];
+
+/// What to plan.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanOptions {
+    /// The window [s]; the scenario's `duration_s` when `None`.
+    pub duration_s: Option<f64>,
+    /// Also draw the bound at half and a quarter of the largest torque (the figure).
+    pub amplitude_sweep: bool,
+    /// Bound the winner again at the scenario's own rate (else its search bound
+    /// stands: a few per cent looser, used while bisecting the window).
+    pub exact: bool,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions {
+            duration_s: None,
+            amplitude_sweep: false,
+            exact: true,
+        }
+    }
+}
+
+/// One maneuver the planner weighed.
+#[derive(Debug, Clone, Serialize)]
+pub struct Candidate {
+    pub maneuver: Maneuver,
+    /// Each axis's frequency [Hz] and whole periods.
+    pub frequencies_hz: [f64; 3],
+    pub periods: [u64; 3],
+    /// The constraint that set the torque amplitude (its scenario key).
+    pub binding: String,
+    /// Peak |A(ω, ω̇) r| over every CoM offset within the priors' uncertainty, with
+    /// overshoot and 3σ amplitude jitter [m/s²].
+    pub peak_acceleration_m_s2: f64,
+    pub peak_attitude_rad: f64,
+    pub peak_rate_rad_s: f64,
+    /// The bound (at `rate_hz`).
+    #[serde(skip)]
+    pub crlb: Option<Crlb>,
+    pub rate_hz: f64,
+    /// Worst CRLB / requirement and the parameter it belongs to.
+    pub worst_ratio: f64,
+    pub worst_parameter: String,
+    /// Fraction of the largest allowed torque (1 but in the figure's sweep).
+    #[serde(skip)]
+    pub amplitude_fraction: f64,
+}
+
+/// The planner's answer.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The chosen maneuver, its bound at the scenario's rate (or `final_rate_hz`).
+    pub chosen: Candidate,
+    /// Every candidate of the search (bounds at `search_rate_hz`), best first.
+    pub candidates: Vec<Candidate>,
+    pub search_rate_hz: f64,
+    pub duration_s: f64,
+    pub elapsed_s: f64,
+    /// Best worst-ratio of each schedule (at the search rate).
+    pub best_by_schedule: Vec<(Schedule, f64)>,
+    /// Why even the chosen maneuver's bound misses a requirement, naming the binding
+    /// constraint (`plan` refuses such a window; `run` flies the best and says so).
+    pub shortfall: Option<String>,
+}
+
+/// What a run keeps of the plan that chose its maneuver (also what the plan cache
+/// stores): the search's size and time, the binding constraint, the search bound.
+#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
+pub struct PlanInfo {
+    pub candidates: usize,
+    pub search_rate_hz: f64,
+    pub elapsed_s: f64,
+    pub binding: String,
+    /// Best worst-ratio of each schedule (search bound).
+    pub best_by_schedule: Vec<(String, f64)>,
+    /// The chosen maneuver's worst CRLB / requirement and its parameter (search bound).
+    pub worst_ratio: f64,
+    pub worst_parameter: String,
+    pub peak_acceleration_m_s2: f64,
+    pub shortfall: Option<String>,
+    /// Taken from the plan cache (`cache.rs`) rather than searched now.
+    pub cached: bool,
+}
+
+impl PlanInfo {
+    /// The report's `maneuver.search` object.
+    pub fn search_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "candidates": self.candidates,
+            "search_rate_hz": self.search_rate_hz,
+            "elapsed_s": self.elapsed_s,
+            "binding": self.binding,
+            "cached": self.cached,
+            "best_by_schedule": self.best_by_schedule.iter().map(|(s, r)| serde_json::json!({"schedule": s, "worst_ratio": r})).collect::<Vec<_>>(),
+        })
+    }
+}
+
+impl From<&Plan> for PlanInfo {
+    fn from(p: &Plan) -> Self {
+        PlanInfo {
+            candidates: p.candidates.len(),
+            search_rate_hz: p.search_rate_hz,
+            elapsed_s: p.elapsed_s,
+            binding: p.chosen.binding.clone(),
+            best_by_schedule: p
+                .best_by_schedule
+                .iter()
+                .map(|(s, r)| (s.name().to_string(), *r))
+                .collect(),
+            worst_ratio: p.chosen.worst_ratio,
+            worst_parameter: p.chosen.worst_parameter.clone(),
+            peak_acceleration_m_s2: p.chosen.peak_acceleration_m_s2,
+            shortfall: p.shortfall.clone(),
+            cached: false,
+        }
+    }
+}
+
+/// The planner could not find a maneuver, or could not write its plan; the message
+/// names the binding constraint or the file.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The window holds no maneuver at all; `why` says what the periods need.
+    #[error("`duration_s`: {duration_s} s is too short for any maneuver: {why}")]
+    WindowTooShort { duration_s: f64, why: String },
+    /// No candidate has room for any torque.
+    #[error("no torque fits: thruster.max_torque_nm = {max_torque_nm:.3e} N m, front_end.maneuver_limit_m_s2 = {maneuver_limit_m_s2:.1e} m/s² and the maneuver limits leave no room")]
+    NoTorque {
+        max_torque_nm: f64,
+        maneuver_limit_m_s2: f64,
+    },
+    #[error("no candidate could be bounded")]
+    NothingBounded,
+    /// `--margin` is not a number ≥ 1.
+    #[error("`--margin`: must be a number ≥ 1, got {margin}")]
+    Margin { margin: f64 },
+    /// No window up to `max_s` meets the requirements on the search bound.
+    #[error("no window up to the longest verified campaign ({max_s} s) meets every requirement with margin {margin} on the bound")]
+    NoWindow { max_s: f64, margin: f64 },
+    /// No window up to `max_s` meets the requirements on the exact bound.
+    #[error(
+        "no window up to {max_s} s meets every requirement with margin {margin} on the exact bound"
+    )]
+    NoExactWindow { max_s: f64, margin: f64 },
+    /// Planning a scenario's maneuver (`resolve`) failed.
+    #[error("planning the maneuver: {0}")]
+    Planning(#[source] Box<PlanError>),
+    /// The planned maneuver fails the scenario's own checks.
+    #[error("the planned maneuver does not pass the scenario's checks: {0}")]
+    PlannedInvalid(#[source] crate::sim::scenario::ScenarioError),
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+    /// The figure could not be drawn.
+    #[error(transparent)]
+    Figure(#[from] crate::analysis::plots::PlotError),
+}
+
+/// The CoM offsets the planner must keep within the IS range: every corner of the
+/// box the priors' uncertainty allows. A given prior ± the ground-calibration error;
+/// a drawn prior is itself ± that error around the scenario's offset, so ± twice it.
+pub fn offset_corners(s: &Scenario) -> Vec<Vector3<f64>> {
+    let e = s.ground_calibration.com_offset_error_m;
+    let mut out = Vec::new();
+    for is in &s.inertial_sensor {
+        let (c, h) = match is.com_offset_prior_m {
+            Some(p) => (p, e),
+            None => (is.com_offset_m, 2.0 * e),
+        };
+        for k in 0..8 {
+            out.push(Vector3::from_fn(|a, _| {
+                c[a] + if k >> a & 1 == 1 { h } else { -h }
+            }));
+        }
+    }
+    out
+}
+
+fn inertia(s: &Scenario) -> Matrix3<f64> {
+    Matrix3::from_fn(|i, j| s.spacecraft.inertia_kg_m2[i][j])
+}
+
+/// How well the thrusters' torque noise alone rocks the spacecraft, in units of the
+/// estimator's test for real motion on every axis (`joint::rocking`), for ω̇'s
+/// covariance from that noise alone, σ_τ² (f_s/2) I⁻² [rad²/s⁴] (white, the same on
+/// every body axis). The default scenario's is ~4×10³; 0 without torque noise;
+/// infinite without angular readout noise (any motion then dominates it).
+pub fn torque_noise_rocking(s: &Scenario) -> f64 {
+    let fs = s.sample_rate_hz;
+    let inv = inertia(s).try_inverse().unwrap_or_else(Matrix3::zeros);
+    let cov = inv * inv * white_sigma(s.thruster.torque_noise_nm_rthz, fs).powi(2);
+    let r = rocking(
+        &cov,
+        white_sigma(s.front_end.angular_noise_rthz, fs).powi(2),
+    );
+    // NaN: no motion (no torque noise, or no inertia to invert: a scenario refuses it).
+    if r.is_nan() {
+        0.0
+    } else {
+        r
+    }
+}
+
+/// Below this `torque_noise_rocking` the thrusters count as quiet (ten times the
+/// estimator's own threshold: room for its sample covariance's scatter; a torque noise
+/// under ~1/20 of the default's).
+pub(crate) const QUIET_ROCKING: f64 = 10.0;
+
+/// The schedules the planner weighs for `s`: both, unless the thrusters are too quiet
+/// to rock every axis on their own (`torque_noise_rocking`). The estimator then fixes
+/// the SRP's level only once the maneuver has rocked every axis, and a sequential
+/// schedule rocks its last axis from two thirds of the window on: the samples before
+/// turn the SRP without its fluctuation, and r_z's σ is optimistic (by 1.3× at 10⁴ s,
+/// 2× at 10⁵ s; docs/planning.md). Rocking every axis from the start costs a few per
+/// cent of r_z's RMS at 10⁴ s (about 25 % with one IS) and 20–40 % of β's, far inside
+/// its requirement, for an honest σ.
+pub fn schedules(s: &Scenario) -> &'static [Schedule] {
+    if torque_noise_rocking(s) < QUIET_ROCKING {
+        &[Schedule::Simultaneous]
+    } else {
+        &[Schedule::Sequential, Schedule::Simultaneous]
+    }
+}
+
+/// Worst CRLB / requirement over every parameter, and its name.
+pub fn worst_ratio(s: &Scenario, c: &Crlb) -> (f64, String) {
+    let priors = s.priors();
+    let mut worst = (0.0, String::new());
+    let ax = ["x", "y", "z"];
+    for (i, (is, p)) in s.inertial_sensor.iter().zip(&priors).enumerate() {
+        let k = k_from_beta(&is.geometry_m, &p.beta);
+        for a in 0..3 {
+            let cands = [
+                (
+                    c.beta[i][a] / p.beta[a] / REQ_SCALE_FACTOR_REL,
+                    format!("β{} of IS{}", ax[a], i + 1),
+                ),
+                (
+                    c.k[i][a] / k[a] / REQ_SCALE_FACTOR_REL,
+                    format!("k{} of IS{}", ax[a], i + 1),
+                ),
+                (
+                    c.com_offset_m[i][a] / REQ_COM_M,
+                    format!("r{} of IS{}", ax[a], i + 1),
+                ),
+            ];
+            for (v, name) in cands {
+                if v.is_nan() || v > worst.0 {
+                    worst = (v, name);
+                }
+            }
+        }
+    }
+    worst
+}
+
+/// The scenario with `m` as its maneuver.
+fn with_maneuver(base: &Scenario, m: &Maneuver) -> Scenario {
+    let mut s = base.clone();
+    s.maneuver = m.clone();
+    s.plan_pending = false;
+    s
+}
+
+/// Give `m` the largest torque every constraint allows: per axis when the axes take
+/// turns, one common scale of torques ∝ the inertia's diagonal (equal angular
+/// acceleration) when they rock together. `None` when no torque fits.
+fn size(base: &Scenario, mut m: Maneuver) -> Option<Candidate> {
+    let corners = offset_corners(base);
+    let boost = torque_boost(base);
+    let inertia = inertia(base);
+    let limit = base.front_end.maneuver_limit_m_s2;
+    let shape: [f64; 3] = match m.schedule {
+        Schedule::Sequential => [1e-6; 3],
+        Schedule::Simultaneous => core::array::from_fn(|a| 1e-9 * inertia[(a, a)]),
+    };
+    // The largest scale of one shape, and the constraint that set it.
+    let largest = |m: &Maneuver, unit: [f64; 3]| -> Option<(f64, &'static str)> {
+        let mut mm = m.clone();
+        mm.torque_amplitude_nm = unit;
+        let s = with_maneuver(base, &mm);
+        let env = Timeline::new(&s).ok()?.envelope(&inertia);
+        let peak_unit = unit.iter().fold(0.0f64, |a, b| a.max(*b));
+        let mut bounds: Vec<(f64, &'static str)> = vec![(
+            base.thruster.max_torque_nm / (peak_unit * boost),
+            "thruster.max_torque_nm",
+        )];
+        let (att, att_key) = attitude_limit(base);
+        if env.peak_attitude_rad > 0.0 {
+            bounds.push((att / (env.peak_attitude_rad * boost), att_key));
+        }
+        if m.max_rate_rad_s > 0.0 && env.peak_rate_rad_s > 0.0 {
+            bounds.push((
+                m.max_rate_rad_s / (env.peak_rate_rad_s * boost),
+                "maneuver.max_rate_rad_s",
+            ));
+        }
+        let (cap, mut why) =
+            bounds
+                .into_iter()
+                .fold((f64::INFINITY, ""), |w, b| if b.0 < w.0 { b } else { w });
+        let scale = env.largest_scale(&corners, limit, cap * boost) / boost;
+        if scale < cap * (1.0 - 1e-9) {
+            why = "front_end.maneuver_limit_m_s2";
+        }
+        Some((scale, why))
+    };
+    let mut binding = "";
+    match m.schedule {
+        Schedule::Sequential => {
+            // The axes take turns and come to rest between: each its own largest torque.
+            for a in 0..3 {
+                let mut unit = [0.0; 3];
+                unit[a] = shape[a];
+                let (scale, why) = largest(&m, unit)?;
+                m.torque_amplitude_nm[a] = scale * shape[a];
+                if binding.is_empty() {
+                    binding = why;
+                }
+            }
+        }
+        Schedule::Simultaneous => {
+            let (scale, why) = largest(&m, shape)?;
+            m.torque_amplitude_nm = shape.map(|v| v * scale);
+            binding = why;
+        }
+    }
+    if m.torque_amplitude_nm
+        .iter()
+        .any(|v| v.is_nan() || *v <= 0.0)
+    {
+        return None;
+    }
+    // Round down to 4 significant digits: a plan written as TOML reads back the same.
+    m.torque_amplitude_nm = m.torque_amplitude_nm.map(round_down_4);
+    let s = with_maneuver(base, &m);
+    let tl = Timeline::new(&s).ok()?;
+    let env: Envelope = tl.envelope(&inertia);
+    Some(Candidate {
+        frequencies_hz: axis_frequencies(&s),
+        periods: tl.periods(),
+        binding: binding.to_string(),
+        peak_acceleration_m_s2: env.peak_acceleration(&corners, boost).1,
+        peak_attitude_rad: env.peak_attitude_rad * boost,
+        peak_rate_rad_s: env.peak_rate_rad_s * boost,
+        maneuver: m,
+        crlb: None,
+        rate_hz: 0.0,
+        worst_ratio: f64::INFINITY,
+        worst_parameter: String::new(),
+        amplitude_fraction: 1.0,
+    })
+}
+
+use crate::sim::scenario::maneuver::round_down_4;
+
+/// The maneuver shapes for `base`'s window with `counts` whole periods per axis
+/// (sequential) or of the slow axis (simultaneous, the slow axis each of `slow`).
+fn shapes(base: &Scenario, counts: &[u64], sched: &[Schedule], slow: &[usize]) -> Vec<Maneuver> {
+    let fs = base.sample_rate_hz;
+    // Rocking time: the window less the star-tracker outages it waits out.
+    let n_ticks = (rocking_seconds(base) * fs).floor().max(0.0);
+    let hold = base.spacecraft.attitude_hold_hz;
+    let f_hi = MAX_FREQUENCY_HZ.min(fs / 8.0);
+    let mut out = Vec::new();
+    let template = Maneuver {
+        planned: true,
+        start_s: 0.0,
+        start_phase: 0.0,
+        // Known star-tracker outages are a constraint: no rocking while blind.
+        pause_in_outages: !base.star_tracker.outages_s.is_empty(),
+        ..base.maneuver.clone()
+    };
+    for &n in counts {
+        // Sequential: n periods per axis fill the window (whole ticks per period).
+        let tpp = (n_ticks / (3.0 * n as f64)).floor();
+        let f = fs / tpp;
+        if sched.contains(&Schedule::Sequential) && tpp >= 8.0 && f <= f_hi && f >= 10.0 * hold {
+            out.push(Maneuver {
+                schedule: Schedule::Sequential,
+                frequency_hz: f,
+                axis_order: "xyz".into(),
+                ..template.clone()
+            });
+        }
+        // Simultaneous: n periods of the slow axis, 2n and 4n of the others.
+        let tpp = 4.0 * (n_ticks / (4.0 * n as f64)).floor();
+        let f = fs / tpp;
+        if sched.contains(&Schedule::Simultaneous)
+            && tpp >= 32.0
+            && 4.0 * f <= f_hi
+            && f >= 10.0 * hold
+        {
+            for &slow in slow {
+                // 1 on the slow axis, then 2 and 4 on the next ones.
+                let ratio = core::array::from_fn(|a| [1.0, 2.0, 4.0][(a + 3 - slow) % 3]);
+                out.push(Maneuver {
+                    schedule: Schedule::Simultaneous,
+                    frequency_hz: f,
+                    frequency_ratio: ratio,
+                    ..template.clone()
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Bound every candidate at `rate` (in parallel on the machine's cores).
+fn evaluate(base: &Scenario, cands: &mut [Candidate], rate: f64) {
+    let workers = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .clamp(1, 8);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let done: Vec<(usize, Option<Crlb>)> = std::thread::scope(|sc| {
+        let work = || {
+            let mut out = Vec::new();
+            loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(c) = cands.get(i) else { break out };
+                out.push((i, crlb_at_rate(&with_maneuver(base, &c.maneuver), rate)));
+            }
+        };
+        let handles: Vec<_> = (0..workers).map(|_| sc.spawn(work)).collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    for (i, b) in done {
+        set_bound(base, &mut cands[i], b, rate);
+    }
+}
+
+/// Give `c` its bound (computed at `rate`) and its worst ratio.
+fn set_bound(base: &Scenario, c: &mut Candidate, b: Option<Crlb>, rate: f64) {
+    let s = with_maneuver(base, &c.maneuver);
+    (c.worst_ratio, c.worst_parameter) = match &b {
+        Some(b) => worst_ratio(&s, b),
+        None => (f64::INFINITY, "singular Fisher information".into()),
+    };
+    c.crlb = b;
+    c.rate_hz = rate;
+}
+
+/// A refinement (another start phase than the cosine, another axis order than xyz)
+/// must beat the plain maneuver by more than the search bound's own
+/// uncertainty to be chosen: the plain one is simpler to fly and keeps the attitude
+/// closest to the start.
+const REFINEMENT_GAIN: f64 = 1.05;
+
+fn rank(c: &Candidate) -> f64 {
+    let m = &c.maneuver;
+    let plain = m.start_phase == 0.0 && m.axis_order == "xyz";
+    if plain {
+        c.worst_ratio
+    } else {
+        c.worst_ratio * REFINEMENT_GAIN
+    }
+}
+
+fn best_first(c: &mut [Candidate]) {
+    c.sort_by(|a, b| rank(a).total_cmp(&rank(b)));
+}
+
+/// Plan the maneuver for `s`'s window (or `opts.duration_s`).
+pub fn plan(s: &Scenario, opts: &PlanOptions) -> Result<Plan, PlanError> {
+    let t0 = Instant::now();
+    let mut base = s.clone();
+    if let Some(d) = opts.duration_s {
+        base.duration_s = d;
+    }
+    base.plan_pending = false;
+    base.faults = Default::default();
+    let d = base.duration_s;
+    let mut cands = coarse_candidates(&base)?;
+    // One search rate for every candidate (the bound's coarseness then ranks fairly),
+    // fine enough for the fastest wave of the grid.
+    let f_fast = cands
+        .iter()
+        .flat_map(|c| c.frequencies_hz)
+        .fold(0.0, f64::max);
+    let rate = base
+        .sample_rate_hz
+        .min((SEARCH_SAMPLES / d).max(SEARCH_SAMPLES_PER_PERIOD * f_fast));
+    evaluate(&base, &mut cands, rate);
+    best_first(&mut cands);
+    let mut finer = finer_counts(&base, &cands);
+    evaluate(&base, &mut finer, rate);
+    cands.extend(finer);
+    best_first(&mut cands);
+    let mut best_by_schedule = Vec::new();
+    for sch in [Schedule::Sequential, Schedule::Simultaneous] {
+        if let Some(c) = cands.iter().find(|c| c.maneuver.schedule == sch) {
+            best_by_schedule.push((sch, c.worst_ratio));
+        }
+    }
+    let mut refined = variants_of(&base, &cands[0]);
+    evaluate(&base, &mut refined, rate);
+    cands.extend(refined);
+    best_first(&mut cands);
+    if opts.amplitude_sweep {
+        let mut sweep = amplitude_sweep(&cands);
+        evaluate(&base, &mut sweep, rate);
+        cands.extend(sweep);
+    }
+    // The winner among full-torque candidates, its bound at the scenario's own rate.
+    let mut chosen = cands
+        .iter()
+        .find(|c| c.amplitude_fraction == 1.0)
+        .cloned()
+        .ok_or(PlanError::NothingBounded)?;
+    let final_rate = if opts.exact {
+        base.sample_rate_hz.min((FINAL_SAMPLES / d).max(rate))
+    } else {
+        rate
+    };
+    if final_rate != rate {
+        let cs = with_maneuver(&base, &chosen.maneuver);
+        let b = if final_rate >= base.sample_rate_hz {
+            maneuver_bound_on(&cs, Threads::available())
+        } else {
+            crlb_at_rate(&cs, final_rate)
+        };
+        set_bound(&base, &mut chosen, b, final_rate);
+    }
+    let shortfall = (chosen.worst_ratio.is_nan() || chosen.worst_ratio > 1.0)
+        .then(|| infeasible(&base, &chosen));
+    Ok(Plan {
+        shortfall,
+        chosen,
+        candidates: cands,
+        search_rate_hz: rate,
+        duration_s: d,
+        elapsed_s: t0.elapsed().as_secs_f64(),
+        best_by_schedule,
+    })
+}
+
+/// The coarse grid's candidates, sized (not yet bounded); the error when the window
+/// holds no maneuver or no torque fits.
+fn coarse_candidates(base: &Scenario) -> Result<Vec<Candidate>, PlanError> {
+    let d = base.duration_s;
+    let hold = base.spacecraft.attitude_hold_hz;
+    let coarse = shapes(base, &PERIODS, schedules(base), &[0]);
+    if coarse.is_empty() {
+        let f_lo = (3.0 / d).max(10.0 * hold);
+        let why = if 10.0 * hold > 3.0 / d {
+            format!(
+                "the slowest frequency spacecraft.attitude_hold_hz = {hold} Hz allows is {} Hz, and three whole periods (one per axis) of it need {:.0} s",
+                10.0 * hold,
+                3.0 / f_lo
+            )
+        } else {
+            format!(
+                "three whole periods (one per axis) need at least {:.0} s at the fastest frequency searched ({MAX_FREQUENCY_HZ} Hz, or sample_rate_hz / 8)",
+                3.0 / MAX_FREQUENCY_HZ.min(base.sample_rate_hz / 8.0)
+            )
+        };
+        return Err(PlanError::WindowTooShort { duration_s: d, why });
+    }
+    let cands: Vec<Candidate> = coarse.into_iter().filter_map(|m| size(base, m)).collect();
+    if cands.is_empty() {
+        return Err(PlanError::NoTorque {
+            max_torque_nm: base.thruster.max_torque_nm,
+            maneuver_limit_m_s2: base.front_end.maneuver_limit_m_s2,
+        });
+    }
+    Ok(cands)
+}
+
+/// Each schedule's best count of periods refined with the counts between its
+/// neighbours, and the simultaneous schedule's slow axis (sized, not yet bounded).
+fn finer_counts(base: &Scenario, ranked: &[Candidate]) -> Vec<Candidate> {
+    let mut finer = Vec::new();
+    for sch in [Schedule::Sequential, Schedule::Simultaneous] {
+        let Some(best) = ranked.iter().find(|c| c.maneuver.schedule == sch) else {
+            continue;
+        };
+        let n = match sch {
+            Schedule::Sequential => best.periods[0],
+            Schedule::Simultaneous => *best.periods.iter().min().unwrap_or(&1),
+        };
+        let between: Vec<u64> = ((n / 2 + 1)..(2 * n))
+            .filter(|k| !PERIODS.contains(k))
+            .collect();
+        let between: Vec<u64> = if between.len() > 4 {
+            // At most four counts, spread geometrically.
+            (1..=4)
+                .map(|i| ((n as f64) * 2f64.powf(i as f64 / 5.0 * 2.0 - 1.0)).round() as u64)
+                .filter(|k| !PERIODS.contains(k))
+                .collect()
+        } else {
+            between
+        };
+        finer.extend(shapes(base, &between, &[sch], &[0]));
+        if sch == Schedule::Simultaneous {
+            finer.extend(shapes(base, &[n], &[sch], &[1, 2]));
+        }
+    }
+    finer.into_iter().filter_map(|m| size(base, m)).collect()
+}
+
+/// Variants of the best candidate: the other start phase, the other axis orders
+/// (sized, not yet bounded).
+fn variants_of(base: &Scenario, top: &Candidate) -> Vec<Candidate> {
+    let mut variants = Vec::new();
+    let mut m = top.maneuver.clone();
+    m.start_phase = 0.25;
+    variants.push(m);
+    if top.maneuver.schedule == Schedule::Sequential {
+        for order in ["xzy", "yxz", "yzx", "zxy", "zyx"] {
+            let mut m = top.maneuver.clone();
+            m.axis_order = order.into();
+            variants.push(m);
+        }
+    }
+    variants.into_iter().filter_map(|m| size(base, m)).collect()
+}
+
+/// The plain candidates at half and a quarter of their torque (to be bounded).
+fn amplitude_sweep(cands: &[Candidate]) -> Vec<Candidate> {
+    let mut sweep = Vec::new();
+    for c in cands.iter().filter(|c| {
+        c.maneuver.start_phase == 0.0
+            && (c.maneuver.schedule == Schedule::Sequential && c.maneuver.axis_order == "xyz"
+                || c.maneuver.schedule == Schedule::Simultaneous)
+    }) {
+        for frac in [0.5, 0.25] {
+            let mut x = c.clone();
+            x.maneuver.torque_amplitude_nm = x.maneuver.torque_amplitude_nm.map(|v| v * frac);
+            x.amplitude_fraction = frac;
+            sweep.push(x);
+        }
+    }
+    sweep
+}
+
+/// Why the best maneuver still misses a requirement, naming what binds it.
+fn infeasible(base: &Scenario, c: &Candidate) -> String {
+    let why = match c.binding.as_str() {
+        "thruster.max_torque_nm" => format!(
+            "the torque is bound by `thruster.max_torque_nm` = {:.3e} N m",
+            base.thruster.max_torque_nm
+        ),
+        "maneuver.max_attitude_rad" => format!(
+            "the torque is bound by `maneuver.max_attitude_rad` = {:.3e} rad",
+            base.maneuver.max_attitude_rad
+        ),
+        k if k.starts_with("estimator model") => format!(
+            "the torque is bound by the attitude the estimator's model allows ({:.1e} rad, docs/planning.md), so the binding constraint is the window, `duration_s` = {} s (`taiji-calib plan --min-duration` finds the shortest window that works)",
+            attitude_limit(base).0,
+            base.duration_s
+        ),
+        "maneuver.max_rate_rad_s" => format!(
+            "the torque is bound by `maneuver.max_rate_rad_s` = {:.3e} rad/s",
+            base.maneuver.max_rate_rad_s
+        ),
+        _ => format!(
+            "the torque is already at the IS range (`front_end.maneuver_limit_m_s2` = {:.1e} m/s²), so the binding constraint is the window, `duration_s` = {} s (`taiji-calib plan --min-duration` finds the shortest window that works)",
+            base.front_end.maneuver_limit_m_s2, base.duration_s
+        ),
+    };
+    format!(
+        "no maneuver meets every requirement in this window: the best ({}, {:.3e} Hz, torque [{:.3e}, {:.3e}, {:.3e}] N m) has a Cramér–Rao bound {:.2}× the requirement on {}; {why}",
+        c.maneuver.schedule.name(),
+        c.maneuver.frequency_hz,
+        c.maneuver.torque_amplitude_nm[0],
+        c.maneuver.torque_amplitude_nm[1],
+        c.maneuver.torque_amplitude_nm[2],
+        c.worst_ratio,
+        c.worst_parameter
+    )
+}
+
+/// The shortest window [s] whose plan meets every requirement with `margin` on the
+/// bound (worst CRLB / requirement ≤ 1 / margin), to 2 %: a scan up in factors of 2,
+/// then bisection in log duration on the search bound, then the exact bound checked
+/// (stepping up 5 % while it misses).
+pub fn min_duration(s: &Scenario, margin: f64) -> Result<Plan, PlanError> {
+    if !(margin.is_finite() && margin >= 1.0) {
+        return Err(PlanError::Margin { margin });
+    }
+    let max = crate::sim::scenario::MAX_DURATION_S;
+    let meets = |d: f64, exact: bool| -> Option<Plan> {
+        let p = plan(
+            s,
+            &PlanOptions {
+                duration_s: Some(d),
+                amplitude_sweep: false,
+                exact,
+            },
+        )
+        .ok()?;
+        (p.shortfall.is_none() && p.chosen.worst_ratio * margin <= 1.0).then_some(p)
+    };
+    let mut lo = 100.0f64;
+    let mut hi = lo;
+    while meets(hi, false).is_none() {
+        lo = hi;
+        hi *= 2.0;
+        if hi > max {
+            return Err(PlanError::NoWindow { max_s: max, margin });
+        }
+    }
+    while hi / lo > 1.02 {
+        let mid = (lo * hi).sqrt();
+        if meets(mid, false).is_some() {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    // Whole tens of seconds, then the exact bound.
+    let mut d = (hi / 10.0).ceil() * 10.0;
+    loop {
+        if let Some(p) = meets(d, true) {
+            return Ok(p);
+        }
+        d = ((d * 1.05) / 10.0).ceil() * 10.0;
+        if d > max {
+            return Err(PlanError::NoExactWindow { max_s: max, margin });
+        }
+    }
+}
+
+/// `s` with its maneuver planned if it has none; what the plan was when one was made.
+/// A plan of the same scenario made before by the same code comes from the cache.
+pub fn resolve(s: Scenario) -> Result<(Scenario, Option<PlanInfo>), PlanError> {
+    if !s.plan_pending {
+        return Ok((s, None));
+    }
+    if let Some((m, info)) = cache::load(&s) {
+        let mut out = s.clone();
+        out.maneuver = m;
+        out.plan_pending = false;
+        if let Ok(out) = out.validated() {
+            warn_shortfall(&info);
+            return Ok((out, Some(info)));
+        }
+    }
+    // The run computes the exact bound itself: the search's ranks the plan.
+    let opts = PlanOptions {
+        exact: false,
+        ..PlanOptions::default()
+    };
+    let p = plan(&s, &opts).map_err(|e| PlanError::Planning(Box::new(e)))?;
+    let info = PlanInfo::from(&p);
+    warn_shortfall(&info);
+    let mut out = s.clone();
+    out.maneuver = p.chosen.maneuver.clone();
+    out.plan_pending = false;
+    let out = out.validated().map_err(PlanError::PlannedInvalid)?;
+    cache::store(&s, &out.maneuver, &info);
+    Ok((out, Some(info)))
+}
+
+/// Once, through `log` (every binary shows warnings by default; `RUST_LOG` can silence
+/// it): a second `eprintln!` printed the same line twice.
+fn warn_shortfall(info: &PlanInfo) {
+    if let Some(why) = &info.shortfall {
+        log::warn!("flying the best maneuver found, but {why}");
+    }
+}
+
+/// The chosen maneuver as a `[maneuver]` TOML table.
+pub fn maneuver_toml(m: &Maneuver) -> String {
+    #[derive(Serialize)]
+    struct Wrap<'a> {
+        maneuver: &'a Maneuver,
+    }
+    toml::to_string(&Wrap { maneuver: m }).unwrap_or_default()
+}
+
+pub mod cache;
+mod describe;
+pub use describe::{bounds, describe, maneuver_bound, ManeuverReport};
+mod output;
+pub use output::write;

@@ -1,0 +1,356 @@
+//! Upset campaign: single-event upsets in the estimator's own memory. A C-ABI host
+//! (the cycle of examples/c/host.c, driven from Rust through `capi`) replays a
+//! campaign; in each trial one random bit of the state's memory flips at a random
+//! moment between two calls, and the run goes on to `finish`. Every trial is
+//! classified: an abort (panic), a hang (a call far over its bound), detected (a call
+//! returned an error code; the host then restores its last checkpoint and replays
+//! from it, as the front end's ring allows in the set), flagged (the final status is
+//! unverified), or how far the final estimate moved in units of its σ. Used by
+//! `cargo run --release --example upset_campaign -- TRIALS` and tests/upsets.rs.
+
+use crate::analysis::fuzz::Bits;
+use crate::sim::capi::*;
+use crate::sim::estimate::{EstimatorConfig, Method};
+use crate::sim::msg::{EstimateMsg, SensorSample, ST_UNVERIFIED};
+use crate::sim::scenario::Scenario;
+use std::mem::size_of;
+use std::time::{Duration, Instant};
+
+/// A host checkpoints every this many samples (as the estimator process does).
+const CHECKPOINT_EVERY: usize = 1000;
+
+/// How one trial ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Outcome {
+    /// A panic reached the host (an abort in the C library).
+    Abort,
+    /// A call took over `HANG` (its bound is milliseconds).
+    Hang,
+    /// A call returned an error code at the flip; after restoring the last
+    /// checkpoint and replaying, the final estimate is bit-identical to the reference.
+    DetectedRepaired,
+    /// Detected, but the repaired run's final estimate differs from the reference.
+    DetectedNotRepaired,
+    /// No error; the final status says unverified.
+    Flagged,
+    /// No error, no flag; the estimate moved by less than 0.1σ (or not at all).
+    Harmless,
+    /// No error, no flag; moved by 0.1σ to 3σ.
+    Moved,
+    /// No error, no flag; moved by 3σ or more: a failure.
+    UndetectedLarge,
+}
+
+/// A call slower than this is a hang.
+const HANG: Duration = Duration::from_secs(2);
+
+/// One trial's draw.
+#[derive(Debug, Clone, Copy)]
+pub struct Flip {
+    /// Before the update of this sample (`n`: before finish).
+    pub at: usize,
+    /// Word of the state's memory and bit in it.
+    pub word: usize,
+    pub bit: u32,
+}
+
+/// The replay every trial runs: the samples, the table and the reference result.
+pub struct Campaign {
+    pub cfg: EstimatorConfig,
+    pub samples: Vec<SensorSample>,
+    reference: EstimateMsg,
+    checkpoints: Vec<Vec<u8>>,
+}
+
+/// 8-aligned memory for one state.
+fn memory() -> Vec<u64> {
+    vec![0u64; taiji_estimator_size().div_ceil(8)]
+}
+
+std::thread_local! {
+    /// The solve's scratch (`taiji_solve_work_size()` bytes), one per thread: its
+    /// contents never matter between calls.
+    static WORK: std::cell::RefCell<Vec<u64>> =
+        std::cell::RefCell::new(vec![0u64; taiji_solve_work_size().div_ceil(8)]);
+}
+
+/// Runs `f` with the thread's scratch for `solve` and `finish` (pointer, bytes).
+fn with_work<R>(f: impl FnOnce(*mut u8, usize) -> R) -> R {
+    WORK.with(|w| {
+        let mut w = w.borrow_mut();
+        let bytes = w.len() * 8;
+        f(w.as_mut_ptr() as *mut u8, bytes)
+    })
+}
+
+fn init(mem: &mut [u64], cfg: &EstimatorConfig) -> i32 {
+    // SAFETY: `mem` is 8-aligned and holds `taiji_estimator_size()` bytes.
+    unsafe {
+        taiji_estimator_init(
+            mem.as_mut_ptr() as *mut u8,
+            mem.len() * 8,
+            cfg,
+            TAIJI_ABI_VERSION,
+            size_of::<EstimatorConfig>(),
+            size_of::<SensorSample>(),
+            size_of::<EstimateMsg>(),
+        )
+    }
+}
+
+/// One host cycle: update, and the solve when it is due. Returns the first error code.
+fn cycle(mem: &mut [u64], s: &SensorSample) -> i32 {
+    let p = mem.as_mut_ptr() as *mut u8;
+    let mut flags = 0u32;
+    // SAFETY: an 8-aligned state buffer, a valid sample and outputs.
+    let rc = unsafe { taiji_estimator_update(p, s, std::ptr::null_mut(), &mut flags) };
+    if rc != TAIJI_OK {
+        return rc;
+    }
+    if flags & TAIJI_SOLVE_DUE != 0 {
+        // SAFETY: as above.
+        let rc = with_work(|w, n| unsafe { taiji_estimator_solve(p, w, n) });
+        if rc != TAIJI_OK && rc != TAIJI_ERR_SOLVE {
+            return rc;
+        }
+    }
+    TAIJI_OK
+}
+
+fn checkpoint(mem: &mut [u64]) -> Vec<u8> {
+    let mut buf = vec![0u8; taiji_checkpoint_size()];
+    let mut n = 0usize;
+    // SAFETY: an initialised state and a buffer of the checkpoint's size.
+    let rc = unsafe {
+        taiji_estimator_checkpoint(
+            mem.as_mut_ptr() as *mut u8,
+            buf.as_mut_ptr(),
+            buf.len(),
+            &mut n,
+        )
+    };
+    assert_eq!(rc, TAIJI_OK, "checkpoint");
+    buf.truncate(n);
+    buf
+}
+
+fn restore(mem: &mut [u64], ck: &[u8], cfg: &EstimatorConfig) -> i32 {
+    // SAFETY: an 8-aligned state buffer, a checkpoint and the table.
+    unsafe {
+        taiji_estimator_restore(
+            mem.as_mut_ptr() as *mut u8,
+            mem.len() * 8,
+            ck.as_ptr(),
+            ck.len(),
+            cfg,
+        )
+    }
+}
+
+fn finish(mem: &mut [u64]) -> Result<EstimateMsg, i32> {
+    let mut out = EstimateMsg::default();
+    // SAFETY: an 8-aligned state buffer and an output.
+    let p = mem.as_mut_ptr() as *mut u8;
+    let rc = with_work(|w, n| unsafe { taiji_estimator_finish(p, w, n, &mut out) });
+    if rc == TAIJI_OK {
+        Ok(out)
+    } else {
+        Err(rc)
+    }
+}
+
+/// Largest |estimate − reference| / σ_reference over β, k and r of both IS.
+fn moved_sigma(a: &EstimateMsg, r: &EstimateMsg) -> f64 {
+    let mut worst: f64 = 0.0;
+    for i in 0..2 {
+        for j in 0..3 {
+            for (x, y, s) in [
+                (a.beta[i][j], r.beta[i][j], r.beta_sigma[i][j]),
+                (a.k[i][j], r.k[i][j], r.k_sigma[i][j]),
+                (a.r_b[i][j], r.r_b[i][j], r.r_sigma[i][j]),
+            ] {
+                let d = ((x - y) / s).abs();
+                worst = worst.max(if d.is_nan() { f64::INFINITY } else { d });
+            }
+        }
+    }
+    worst
+}
+
+impl Campaign {
+    /// The default scenario shortened to `duration_s`, its samples simulated with
+    /// `seed`, and the reference run (with the host's checkpoints).
+    pub fn new(duration_s: f64, seed: u64) -> Campaign {
+        let s = Scenario {
+            duration_s,
+            ..Scenario::default()
+        };
+        let s = crate::analysis::plan::resolve(s)
+            .map(|(s, _)| s)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let cfg = s.estimator_config(&s.priors());
+        let mut st = crate::analysis::campaign::Stages::new(&s, seed, Method::Joint);
+        let samples: Vec<SensorSample> = (0..s.n_samples())
+            .map(|t| {
+                let cmd = st.commander.step(t);
+                let truth = st.plant.step(t, &cmd.torque_cmd_b);
+                st.fee.step(&truth)
+            })
+            .collect();
+        let mut mem = memory();
+        assert_eq!(init(&mut mem, &cfg), TAIJI_OK);
+        let mut checkpoints = Vec::new();
+        for (i, smp) in samples.iter().enumerate() {
+            if i % CHECKPOINT_EVERY == 0 {
+                checkpoints.push(checkpoint(&mut mem));
+            }
+            assert_eq!(cycle(&mut mem, smp), TAIJI_OK);
+        }
+        let reference = finish(&mut mem).expect("reference finish");
+        Campaign {
+            cfg,
+            samples,
+            reference,
+            checkpoints,
+        }
+    }
+
+    /// The words of the state's memory (where a flip can land).
+    pub fn state_words() -> usize {
+        taiji_estimator_size() / 8
+    }
+
+    /// Runs one trial: replay with `flip` (None: none), the host recovering from its
+    /// last checkpoint when a call reports an error.
+    pub fn trial(&self, flip: Option<Flip>) -> (Outcome, f64) {
+        let run = std::panic::catch_unwind(|| self.run(flip));
+        match run {
+            Err(_) => (Outcome::Abort, f64::INFINITY),
+            Ok(r) => r,
+        }
+    }
+
+    fn run(&self, flip: Option<Flip>) -> (Outcome, f64) {
+        let n = self.samples.len();
+        let at = flip.map_or(n + 1, |f| f.at);
+        // The host's last checkpoint at or before sample `i` (taken before its update).
+        let last_checkpoint =
+            |i: usize| (i.min(n.saturating_sub(1)) / CHECKPOINT_EVERY) * CHECKPOINT_EVERY;
+        // Start from the one before the flip (without a flip: from the start).
+        let start = if flip.is_some() {
+            last_checkpoint(at)
+        } else {
+            0
+        };
+        let mut mem = memory();
+        if start == 0 {
+            assert_eq!(init(&mut mem, &self.cfg), TAIJI_OK);
+        } else {
+            let ck = &self.checkpoints[start / CHECKPOINT_EVERY];
+            assert_eq!(restore(&mut mem, ck, &self.cfg), TAIJI_OK);
+        }
+        let (mut detected, mut flipped) = (false, false);
+        let mut i = start;
+        while i <= n {
+            if i == at && !flipped {
+                if let Some(f) = flip {
+                    mem[f.word] ^= 1u64 << f.bit;
+                }
+                flipped = true;
+            }
+            let t0 = Instant::now();
+            let rc = if i < n {
+                cycle(&mut mem, &self.samples[i])
+            } else {
+                match finish(&mut mem) {
+                    Ok(e) => {
+                        if t0.elapsed() > HANG {
+                            return (Outcome::Hang, f64::INFINITY);
+                        }
+                        let d = moved_sigma(&e, &self.reference);
+                        let same = e == self.reference;
+                        return (
+                            match (detected, same) {
+                                (true, true) => Outcome::DetectedRepaired,
+                                (true, false) => Outcome::DetectedNotRepaired,
+                                _ if e.status & ST_UNVERIFIED != 0 => Outcome::Flagged,
+                                _ if d >= 3.0 => Outcome::UndetectedLarge,
+                                _ if d >= 0.1 => Outcome::Moved,
+                                _ => Outcome::Harmless,
+                            },
+                            d,
+                        );
+                    }
+                    Err(rc) => rc,
+                }
+            };
+            if t0.elapsed() > HANG {
+                return (Outcome::Hang, f64::INFINITY);
+            }
+            if rc != TAIJI_OK {
+                if detected {
+                    // A second error after the repair: not repaired.
+                    return (Outcome::DetectedNotRepaired, f64::INFINITY);
+                }
+                detected = true;
+                // Scrub: the last checkpoint at or before this sample, and replay.
+                let c = last_checkpoint(i);
+                mem.iter_mut().for_each(|w| *w = 0);
+                let rc = if c == 0 {
+                    init(&mut mem, &self.cfg)
+                } else {
+                    restore(&mut mem, &self.checkpoints[c / CHECKPOINT_EVERY], &self.cfg)
+                };
+                if rc != TAIJI_OK {
+                    return (Outcome::DetectedNotRepaired, f64::INFINITY);
+                }
+                i = c;
+                continue;
+            }
+            i += 1;
+        }
+        unreachable!("the loop returns at finish")
+    }
+}
+
+/// A flip at a random moment (before any update or before finish), word and bit.
+fn draw_flip(bits: &mut Bits, samples: usize) -> Flip {
+    Flip {
+        at: bits.below(samples as u64 + 1) as usize,
+        word: bits.below(Campaign::state_words() as u64) as usize,
+        bit: bits.below(64) as u32,
+    }
+}
+
+/// Counts of every outcome over `trials` random flips, on `threads` threads.
+pub fn run(c: &Campaign, trials: usize, seed: u64, threads: usize) -> Vec<(Outcome, usize, f64)> {
+    let threads = threads.max(1);
+    let mut bits = Bits(seed);
+    let flips: Vec<Flip> = (0..trials)
+        .map(|_| draw_flip(&mut bits, c.samples.len()))
+        .collect();
+    let results: Vec<(Outcome, f64)> = std::thread::scope(|sc| {
+        let handles: Vec<_> = flips
+            .chunks(trials.div_ceil(threads).max(1))
+            .map(|chunk| {
+                sc.spawn(move || chunk.iter().map(|f| c.trial(Some(*f))).collect::<Vec<_>>())
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_default())
+            .collect()
+    });
+    let mut table: Vec<(Outcome, usize, f64)> = Vec::new();
+    for (o, d) in results {
+        match table.iter_mut().find(|(k, _, _)| *k == o) {
+            Some(row) => {
+                row.1 += 1;
+                row.2 = row.2.max(d);
+            }
+            None => table.push((o, 1, d)),
+        }
+    }
+    table.sort_by_key(|r| r.0);
+    table
+}
