@@ -3,17 +3,23 @@
 //! alloc), which holds the estimators, the messages they read and write, and their maths.
 //!
 //! The layers, bottom first, one folder each; a layer uses only the layers declared
-//! before it (tests/layers.rs reads them from this list and the tree):
+//! before it (tests/layers.rs reads them from this list and the tree). A blank line
+//! between them keeps rustfmt from sorting them by name.
 
-/// In-process runs, the bound, the planner, reports, figures, fuzz and upset harnesses.
-pub mod analysis;
-/// The iceoryx2 bus, the set's topology, timing and the allocation counter.
-pub mod bus;
-/// The `taiji-calib` command line.
-pub mod cli;
-/// The process set, its hosts and the live monitor.
-pub mod runtime;
-/// Simulation: the set's messages, the scenario, the models and the stages.
+/// Layer 1, simulation: the set's messages, the scenario, the models and the stages.
 pub mod sim;
-/// The `telemetry.h5` recording: writing and reading.
+
+/// Layer 2: the iceoryx2 bus, the set's topology, timing and the allocation counter.
+pub mod bus;
+
+/// Layer 3: the `telemetry.h5` recording, written and read.
 pub mod telemetry;
+
+/// Layer 4: in-process runs, the bound, the planner, reports, figures, fuzz and upsets.
+pub mod analysis;
+
+/// Layer 5: the process set, its hosts and the live monitor.
+pub mod runtime;
+
+/// Layer 6: the `taiji-calib` command line.
+pub mod cli;

@@ -1,50 +1,56 @@
-//! The layers of docs/architecture.md, held against the code's own imports: no import
-//! cycle between the files of a crate, and no import that runs up a layer. The table
-//! of layers is read from docs/architecture.md itself, so the document and the check
-//! cannot drift apart. The flight core is a crate of its own (crates/taiji-core), so
-//! the compiler already keeps it below everything else; its files are checked for
-//! cycles here too.
+//! The layers of the std layer, read from the tree itself and held against the code's
+//! own imports: no import cycle between the files of a crate, and no import that runs
+//! up a layer. A layer is a folder of `src/`, and their order is the order in which
+//! `src/lib.rs` declares them (bottom first), so the tree is the table and nothing can
+//! drift apart. The flight core is a crate of its own (crates/taiji-core), so the
+//! compiler already keeps it below everything else; its files are checked for cycles
+//! here too. `src/bin/` holds binaries, which see only the library's public API.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-/// A module path inside one crate, e.g. `["process", "hosts"]`; `[]` is the crate root.
+/// A module path inside one crate, e.g. `["runtime", "process", "hosts"]`; `[]` is the
+/// crate root.
 type ModPath = Vec<String>;
 
-/// Layers by number (lowest first), each with the module prefixes it holds.
-type Table = Vec<(u32, String, Vec<String>)>;
+/// Layers by number (lowest first), each with its folder's name.
+type Table = Vec<(u32, String)>;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The layer table of docs/architecture.md: the rows of the Markdown table after the
-/// line `<!-- layers -->`, `| 2 | bus and runtime | bus, process, ... |`.
-fn table_from_doc(doc: &str) -> Table {
-    let mut rows = Vec::new();
-    let Some(start) = doc.find("<!-- layers -->") else {
-        return rows;
-    };
-    for line in doc[start..].lines().skip(1) {
+/// The layers of a source tree: the modules its `lib.rs` declares, in order, each of
+/// which must be a folder (`NAME/mod.rs`). What is wrong with the tree itself (a layer
+/// that is a single file, a file beside `lib.rs`) goes to `problems`.
+fn layers_of_tree(src: &Path, problems: &mut Vec<String>) -> Table {
+    let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap_or_default();
+    let mut table = Vec::new();
+    for line in code_of(&lib).lines() {
         let line = line.trim();
-        if line.is_empty() && !rows.is_empty() {
-            break;
-        }
-        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
-        if cells.len() < 3 {
-            continue;
-        }
-        let Ok(n) = cells[0].parse::<u32>() else {
+        let decl = line
+            .strip_prefix("pub mod ")
+            .or_else(|| line.strip_prefix("mod "));
+        let Some(name) = decl.and_then(|d| d.strip_suffix(';')) else {
             continue;
         };
-        let mods = cells[2]
-            .split(',')
-            .map(|m| m.trim().trim_matches('`').to_string())
-            .filter(|m| !m.is_empty())
-            .collect();
-        rows.push((n, cells[1].to_string(), mods));
+        if !src.join(name).join("mod.rs").is_file() {
+            problems.push(format!("layer {name} is not a folder (src/{name}/mod.rs)"));
+        }
+        table.push((table.len() as u32 + 1, name.trim().to_string()));
     }
-    rows
+    if let Ok(entries) = std::fs::read_dir(src) {
+        let mut beside: Vec<String> = entries
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".rs") && n != "lib.rs")
+            .collect();
+        beside.sort();
+        for n in beside {
+            problems.push(format!("{n} is in no layer: a file beside lib.rs"));
+        }
+    }
+    table
 }
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
@@ -188,6 +194,8 @@ fn named_paths(code: &str) -> Vec<ModPath> {
 fn graph(src: &Path) -> BTreeMap<ModPath, BTreeSet<ModPath>> {
     let mut files = Vec::new();
     rust_files(src, &mut files);
+    // src/bin/ holds binaries: crates of their own above the library.
+    files.retain(|f| !f.strip_prefix(src).is_ok_and(|r| r.starts_with("bin")));
     let mods: BTreeMap<ModPath, PathBuf> = files
         .iter()
         .map(|f| (mod_path(src, f), f.clone()))
@@ -302,95 +310,96 @@ fn cycles(g: &BTreeMap<ModPath, BTreeSet<ModPath>>) -> Vec<Vec<String>> {
     t.out
 }
 
-/// Layer of a module: the row whose prefix matches most of its path.
+/// Layer of a module: the layer folder it sits in.
 fn layer_of(table: &Table, m: &ModPath) -> Option<u32> {
-    let path = name(m);
-    table
-        .iter()
-        .flat_map(|(n, _, mods)| mods.iter().map(move |p| (*n, p)))
-        .filter(|(_, p)| path == **p || path.starts_with(&format!("{p}/")))
-        .max_by_key(|(_, p)| p.len())
-        .map(|(n, _)| n)
+    let head = m.first()?;
+    table.iter().find(|(_, l)| l == head).map(|(n, _)| *n)
 }
 
-/// Every problem of one crate's sources against the table: cycles, imports up a
-/// layer, files in no layer.
-fn problems(src: &Path, table: Option<&Table>) -> Vec<String> {
-    let g = graph(src);
-    let mut out: Vec<String> = cycles(&g)
-        .into_iter()
-        .map(|c| format!("import cycle: {}", c.join(" ↔ ")))
-        .collect();
-    // The same at the level of top-level modules (a folder counts as one): a folder
-    // and a file may not import each other either, through any of the folder's files.
+/// The import graph grouped by the first `depth` segments of each module path (a
+/// folder counts as one module): cycles between such groups are cycles too.
+fn grouped(
+    g: &BTreeMap<ModPath, BTreeSet<ModPath>>,
+    depth: usize,
+) -> BTreeMap<ModPath, BTreeSet<ModPath>> {
+    let cut = |m: &ModPath| m[..m.len().min(depth)].to_vec();
     let mut top: BTreeMap<ModPath, BTreeSet<ModPath>> = BTreeMap::new();
-    for (m, edges) in &g {
-        let Some(head) = m.first() else { continue };
-        let entry = top.entry(vec![head.clone()]).or_default();
-        for t in edges {
-            if let Some(th) = t.first().filter(|th| *th != head) {
-                entry.insert(vec![th.clone()]);
-            }
+    for (m, edges) in g.iter().filter(|(m, _)| !m.is_empty()) {
+        let head = cut(m);
+        let entry = top.entry(head.clone()).or_default();
+        for t in edges
+            .iter()
+            .map(cut)
+            .filter(|t| *t != head && !t.is_empty())
+        {
+            entry.insert(t);
         }
     }
     for t in top.values().flatten().cloned().collect::<Vec<_>>() {
         top.entry(t).or_default();
     }
+    top
+}
+
+/// Every problem of one crate's sources: cycles between files, between modules and
+/// (with `layered`) between layers, imports up a layer, files in no layer.
+fn problems(src: &Path, layered: bool) -> Vec<String> {
+    let g = graph(src);
+    let mut out: Vec<String> = cycles(&g)
+        .into_iter()
+        .map(|c| format!("import cycle: {}", c.join(" ↔ ")))
+        .collect();
+    // A module is a top-level module, or in a layered tree a layer's module.
+    let depth = if layered { 2 } else { 1 };
     out.extend(
-        cycles(&top)
+        cycles(&grouped(&g, depth))
             .into_iter()
             .map(|c| format!("import cycle between modules: {}", c.join(" ↔ "))),
     );
-    let Some(table) = table else {
+    if !layered {
         return out;
-    };
+    }
+    let table = layers_of_tree(src, &mut out);
     for (m, edges) in &g {
-        if m.is_empty() {
-            continue; // lib.rs declares every module
+        if m.len() < 2 {
+            continue; // lib.rs, and files beside it (reported by layers_of_tree)
         }
-        let Some(lm) = layer_of(table, m) else {
+        let Some(lm) = layer_of(&table, m) else {
             out.push(format!(
-                "{} is in no layer of docs/architecture.md",
-                name(m)
+                "{} is in no layer: lib.rs declares no {}",
+                name(m),
+                m[0]
             ));
             continue;
         };
         for t in edges {
-            if let Some(lt) = layer_of(table, t) {
-                if lt > lm {
-                    out.push(format!(
-                        "upward import: {} (layer {lm}) imports {} (layer {lt})",
-                        name(m),
-                        name(t)
-                    ));
-                }
+            if let Some(lt) = layer_of(&table, t).filter(|lt| *lt > lm) {
+                out.push(format!(
+                    "upward import: {} (layer {lm}, {}) imports {} (layer {lt}, {})",
+                    name(m),
+                    m[0],
+                    name(t),
+                    t[0]
+                ));
             }
         }
     }
     out
 }
 
-fn architecture_table() -> Table {
-    let doc = std::fs::read_to_string(root().join("docs/architecture.md"))
-        .expect("docs/architecture.md states the layers");
-    let table = table_from_doc(&doc);
-    assert!(
-        table.len() >= 3,
-        "docs/architecture.md has no layer table after <!-- layers -->"
-    );
-    table
-}
-
 #[test]
 fn the_std_layer_has_no_cycle_and_no_upward_import() {
-    let table = architecture_table();
-    let found = problems(&root().join("src"), Some(&table));
+    let src = root().join("src");
+    let mut tree = Vec::new();
+    let table = layers_of_tree(&src, &mut tree);
+    assert!(table.len() >= 3, "src/lib.rs declares no layers: {table:?}");
+    let found = problems(&src, true);
     assert!(found.is_empty(), "{}", found.join("\n"));
 }
 
 #[test]
 fn the_flight_core_has_no_import_cycle() {
-    let found = problems(&root().join("crates/taiji-core/src"), None);
+    let found = problems(&root().join("crates/taiji-core/src"), false);
     assert!(found.is_empty(), "{}", found.join("\n"));
 }
 
@@ -416,11 +425,29 @@ impl Drop for Tree {
     }
 }
 
-fn tiny_table() -> Table {
-    table_from_doc(
-        "<!-- layers -->\n| layer | name | modules |\n|---|---|---|\n\
-         | 1 | low | `a`, `b` |\n| 2 | high | `c` |\n\n",
-    )
+/// A tiny layered tree: layer 1 `low` (modules a, b), layer 2 `high` (module c).
+const TINY_LIB: &str = "pub mod low;\npub mod high;\n";
+
+#[test]
+fn the_layers_are_read_from_the_tree() {
+    let t = Tree::new(
+        "tree",
+        &[
+            (
+                "lib.rs",
+                "//! doc\n/// the bottom\npub mod low;\npub mod high;\n",
+            ),
+            ("low/mod.rs", "pub mod a;\n"),
+            ("low/a.rs", ""),
+            ("high/mod.rs", ""),
+        ],
+    );
+    let mut p = Vec::new();
+    assert_eq!(
+        layers_of_tree(&t.0, &mut p),
+        [(1, "low".into()), (2, "high".into())]
+    );
+    assert!(p.is_empty(), "{p:?}");
 }
 
 #[test]
@@ -428,16 +455,21 @@ fn the_check_catches_a_cycle() {
     let t = Tree::new(
         "cycle",
         &[
-            ("lib.rs", "pub mod a;\npub mod b;\npub mod c;\n"),
-            ("a.rs", "use crate::b::Thing;\n"),
-            ("b/mod.rs", "pub fn f() { crate::a::g() }\n"),
-            ("c.rs", "use crate::{a, b::Thing};\n"),
+            ("lib.rs", TINY_LIB),
+            ("low/mod.rs", "pub mod a;\npub mod b;\n"),
+            ("low/a.rs", "use crate::low::b::Thing;\n"),
+            ("low/b/mod.rs", "pub fn f() { crate::low::a::g() }\n"),
+            ("high/mod.rs", "pub mod c;\n"),
+            ("high/c.rs", "use crate::low::{a, b::Thing};\n"),
         ],
     );
-    let found = problems(&t.0, Some(&tiny_table()));
+    let found = problems(&t.0, true);
     assert_eq!(
         found,
-        ["import cycle: a ↔ b", "import cycle between modules: a ↔ b"],
+        [
+            "import cycle: low/a ↔ low/b",
+            "import cycle between modules: low/a ↔ low/b"
+        ],
         "{found:?}"
     );
 }
@@ -447,48 +479,52 @@ fn the_check_catches_a_cycle_through_a_folder() {
     let t = Tree::new(
         "folder",
         &[
-            ("lib.rs", "pub mod a;\npub mod b;\n"),
-            ("a/mod.rs", "pub mod x;\npub mod y;\n"),
-            ("a/x.rs", "use crate::b::Thing;\n"),
-            ("a/y.rs", ""),
-            ("b.rs", "use crate::a::y::Other;\n"),
+            ("lib.rs", TINY_LIB),
+            ("low/mod.rs", "pub mod a;\npub mod b;\n"),
+            ("low/a/mod.rs", "pub mod x;\npub mod y;\n"),
+            ("low/a/x.rs", "use crate::low::b::Thing;\n"),
+            ("low/a/y.rs", ""),
+            ("low/b.rs", "use crate::low::a::y::Other;\n"),
+            ("high/mod.rs", ""),
         ],
     );
-    let found = problems(&t.0, Some(&tiny_table()));
-    assert_eq!(found, ["import cycle between modules: a ↔ b"], "{found:?}");
+    let found = problems(&t.0, true);
+    assert_eq!(
+        found,
+        ["import cycle between modules: low/a ↔ low/b"],
+        "{found:?}"
+    );
 }
 
 #[test]
-fn the_check_catches_an_upward_import_and_a_file_in_no_layer() {
+fn the_check_catches_an_upward_import_and_files_in_no_layer() {
     let t = Tree::new(
         "up",
         &[
-            ("lib.rs", "pub mod a;\npub mod c;\npub mod d;\n"),
-            ("a.rs", "use crate::c::{self, Thing as Other};\n"),
+            ("lib.rs", "pub mod low;\npub mod high;\npub mod flat;\n"),
+            ("low/mod.rs", "pub mod a;\n"),
+            ("low/a.rs", "use crate::high::c::{self, Thing as Other};\n"),
+            ("high/mod.rs", "pub mod c;\n"),
             (
-                "c.rs",
-                "use crate::a;\n// use crate::d; (a comment is no import)\n",
+                "high/c.rs",
+                "use crate::low::a;\n// use crate::stray::d; (a comment is no import)\n",
             ),
-            (
-                "d.rs",
-                "fn f() { let s = \"crate::c::X\"; }\n#[cfg(test)]\nmod tests { use crate::c; }\n",
-            ),
+            ("flat.rs", ""),
+            ("stray.rs", ""),
+            ("lost/d.rs", "fn f() { let s = \"crate::high::c::X\"; }\n#[cfg(test)]\nmod tests { use crate::high::c; }\n"),
         ],
     );
-    let found = problems(&t.0, Some(&tiny_table()));
-    assert!(
-        found.contains(&"upward import: a (layer 1) imports c (layer 2)".to_string()),
-        "{found:?}"
-    );
-    assert!(
-        found.contains(&"import cycle: a ↔ c".to_string()),
-        "{found:?}"
-    );
-    assert!(
-        found.contains(&"d is in no layer of docs/architecture.md".to_string()),
-        "{found:?}"
-    );
-    assert_eq!(found.len(), 4, "{found:?}");
+    let found = problems(&t.0, true);
+    for want in [
+        "upward import: low/a (layer 1, low) imports high/c (layer 2, high)",
+        "import cycle: high/c ↔ low/a",
+        "layer flat is not a folder (src/flat/mod.rs)",
+        "stray.rs is in no layer: a file beside lib.rs",
+        "lost/d is in no layer: lib.rs declares no lost",
+    ] {
+        assert!(found.contains(&want.to_string()), "{want}: {found:?}");
+    }
+    assert_eq!(found.len(), 7, "{found:?}");
 }
 
 #[test]
