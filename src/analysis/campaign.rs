@@ -657,13 +657,12 @@ mod tests {
 
     impl Sink for Failing {
         fn record(&mut self, _: &TruthState, _: &SensorSample) -> Result<(), TelemetryError> {
-            self.left = self
-                .left
-                .checked_sub(1)
-                .ok_or_else(|| TelemetryError::Write {
-                    path: "telemetry.h5".into(),
-                    source: std::io::Error::other("disk full"),
-                })?;
+            self.left = self.left.checked_sub(1).ok_or_else(|| {
+                TelemetryError::from(crate::sim::files::FileError::write(
+                    "telemetry.h5",
+                    std::io::Error::other("disk full"),
+                ))
+            })?;
             Ok(())
         }
         fn record_estimate(&mut self, _: &EstimateMsg) -> Result<(), TelemetryError> {

@@ -7,10 +7,11 @@
 //! `estimator_config.bin` holds one `TaijiEstimatorConfig`, `sensor_samples.bin` the
 //! samples in the order `replay` feeds them to the estimator.
 
+use crate::sim::files::FileError;
 use crate::sim::msg::{SensorSample, LAYOUT_VERSION};
 use crate::telemetry::read::Recording;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// File names in the export folder.
 pub const CONFIG_FILE: &str = "estimator_config.bin";
@@ -29,18 +30,9 @@ fn header<T>(count: u64) -> [u8; 24] {
 /// The export could not be written (or its recording read).
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
-    #[error("cannot create {}: {source}", path.display())]
-    Create {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error(transparent)]
     Telemetry(#[from] crate::telemetry::TelemetryError),
 }
@@ -49,22 +41,17 @@ fn create(dir: &Path, name: &str) -> Result<std::io::BufWriter<std::fs::File>, E
     let path = dir.join(name);
     std::fs::File::create(&path)
         .map(std::io::BufWriter::new)
-        .map_err(|source| ExportError::Create { path, source })
+        .map_err(|source| ExportError::from(FileError::create(path, source)))
 }
 
 /// Writes the export of `rec` into `dir`; returns the number of samples.
 pub fn write(rec: &Recording, dir: &Path) -> Result<u64, ExportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ExportError::Create {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir)
+        .map_err(|source| ExportError::from(FileError::create(dir.to_path_buf(), source)))?;
     let s = &rec.scenario;
     let cfg = s.estimator_config(&s.priors());
     let mut f = create(dir, CONFIG_FILE)?;
-    let err = |source| ExportError::Write {
-        path: dir.to_path_buf(),
-        source,
-    };
+    let err = |source| ExportError::from(FileError::write(dir.to_path_buf(), source));
     f.write_all(&header::<crate::sim::estimate::EstimatorConfig>(1))
         .map_err(err)?;
     f.write_all(bytemuck::bytes_of(&cfg)).map_err(err)?;

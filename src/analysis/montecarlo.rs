@@ -3,6 +3,7 @@
 use crate::analysis::campaign::{self, Threads};
 use crate::analysis::report::Report;
 use crate::sim::estimate::Method;
+use crate::sim::files::FileError;
 use crate::sim::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::sim::scenario::Scenario;
 use serde::Serialize;
@@ -40,12 +41,9 @@ pub enum MonteCarloError {
     NotExact { seed: u64 },
     #[error("{0}")]
     Json(#[source] serde_json::Error),
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{}: cannot read ({source})", path.display())]
     Read {
         path: PathBuf,

@@ -2,6 +2,7 @@
 //! paper's Tables 2–3.
 
 use crate::analysis::crlb::{Bounds, Crlb};
+use crate::sim::files::FileError;
 use crate::sim::msg::EstimateMsg;
 pub use crate::sim::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::sim::scenario::{Scenario, Schedule};
@@ -924,31 +925,21 @@ mod fault_line_tests {
 /// A report that could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("cannot create {}: {source}", path.display())]
-    Create {
-        path: std::path::PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: std::path::PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{0}")]
     Json(#[from] serde_json::Error),
 }
 
 /// Write `DIR/report.json` (creating DIR).
 pub fn write(out: &std::path::Path, report: &Report) -> Result<(), ReportError> {
-    std::fs::create_dir_all(out).map_err(|source| ReportError::Create {
-        path: out.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(out)
+        .map_err(|source| ReportError::from(FileError::create(out.to_path_buf(), source)))?;
     let path = out.join("report.json");
     let text = serde_json::to_string_pretty(report)?;
-    std::fs::write(&path, text + "\n").map_err(|source| ReportError::Write { path, source })
+    std::fs::write(&path, text + "\n")
+        .map_err(|source| ReportError::from(FileError::write(path, source)))
 }
 
 /// How each real-time stage was scheduled, from a report's `timing`, on one line

@@ -2,6 +2,7 @@
 //! timing and the figures (the HTML inlines the SVGs, so it is one self-contained file).
 
 use crate::analysis::report::{Report, ReportError};
+use crate::sim::files::FileError;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -370,7 +371,8 @@ pub fn write(r: &Report, dir: &Path, with_figures: bool) -> Result<(), ReportErr
         ("report.html", html(r, dir, with_figures)),
     ] {
         let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|source| ReportError::Write { path: p, source })?;
+        std::fs::write(&p, text)
+            .map_err(|source| ReportError::from(FileError::write(p, source)))?;
     }
     Ok(())
 }

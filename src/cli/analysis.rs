@@ -5,6 +5,7 @@ use super::campaign::load_planned;
 use super::error::CliError;
 use super::output::{check_out, out_dir};
 use crate::analysis::montecarlo;
+use crate::sim::files::FileError;
 use crate::sim::scenario::Scenario;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -16,13 +17,12 @@ pub(crate) fn montecarlo_out(
 ) -> Result<ExitCode, CliError> {
     print!("{}", mc.table());
     if let Some(out) = out {
-        std::fs::create_dir_all(&out).map_err(|source| CliError::Create {
-            path: out.clone(),
-            source,
-        })?;
+        std::fs::create_dir_all(&out)
+            .map_err(|source| CliError::from(FileError::create(out.clone(), source)))?;
         let path = out.join("montecarlo.json");
         let text = serde_json::to_string_pretty(mc)?;
-        std::fs::write(&path, text).map_err(|source| CliError::Write { path, source })?;
+        std::fs::write(&path, text)
+            .map_err(|source| CliError::from(FileError::write(path, source)))?;
     }
     Ok(ExitCode::SUCCESS)
 }

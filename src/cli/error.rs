@@ -1,6 +1,7 @@
 //! Every error of the command line, and its exit code.
 
 use crate::analysis::montecarlo;
+use crate::sim::files::FileError;
 use std::path::PathBuf;
 
 /// Every error of the CLI: one line naming the option, key or file, printed as
@@ -14,18 +15,9 @@ pub(crate) enum CliError {
         #[source]
         source: std::io::Error,
     },
-    #[error("cannot create {}: {source}", path.display())]
-    Create {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{0}")]
     Json(#[from] serde_json::Error),
     /// `--duration` is not a window in seconds.

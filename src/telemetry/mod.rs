@@ -12,6 +12,7 @@ mod write;
 
 pub use write::{Compression, CompressionParseError, Writer, CHUNK_ROWS};
 
+use crate::sim::files::FileError;
 use crate::sim::msg::{EstimateMsg, SensorSample, TruthState, EST_FINAL};
 use std::path::PathBuf;
 
@@ -24,12 +25,9 @@ pub enum TelemetryError {
         #[source]
         source: std::io::Error,
     },
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     /// The rows handed to a [`Writer`] do not make the recording it was created for.
     #[error("cannot write {}: {what}", path.display())]
     Rows { path: PathBuf, what: String },

@@ -7,6 +7,7 @@ use super::{check_seeds, run_seeds, summarise, MonteCarlo, MonteCarloError};
 use crate::analysis::report::Report;
 use crate::sim::estimate::snapshot::fnv1a;
 use crate::sim::estimate::Method;
+use crate::sim::files::FileError;
 use crate::sim::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -251,7 +252,7 @@ pub fn write_run_file(dir: &Path, f: &RunFile) -> Result<(), MonteCarloError> {
         .and_then(|()| std::fs::rename(&tmp, &path))
         .map_err(|source| {
             let _ = std::fs::remove_file(&tmp);
-            MonteCarloError::Write { path, source }
+            MonteCarloError::from(FileError::write(path, source))
         })
 }
 

@@ -13,6 +13,7 @@
 
 use crate::analysis::campaign::Threads;
 use crate::analysis::crlb::{crlb_at_rate, maneuver_bound_on, Crlb};
+use crate::sim::files::FileError;
 use crate::sim::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::sim::scenario::maneuver::{
     axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline,
@@ -207,12 +208,9 @@ pub enum PlanError {
     /// The planned maneuver fails the scenario's own checks.
     #[error("the planned maneuver does not pass the scenario's checks: {0}")]
     PlannedInvalid(#[source] crate::sim::scenario::ScenarioError),
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: std::path::PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{0}")]
     Json(#[from] serde_json::Error),
     /// The figure could not be drawn.

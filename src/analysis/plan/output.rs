@@ -4,6 +4,7 @@
 
 use super::{maneuver_toml, Candidate, Plan, PlanError};
 use crate::analysis::plots::render::{self, Figure, Panel, Series};
+use crate::sim::files::FileError;
 use crate::sim::scenario::{Scenario, Schedule};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -248,10 +249,8 @@ pub fn write(
         text.push_str(&format!("duration_s = {}\n", p.duration_s));
     }
     text.push_str(&maneuver_toml(&p.chosen.maneuver));
-    std::fs::write(&toml_path, text).map_err(|source| PlanError::Write {
-        path: toml_path.clone(),
-        source,
-    })?;
+    std::fs::write(&toml_path, text)
+        .map_err(|source| PlanError::from(FileError::write(toml_path.clone(), source)))?;
     let json = serde_json::json!({
         "scenario": s.name,
         "duration_s": p.duration_s,
@@ -265,12 +264,8 @@ pub fn write(
         "candidates": p.candidates,
     });
     let json_path = dir.join("plan.json");
-    std::fs::write(&json_path, serde_json::to_string_pretty(&json)?).map_err(|source| {
-        PlanError::Write {
-            path: json_path.clone(),
-            source,
-        }
-    })?;
+    std::fs::write(&json_path, serde_json::to_string_pretty(&json)?)
+        .map_err(|source| PlanError::from(FileError::write(json_path.clone(), source)))?;
     render::write(&figure(p), dir)?;
     println!(
         "Wrote {}, {} and {}",

@@ -4,6 +4,7 @@
 
 pub mod render;
 
+use crate::sim::files::FileError;
 use crate::sim::model::noise::welch_asd;
 use crate::sim::msg::{PAIR_OF_ANGULAR, ST_NO_SOLUTION};
 use crate::sim::scenario::{Scenario, ARCSEC};
@@ -562,13 +563,9 @@ fn fig_asd(d: &Data) -> Figure {
 /// A figure that could not be drawn or written.
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
-    /// The folder of the figures could not be made.
-    #[error("cannot create {}: {source}", path.display())]
-    Create {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     /// The drawing backend failed on figure or panel `what` (`detail`: its error).
     #[error("cannot draw {what}: {detail}")]
     Draw { what: String, detail: String },
@@ -587,10 +584,8 @@ impl PlotError {
 /// Write every figure to `dir/plots/`; returns the PNG paths.
 pub fn write_all(tel: &Telemetry, s: &Scenario, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let plots = dir.join("plots");
-    std::fs::create_dir_all(&plots).map_err(|source| PlotError::Create {
-        path: plots.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&plots)
+        .map_err(|source| PlotError::from(FileError::create(plots.clone(), source)))?;
     let mut out = Vec::new();
     for f in figures(tel, s) {
         render::write(&f, &plots)?;

@@ -12,6 +12,7 @@ pub mod screen;
 
 use crate::bus::wiring::BusError;
 use crate::runtime::launch::LaunchDescription;
+use crate::sim::files::FileError;
 use crate::sim::msg::SetStatus;
 use model::{Snapshot, Tracker, Truth};
 use std::path::PathBuf;
@@ -72,12 +73,9 @@ pub enum MonitorError {
     Terminated,
     #[error("the terminal: {0}")]
     Terminal(#[source] std::io::Error),
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{0}")]
     Json(#[from] serde_json::Error),
     #[error(transparent)]

@@ -8,6 +8,7 @@ use crate::bus::alloc_count;
 use crate::bus::timing::monotonic_ns;
 use crate::bus::wiring;
 use crate::sim::estimate::{Estimator, EstimatorConfig};
+use crate::sim::files::FileError;
 use crate::sim::msg::{EstimateMsg, SensorSample, STATE_DONE, STATE_RUNNING};
 use crate::sim::stage::Stage;
 use std::time::Duration;
@@ -72,10 +73,8 @@ impl EstimatorTable {
 
     pub fn write(&self, path: &std::path::Path) -> Result<(), ProcessError> {
         let text = serde_json::to_string_pretty(self).map_err(ProcessError::TableJson)?;
-        std::fs::write(path, text).map_err(|source| ProcessError::TableWrite {
-            path: path.to_path_buf(),
-            source,
-        })
+        std::fs::write(path, text)
+            .map_err(|source| ProcessError::from(FileError::write(path.to_path_buf(), source)))
     }
 
     pub fn load(path: &std::path::Path) -> Result<Self, ProcessError> {
@@ -117,10 +116,8 @@ pub fn run(args: &EstimatorArgs) -> Result<Exit, ProcessError> {
     let args = &args.bus;
     let method = args.method()?;
     let period = args.period_ns(table.config.fs)?;
-    std::fs::create_dir_all(&args.run_dir).map_err(|source| ProcessError::CreateDir {
-        path: args.run_dir.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&args.run_dir)
+        .map_err(|source| ProcessError::from(FileError::create(args.run_dir.clone(), source)))?;
     let ckpt_path = args.run_dir.join(CHECKPOINT_FILE);
     let (est, next) = match checkpoint::load(&ckpt_path)? {
         Some((est, next)) => {

@@ -22,6 +22,7 @@ pub mod timing_report;
 use crate::bus::timing::{monotonic_ns, LatencyHistogram};
 use crate::bus::wiring::{self, BusError, Pub, Sub};
 use crate::sim::estimate::Method;
+use crate::sim::files::FileError;
 use crate::sim::msg::{Control, Header, Progress, CMD_START, CMD_STOP, PROC_RECORDER, STATE_READY};
 use crate::sim::scenario::Scenario;
 use iceoryx2::prelude::*;
@@ -61,22 +62,12 @@ pub enum ProcessError {
         estimator::FAULT_CHECKPOINT_DELAY
     )]
     FaultCheckpointDelay { value: String },
-    /// The run directory could not be made.
-    #[error("cannot create {}: {source}", path.display())]
-    CreateDir {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     /// The estimator's table could not be serialised.
     #[error("{0}")]
     TableJson(#[source] serde_json::Error),
-    #[error("cannot write {}: {source}", path.display())]
-    TableWrite {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
     #[error("cannot read the estimator table {}: {source}", path.display())]
     TableRead {
         path: PathBuf,

@@ -15,6 +15,7 @@ use super::{Exit, Link, ProcessError, StageArgs};
 use crate::bus::wiring;
 use crate::sim::faults::{FaultScore, Injector};
 use crate::sim::fee::FrontEnd;
+use crate::sim::files::FileError;
 use crate::sim::msg::{EstimateMsg, TruthState, EST_FINAL, STATE_RUNNING};
 use crate::sim::stage::Stage;
 use crate::telemetry::{Meta, Writer, CHUNK_ROWS};
@@ -51,10 +52,8 @@ pub fn run(args: &StageArgs) -> Result<Exit, ProcessError> {
     let s = args.scenario()?;
     let seed = s.seed;
     let method = args.method()?;
-    std::fs::create_dir_all(&args.run_dir).map_err(|source| ProcessError::CreateDir {
-        path: args.run_dir.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&args.run_dir)
+        .map_err(|source| ProcessError::from(FileError::create(args.run_dir.clone(), source)))?;
     let path = args.run_dir.join(TELEMETRY_FILE);
     let mut link = Link::new("taiji-recorder", args)?;
     let q = wiring::RECORDER_QUEUE;

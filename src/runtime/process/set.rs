@@ -6,6 +6,7 @@
 use super::ProcessError;
 use crate::bus::wiring::{self, BusError};
 use crate::runtime::launch::{ProcessSpec, Restart};
+use crate::sim::files::FileError;
 use crate::sim::msg::Progress;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -383,12 +384,9 @@ pub enum UserError {
         pid.map_or_else(|| "unknown".to_string(), |p| p.to_string())
     )]
     OutBusy { path: PathBuf, pid: Option<u32> },
-    #[error("cannot create {}: {source}", path.display())]
-    CreateDir {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file or folder that could not be read, created or written.
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("cannot remove old {}: {source}", path.display())]
     RemoveCheckpoint {
         path: PathBuf,
@@ -399,12 +397,6 @@ pub enum UserError {
     NoBinDir,
     #[error("cannot write the scenario: {0}")]
     ScenarioToml(#[source] toml::ser::Error),
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
 }
 
 /// Who holds a prefix: its supervisor's pid (when known), its live nodes.

@@ -13,6 +13,7 @@ use crate::runtime::process::set::{Member, Reap, Set, SupervisorError};
 pub use crate::runtime::process::set::{SetError, SpawnError, UserError};
 use crate::runtime::process::status::StatusBoard;
 use crate::runtime::process::timing_report::{timing_json, MemberSummary};
+use crate::sim::files::FileError;
 use crate::sim::msg::{
     Control, EstimateMsg, Header, Progress, CMD_START, CMD_STOP, EST_FINAL, PROC_ESTIMATOR,
     PROC_RECORDER, SET_FINISHED, SET_RUNNING, SET_STARTING, SET_STOPPING, STATE_DONE,
@@ -281,9 +282,9 @@ fn lock_out(out: &std::path::Path) -> Result<wiring::PidLock, SupervisorError> {
             path: out.to_path_buf(),
             pid,
         })),
-        Err(BusError::Io { path, source, .. }) => {
-            Err(SupervisorError::user(UserError::CreateDir { path, source }))
-        }
+        Err(BusError::Io { path, source, .. }) => Err(SupervisorError::user(UserError::from(
+            FileError::create(path, source),
+        ))),
         Err(e) => Err(SupervisorError::Set(e.into())),
     }
 }
@@ -485,12 +486,8 @@ fn out_makeable(out: &std::path::Path) -> std::io::Result<()> {
 /// (a checkpoint only serves restarts within its own run).
 fn fresh_checkpoint(args: &SupervisorArgs) -> Result<PathBuf, SupervisorError> {
     let user = SupervisorError::user;
-    std::fs::create_dir_all(&args.out).map_err(|source| {
-        user(UserError::CreateDir {
-            path: args.out.clone(),
-            source,
-        })
-    })?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|source| user(UserError::from(FileError::create(args.out.clone(), source))))?;
     let ckpt = args.out.join(CHECKPOINT_FILE);
     if ckpt.exists() {
         std::fs::remove_file(&ckpt).map_err(|source| {
@@ -546,12 +543,8 @@ fn new_set(args: &SupervisorArgs, s: &Scenario) -> Result<Set, SupervisorError> 
     // maneuver planned when the file gave none), written into the run folder.
     let resolved = args.out.join(PLANNED_SCENARIO_FILE);
     let text = toml::to_string(s).map_err(|e| user(UserError::ScenarioToml(e)))?;
-    std::fs::write(&resolved, text).map_err(|source| {
-        user(UserError::Write {
-            path: resolved.clone(),
-            source,
-        })
-    })?;
+    std::fs::write(&resolved, text)
+        .map_err(|source| user(UserError::from(FileError::write(resolved.clone(), source))))?;
     let mut scenario_args: Vec<String> = vec!["--scenario".into(), resolved.display().to_string()];
     if let Some(seed) = args.seed {
         scenario_args.extend(["--seed".into(), seed.to_string()]);
