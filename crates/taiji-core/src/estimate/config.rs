@@ -82,6 +82,10 @@ pub enum ConfigError {
 }
 
 impl EstimatorConfig {
+    // The integrity defaults, as literals: the C header is generated from them. Their
+    // entries (what, why, unit, guarding test) are `crate::tuning`'s, which asserts
+    // that these are its values.
+
     /// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data
     /// lose about one sample per campaign, while an upset moving a voltage by a few
     /// noise σ already fails the cross-IS test (whose noise is far below a voltage's own).

@@ -14,12 +14,11 @@ use crate::model::attitude::coupling_matrix;
 use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
-/// The paper's low-pass corner on both sides of the β regression [Hz].
-const FC: f64 = 0.05;
-/// The β regression starts once both low-passes have settled (5 time constants of the
-/// corner, 100 s): their start-up transients, driven by the star noise, otherwise bias
-/// the axis rocked first by up to ~15 %.
-const SETTLE_S: f64 = 5.0 / FC;
+use crate::tuning;
+
+/// The β regression starts once both low-passes have settled: their start-up
+/// transients, driven by the star noise, would otherwise bias the axis rocked first.
+const SETTLE_S: f64 = tuning::PAPER_SETTLE_PERIODS / tuning::PAPER_LOWPASS_HZ;
 
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
@@ -73,7 +72,7 @@ pub struct PaperEstimator {
 impl PaperEstimator {
     pub fn new(cfg: EstimatorConfig) -> Self {
         let fs = cfg.fs;
-        let lp = Biquad::lowpass(FC, fs);
+        let lp = Biquad::lowpass(tuning::PAPER_LOWPASS_HZ, fs);
         // Variance of the low-passed double-differentiated star noise (impulse response).
         let mut f = lp;
         let dt2 = fs * fs;
@@ -93,7 +92,7 @@ impl PaperEstimator {
                 let b = cfg.beta_prior[i][a];
                 StaticKf::new(
                     SVector::<f64, 1>::new(b),
-                    SMatrix::<f64, 1, 1>::new((0.05 * b).powi(2)),
+                    SMatrix::<f64, 1, 1>::new((tuning::PAPER_PRIOR_BETA_REL * b).powi(2)),
                 )
             })
         });
@@ -102,9 +101,9 @@ impl PaperEstimator {
             let mut p = SMatrix::<f64, 9, 9>::zeros();
             for a in 0..3 {
                 x[a] = cfg.com_prior_m[i][a];
-                p[(a, a)] = (5e-3f64).powi(2);
-                p[(3 + a, 3 + a)] = (1e-10f64).powi(2);
-                p[(6 + a, 6 + a)] = (1e-6f64).powi(2);
+                p[(a, a)] = tuning::PAPER_PRIOR_COM_M.powi(2);
+                p[(3 + a, 3 + a)] = tuning::PAPER_PRIOR_DRIFT.powi(2);
+                p[(6 + a, 6 + a)] = tuning::PAPER_PRIOR_BIAS.powi(2);
             }
             StaticKf::new(x, p)
         });
@@ -209,7 +208,7 @@ impl PaperEstimator {
                 }
                 h[3 + j] = t - t0;
                 h[6 + j] = 1.0;
-                self.com_kf[i].update(&h, k[j] * sum[j], (2e-12f64).powi(2));
+                self.com_kf[i].update(&h, k[j] * sum[j], tuning::PAPER_SRP_SIGMA.powi(2));
             }
         }
         self.theta_hist = [Some(theta), self.theta_hist[0]];

@@ -223,7 +223,7 @@ impl JointEstimator {
                 jump += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - self.dv_anchor[l][a]);
             }
             let v = (span * jump).powi(2) / 12.0;
-            let (vs, vt) = (STEP_IN_STAR * v, STEP_IN_TURN * v);
+            let (vs, vt) = (tuning::STEP_IN_STAR * v, tuning::STEP_IN_TURN * v);
             if v.is_finite() {
                 let h = 0.5 * span;
                 let p = &mut self.st_p[a];
@@ -246,7 +246,7 @@ impl JointEstimator {
     /// that turns the SRP.
     pub(super) fn turn_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        self.turn_pq[a][2] += STEP_IN_TURN * dt * dt * self.jerk_var[a];
+        self.turn_pq[a][2] += tuning::STEP_IN_TURN * dt * dt * self.jerk_var[a];
     }
 
     /// Add this linear sample to the excitation's moments (`rate_moments`,
@@ -255,7 +255,7 @@ impl JointEstimator {
     /// software floating-point operations. They change only here, so here too is where
     /// the first tick with motion of its own on every axis is noted (`rocked_tick`).
     pub(super) fn note_excitation(&mut self, dv: &[[f64; 3]; 2]) {
-        if self.n_used & (MOMENT_EVERY - 1) != 1 {
+        if self.n_used & (tuning::MOMENT_EVERY - 1) != 1 {
             return;
         }
         for (m, v) in self.rate_moments.iter_mut().zip(&dv[0]) {
@@ -275,7 +275,7 @@ impl JointEstimator {
     /// β): half the change of the sample-to-sample change, for the previous sample.
     /// White ω̇ noise of variance σ² gives 1.5 σ², what a one-tick gap bridged by the
     /// line is off by; the maneuver's own change cancels but at its edges, which
-    /// `close_bridge` measures instead and which are clipped here at 4σ.
+    /// `close_bridge` measures instead and which are clipped here (`JERK_CLIP_VAR`).
     pub(super) fn learn_jerk(&mut self, a: usize, dv: &[[f64; 3]; 2], last: &[[f64; 3]; 2]) {
         let mut change = 0.0;
         for l in 0..self.n_is() {
@@ -289,7 +289,7 @@ impl JointEstimator {
             let d = 0.5 * (change - self.jerk_last[a]);
             let v = &mut self.jerk_var[a];
             if *v > 0.0 {
-                *v += ALPHA_JERK * ((d * d).min(16.0 * *v) - *v);
+                *v += tuning::ALPHA_JERK * ((d * d).min(tuning::JERK_CLIP_VAR * *v) - *v);
             } else {
                 // The running mean starts at its first value.
                 *v = d * d;

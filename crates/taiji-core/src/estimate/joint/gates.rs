@@ -73,8 +73,8 @@ impl JointEstimator {
         let a = ANGULAR_OF_PAIR[p];
         let k = self.k_of(&self.p_prior, i, p).abs();
         let b = c.beta_prior[i][a].abs();
-        (v[0] - v[1]).abs() * b <= RANGE_MARGIN * c.full_scale_angular
-            && (v[0] + v[1]).abs() * k <= RANGE_MARGIN * c.full_scale_linear
+        (v[0] - v[1]).abs() * b <= tuning::RANGE_MARGIN * c.full_scale_angular
+            && (v[0] + v[1]).abs() * k <= tuning::RANGE_MARGIN * c.full_scale_linear
     }
 
     /// Cross-IS angular test, per axis where both IS have data: both see the same ω̇,
@@ -102,15 +102,13 @@ impl JointEstimator {
                 (c.sigma_angular / c.beta_prior[1][a]).powi(2) + (c.sigma_ripple * v2).powi(2);
             let (rho, var_rho, tol) = match self.ratio[a].ratio() {
                 Some((r, vr)) => (r, vr * (var1 + r * r * var2), 0.0),
-                // Before the fit: the prior ratio, with room for the ground error. The
+                // Before the fit: the prior ratio, with room for the ground error (the
                 // scenario allows each prior within 10 % of its truth, so the ratio
-                // within 22 %; the room is 50 % (it was sized for 20 % priors). A 10 % room rejected the samples of an axis whose priors
-                // were 5 % off in opposite directions, and the fit learns from accepted
-                // samples only: with priors 5 % off at random, 5 of 30 runs lost a
-                // third of the campaign as `angular_mismatch`, 13 were inconsistent.
+                // within 22 %). The fit learns from accepted samples only: too little
+                // room would lock out an axis whose priors are off in opposite directions.
                 None => {
                     let r = c.beta_prior[1][a] / c.beta_prior[0][a];
-                    (r, 0.0, 0.5 * (r * v2).abs())
+                    (r, 0.0, tuning::PRIOR_RATIO_ROOM * (r * v2).abs())
                 }
             };
             let d = v1 - rho * v2;
@@ -276,10 +274,10 @@ impl JointEstimator {
         }
         for k in 0..6 {
             if ok {
-                self.lin_track[k].learn(z[k], ALPHA_LIN);
+                self.lin_track[k].learn(z[k], tuning::ALPHA_LIN);
                 // Each channel alone, for the lone-IS test (`lone_misfit`).
                 if self.n_is() == 2 {
-                    self.lone_track[k].learn(raw[k], ALPHA_LIN);
+                    self.lone_track[k].learn(raw[k], tuning::ALPHA_LIN);
                 }
             } else {
                 self.lin_track[k].miss();

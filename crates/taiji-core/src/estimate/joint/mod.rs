@@ -36,6 +36,9 @@ use super::integrity::{RatioFit, Stuck, Track};
 use crate::math::Real;
 use crate::model::noise::{PowerLawBank, MAX_POLES};
 use crate::msg::*;
+use crate::tuning;
+/// The solve's weak priors, named where the std layer reads them.
+pub use crate::tuning::{PRIOR_BETA_REL, PRIOR_COM_M};
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod bridge;
@@ -221,13 +224,6 @@ const LEVEL_SET: u64 = 1;
 /// sample turns it: the bound's statistics, of the model most of a run's samples have.
 const LEVEL_AT_END: u64 = 2;
 
-/// Real motion dominates the angular readout noise on an axis once ω̇'s variance is
-/// this many times the noise's (`every_axis_rocked`): the errors in variables then
-/// leave r̂ off by that share of r, 10⁻⁴ of a 5 cm offset (5 µm), and the maneuver's
-/// A r by ~10⁻¹⁴ m/s², below the SRP fluctuation the level is measured against.
-/// The thrusters' torque noise alone gives ~10⁸ (default scenario).
-const ROCKED_VAR_RATIO: f64 = 1e4;
-
 /// How far motion of covariance `cov` [rad²/s⁴] dominates angular readout noise of
 /// variance `noise_var` on every axis, in units of `ROCKED_VAR_RATIO`: 4 det / trace²
 /// (a lower bound of the smallest eigenvalue, the other two being at most trace / 2
@@ -237,48 +233,8 @@ const ROCKED_VAR_RATIO: f64 = 1e4;
 /// without it a sequential schedule leaves the SRP's level waiting for its last axis.
 pub fn rocking(cov: &Matrix3<f64>, noise_var: f64) -> f64 {
     let tr = cov.trace();
-    4.0 * cov.determinant() / (ROCKED_VAR_RATIO * noise_var * tr * tr)
+    4.0 * cov.determinant() / (tuning::ROCKED_VAR_RATIO * noise_var * tr * tr)
 }
-
-/// The excitation's cross products take every this many linear samples (`rate_cross`; a
-/// power of two: a 64-bit remainder is a library call on a 32-bit CPU).
-const MOMENT_EVERY: u64 = 8;
-const _: () = assert!(MOMENT_EVERY.is_power_of_two());
-
-/// Weak priors of the solve, 1σ. Wide against what the data determine (β to
-/// 10⁻⁵ relative, r to µm), so they only keep the normal equations regular before the
-/// maneuver has excited every parameter; the ground calibration is far tighter.
-/// β: this fraction of its prior [-] (the scenario allows priors within 10 %).
-pub const PRIOR_BETA_REL: f64 = 0.05;
-/// CoM offset [m]: 5 cm, beyond any plausible test-mass offset.
-pub const PRIOR_COM_M: f64 = 0.05;
-/// Star-tracker reference offset θ0 [rad] (0.6°) and its rate θ̇0 [rad/s].
-const PRIOR_THETA0_RAD: f64 = 1e-2;
-const PRIOR_THETA_RATE_RAD_S: f64 = 1e-4;
-/// Linear-channel bias b' [V] and drift α' [V/s]: beyond any drive-voltage offset.
-const PRIOR_BIAS_V: f64 = 1.0;
-const PRIOR_DRIFT_V_S: f64 = 1e-3;
-/// Gauss–Newton iterations of `finish` (to convergence; the warm-started run needs
-/// 2–3, the rest is margin) and of a scheduled solve (one, warm-started).
-const FINISH_ITERATIONS: usize = 20;
-const SCHEDULED_ITERATIONS: usize = 1;
-
-/// A solve has converged when no parameter moved by more than this fraction of its σ.
-const CONVERGED_STEP: f64 = 1e-4;
-
-/// What the final solve may still be off by, in σ of any parameter, and be called
-/// converged. Iterations that stop short of `CONVERGED_STEP` have either met the
-/// floating-point floor or are still closing in. At the floor the steps do not shrink
-/// and turn back and forth: with the IS's angular noise and ripple a hundred times
-/// smaller over 10⁵ s, 20 iterations end moving by 5×10⁻⁴–3×10⁻³ σ, sizes repeating
-/// (1.60×10⁻³, 3.20×10⁻³) and consecutive steps at cosines −1.00 to −0.88 (12 of 30
-/// runs were flagged for it).
-const UNCONVERGED_STEP: f64 = 1e-2;
-
-/// Consecutive steps closer in direction than this cosine (or turning back, closer than
-/// its negative) follow one pattern: closing in on one point from one side, or from
-/// both sides in turn, not wandering on a floor.
-const CLOSING_IN_COS: f64 = 0.5;
 
 /// Whether `finish`'s solve converged, from its last three steps (`solve`: their
 /// largest moves in σ and the cosines between consecutive ones; `None` when a step
@@ -287,71 +243,28 @@ const CLOSING_IN_COS: f64 = 0.5;
 /// last two pairs of steps both turn back and shrink, the distance still to go within
 /// it, however large the last step. The distance to go of steps that shrink by ρ and
 /// turn by the angle between them: the last times ρ/√(1 − 2ρ cos + ρ²), ρ/(1 − ρ) in
-/// one direction, ρ/(1 + ρ) turning back. Steps that turn back and shrink slowly
-/// (ρ ≈ 0.85 without thruster noise and the sun along z: 1.2–2.1×10⁻² σ after 20
-/// iterations, 5–10×10⁻³ σ from where they meet) have converged.
+/// one direction, ρ/(1 + ρ) turning back. Steps that turn back and shrink slowly, to a
+/// point within `UNCONVERGED_STEP`, have converged.
 fn finish_converged(moved: Option<[f64; 5]>) -> bool {
     let Some([last, before, cos, earlier, cos_before]) = moved else {
         return false;
     };
-    if last < CONVERGED_STEP {
+    if last < tuning::CONVERGED_STEP {
         return true;
     }
     let rho = last / before;
     let to_go = last * rho / (1.0 - 2.0 * rho * cos + rho * rho).sqrt();
-    let turning_back = cos < -CLOSING_IN_COS && cos_before < -CLOSING_IN_COS;
+    let turning_back = cos < -tuning::CLOSING_IN_COS && cos_before < -tuning::CLOSING_IN_COS;
     if turning_back && rho < 1.0 && before < earlier {
-        return to_go <= UNCONVERGED_STEP;
+        return to_go <= tuning::UNCONVERGED_STEP;
     }
-    if last.is_nan() || last > UNCONVERGED_STEP {
+    if last.is_nan() || last > tuning::UNCONVERGED_STEP {
         return false;
     }
-    let closing_in = rho < 1.0 && cos.abs() > CLOSING_IN_COS;
-    !closing_in || to_go <= UNCONVERGED_STEP
+    let closing_in = rho < 1.0 && cos.abs() > tuning::CLOSING_IN_COS;
+    !closing_in || to_go <= tuning::UNCONVERGED_STEP
 }
 
-/// Solves that may follow the first scheduled one, one per update, while its step moved
-/// some parameter by more than its σ and left the data inconsistent (`solve_now_with`).
-/// `solve_due[0]` counts them: 1 for the scheduled solve, 2… for the follow-ups.
-const FOLLOW_UPS: u64 = 3;
-/// A gap longer than this [s] may have let the propagated attitude step away from the
-/// star tracker's: the star test then learns its offset anew (in ticks: × fs).
-const STAR_RELEARN_GAP_S: f64 = 1.0;
-
-/// Most missing ticks one `update` bridges (each about 10⁴ instructions on a Cortex-M7:
-/// a propagation step of the attitude, the whitening filter and the star filter).
-/// After a longer gap the samples that arrive while the estimator catches up are
-/// bridged too, B − 1 ticks gained a call: a 600 s gap at 10 Hz costs about 86 s of
-/// data, and no call costs more than this many steps. Gaps up to it lose nothing.
-const BRIDGE_PER_UPDATE: u64 = 8;
-/// A bridged tick's rate step is one unknown that two groups see, the star tracker's
-/// and the turn rows' (the same ramp of the attitude in both), each filter taking it
-/// as its own: the star group at c₁ v, the turn rows at c₂ v. With signatures h₁, h₂
-/// of the one step (variance v) in the two groups, c₁ h₁h₁ᵀ ⊕ c₂ h₂h₂ᵀ covers its joint
-/// covariance (h₁; h₂)(h₁; h₂)ᵀ whenever 1/c₁ + 1/c₂ ≤ 1, so no split of that kind is
-/// optimistic; taken once in each (c = 1, the cross term missed) β's σ read 1.3–1.7×
-/// optimistic at 10 Hz with 5 % IS dropouts or 0.1–0.25 % of ticks lost on the bus.
-/// Where the split falls is a trade, as the step confounds β in the star group and r in
-/// the turn rows. Measured, β / r (err/σ)² over 100 seeds, an outside review's
-/// scenario with bus faults and the default with 5 % IS dropouts: 2, 2: 0.65 / 0.97
-/// and 0.71 / 0.85; 4/3, 4: 0.85 / 0.94 and 0.84 / 0.83; 1.2, 6: 0.91 / 0.92 and
-/// 0.89 / 0.81; 1.01, 101: 0.98 / 0.79 and 0.99 / 0.66 (docs/integrity.md, known gaps).
-/// The exact joint (one filter both groups share) is not built: its Grams would pair
-/// every signal of one group with every signal of the other.
-const STEP_IN_STAR: f64 = 4.0 / 3.0;
-/// The turn rows' share of a bridged tick's rate step (`STEP_IN_STAR`).
-const STEP_IN_TURN: f64 = 4.0;
-// The split never counts more than the joint likelihood of the one step.
-const _: () = assert!(1.0 / STEP_IN_STAR + 1.0 / STEP_IN_TURN <= 1.0 + 1e-12);
-
-/// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
-const ALPHA_LIN: f64 = 1.0 / 64.0;
-const ALPHA_STAR: f64 = 1.0 / 16.0;
-const ALPHA_JERK: f64 = 1.0 / 256.0;
-/// Margin on the measurement range for the voltage range test (priors and ripple).
-const RANGE_MARGIN: f64 = 1.25;
-/// Degrees of freedom a group needs before its χ² is judged.
-const CHI2_MIN_DOF: f64 = 2000.0;
 impl JointEstimator {
     pub fn new(cfg: EstimatorConfig) -> Self {
         let mut e = <Self as bytemuck::Zeroable>::zeroed();
@@ -370,18 +283,23 @@ impl JointEstimator {
         for i in 0..2 {
             for a in 0..3 {
                 p[P_BETA + 3 * i + a] = cfg.beta_prior[i][a];
-                ps[P_BETA + 3 * i + a] = PRIOR_BETA_REL * cfg.beta_prior[i][a];
+                ps[P_BETA + 3 * i + a] = tuning::PRIOR_BETA_REL * cfg.beta_prior[i][a];
                 p[P_R + 3 * i + a] = cfg.com_prior_m[i][a];
-                ps[P_R + 3 * i + a] = PRIOR_COM_M;
-                ps[P_B + 3 * i + a] = PRIOR_BIAS_V;
-                ps[P_AL + 3 * i + a] = PRIOR_DRIFT_V_S;
+                ps[P_R + 3 * i + a] = tuning::PRIOR_COM_M;
+                ps[P_B + 3 * i + a] = tuning::PRIOR_BIAS_V;
+                ps[P_AL + 3 * i + a] = tuning::PRIOR_DRIFT_V_S;
             }
         }
         for a in 0..3 {
-            ps[P_TH0 + a] = PRIOR_THETA0_RAD;
-            ps[P_THD + a] = PRIOR_THETA_RATE_RAD_S;
+            ps[P_TH0 + a] = tuning::PRIOR_THETA0_RAD;
+            ps[P_THD + a] = tuning::PRIOR_THETA_RATE_RAD_S;
         }
-        dst.bank = PowerLawBank::new(cfg.srp_asd_at_3mhz, 3e-3, 2.0 / 3.0, cfg.fs);
+        dst.bank = PowerLawBank::new(
+            cfg.srp_asd_at_3mhz,
+            tuning::SRP_REF_HZ,
+            tuning::SRP_PSD_EXPONENT,
+            cfg.fs,
+        );
         for k in 0..dst.bank.poles() {
             dst.wp[(k, k)] = dst.bank.var[k];
         }
@@ -405,7 +323,7 @@ impl JointEstimator {
             && self.bank.n <= MAX_POLES as u64
             && self.started <= START_ANGULAR
             && self.q_ref_set <= 1
-            && self.solve_due[0] <= 1 + FOLLOW_UPS
+            && self.solve_due[0] <= 1 + tuning::FOLLOW_UPS
     }
 
     /// Every tick below this one has been processed or bridged.
@@ -475,12 +393,12 @@ impl JointEstimator {
                 return self.tick_mask;
             }
         } else {
-            if gap as f64 > STAR_RELEARN_GAP_S * self.cfg.fs {
+            if gap as f64 > tuning::STAR_RELEARN_GAP_S * self.cfg.fs {
                 // A long gap: the star test learns its offset anew rather than
                 // rejecting every sample until it gives up.
                 self.star_track = [Track::default(); 3];
             }
-            let n = gap.min(BRIDGE_PER_UPDATE);
+            let n = gap.min(tuning::BRIDGE_PER_UPDATE);
             for k in 0..n {
                 self.bridge(self.next_tick + k);
             }
@@ -537,7 +455,9 @@ impl JointEstimator {
             return false;
         }
         let first = self.status & ST_NO_SOLUTION != 0;
-        let moved = self.solve(SCHEDULED_ITERATIONS, true, w).map(|m| m[0]);
+        let moved = self
+            .solve(tuning::SCHEDULED_ITERATIONS, true, w)
+            .map(|m| m[0]);
         self.solved_tick = tick;
         self.follow_up(round, first, moved);
         self.status & ST_SOLVE_FAILED == 0
@@ -551,7 +471,7 @@ impl JointEstimator {
     #[inline(never)]
     fn follow_up(&mut self, round: u64, first: bool, moved: Option<f64>) {
         let unconverged = moved.is_some_and(|m| m > 1.0) && self.status & ST_INCONSISTENT != 0;
-        let chain = (round == 1 && first) || (2..=FOLLOW_UPS).contains(&round);
+        let chain = (round == 1 && first) || (2..=tuning::FOLLOW_UPS).contains(&round);
         if unconverged && chain {
             self.status |= ST_NOT_CONVERGED;
             self.solve_due = [round + 1, self.next_tick];
@@ -573,7 +493,7 @@ impl JointEstimator {
         self.tick_mask = 0;
         let last = self.next_tick.saturating_sub(1);
         if self.started == START_FULL {
-            if finish_converged(self.solve(FINISH_ITERATIONS, true, w)) {
+            if finish_converged(self.solve(tuning::FINISH_ITERATIONS, true, w)) {
                 self.status &= !ST_NOT_CONVERGED;
             } else {
                 self.status |= ST_NOT_CONVERGED;

@@ -376,7 +376,7 @@ impl JointEstimator {
     /// (`ROCKED_VAR_RATIO`)? From the excitation's moments (`note_excitation`, which
     /// asks when they change and keeps the answer in `rocked_tick`).
     pub(super) fn motion_on_every_axis(&self) -> bool {
-        let n = self.n_used.div_ceil(MOMENT_EVERY) as f64;
+        let n = self.n_used.div_ceil(tuning::MOMENT_EVERY) as f64;
         if n < 2.0 {
             return false;
         }
