@@ -228,7 +228,27 @@ mod tests {
                 break;
             }
         }
-        assert_eq!(accepted_after, Some(TRACK_RELEARN as usize));
+        assert_eq!(accepted_after, Some(200));
+    }
+
+    /// A track takes its first 8 samples unchecked; until its 48th it rejects only
+    /// outliers beyond 100 gates (a variance 10⁴ times the gate's); then the gate.
+    #[test]
+    fn a_warming_track_rejects_only_gross_outliers() {
+        let mut t = Track::default();
+        let check = |t: &Track, gates: f64| t.check(gates * GATE, 1.0, GATE);
+        for _ in 0..7 {
+            t.learn(0.0, 0.1);
+        }
+        assert!(check(&t, 1e6));
+        t.learn(0.0, 0.1);
+        assert!(check(&t, 99.0) && !check(&t, 101.0));
+        for _ in 8..47 {
+            t.learn(0.0, 0.1);
+        }
+        assert!(check(&t, 99.0));
+        t.learn(0.0, 0.1);
+        assert!(!check(&t, 99.0) && !check(&t, 1.01) && check(&t, 0.99));
     }
 
     #[test]
@@ -257,6 +277,8 @@ mod tests {
         for k in 1..=30 {
             let y = k as f64;
             f.add(0.9 * y, y);
+            // The fit replaces the prior ratio from its 20th sample.
+            assert_eq!(f.ratio().is_some(), k >= 20);
         }
         let (rho, _) = f.ratio().unwrap();
         assert!((rho - 0.9).abs() < 1e-15);

@@ -243,3 +243,30 @@ impl PaperEstimator {
         m
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paper's values (§2.1, §3.2.2): a 0.05 Hz corner, settled after 100 s; priors of
+    /// 5 % of β, 5 mm of r, 10⁻¹⁰ m/s³ of drift and 10⁻⁶ m/s² of bias; the SRP as
+    /// 2×10⁻¹² m/s² of measurement noise.
+    #[test]
+    fn the_paper_routes_values_are_the_papers() {
+        let cfg = super::super::joint::test_config();
+        let e = PaperEstimator::new(cfg);
+        let lp = Biquad::lowpass(0.05, cfg.fs);
+        assert_eq!((e.lp_star[0].b, e.lp_star[0].a), (lp.b, lp.a));
+        assert_eq!(SETTLE_S, 100.0);
+        for i in 0..2 {
+            for a in 0..3 {
+                let b = cfg.beta_prior[i][a];
+                assert!((e.beta_kf[i][a].sigma(0) / (0.05 * b).abs() - 1.0).abs() < 1e-15);
+                assert!((e.com_kf[i].sigma(a) / 5e-3 - 1.0).abs() < 1e-15);
+                assert!((e.com_kf[i].sigma(3 + a) / 1e-10 - 1.0).abs() < 1e-15);
+                assert!((e.com_kf[i].sigma(6 + a) / 1e-6 - 1.0).abs() < 1e-15);
+            }
+        }
+        assert_eq!(tuning::PAPER_SRP_SIGMA, 2e-12);
+    }
+}

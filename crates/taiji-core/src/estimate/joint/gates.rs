@@ -299,9 +299,9 @@ mod tests {
         assert!(!nan_or_above(f64::NEG_INFINITY, 1.0));
     }
 
-    /// The range gate of one electrode pair sits at `RANGE_MARGIN` times the full
-    /// scale, in the prior's volts: the difference for the angular axis, the sum for
-    /// the linear one; anything not a number is out of range.
+    /// The range gate of one electrode pair sits at 1.25 times the full scale, in the
+    /// prior's volts: the difference for the angular axis, the sum for the linear one;
+    /// anything not a number is out of range.
     #[test]
     fn the_range_gate_is_the_full_scale_times_its_margin() {
         let cfg = test_config();
@@ -312,8 +312,8 @@ mod tests {
                 let b = cfg.beta_prior[i][a].abs();
                 let k = (cfg.geometry_m[i][PERM[p]] * cfg.beta_prior[i][PERM[p]]).abs();
                 let (ang, lin) = (
-                    RANGE_MARGIN * cfg.full_scale_angular / b,
-                    RANGE_MARGIN * cfg.full_scale_linear / k,
+                    1.25 * cfg.full_scale_angular / b,
+                    1.25 * cfg.full_scale_linear / k,
                 );
                 // Just inside either limit: accepted.
                 let half = 0.5 * 0.999;
@@ -328,6 +328,47 @@ mod tests {
                 assert!(!e.pair_in_range(i, p, &[over * lin, over * lin]), "{i} {p}");
                 assert!(!e.pair_in_range(i, p, &[f64::NAN, 0.0]), "{i} {p}");
             }
+        }
+    }
+
+    /// Before the ratio fit, the cross-IS test allows half the priors' ratio: an IS2
+    /// voltage 40 % off the priors' ratio passes, 60 % off fails (far above the noise).
+    #[test]
+    fn before_the_fit_the_cross_test_allows_half_the_ratio() {
+        let cfg = test_config();
+        let mut e = JointEstimator::new(cfg);
+        let v2 = [1.0; 3];
+        let r: [f64; 3] = core::array::from_fn(|a| cfg.beta_prior[1][a] / cfg.beta_prior[0][a]);
+        let off = |f: f64| core::array::from_fn::<f64, 3, _>(|a| r[a] * v2[a] * f);
+        assert_eq!(e.angular_consistent(&off(1.4), &v2, &[true; 3]), [true; 3]);
+        assert_eq!(e.angular_consistent(&off(0.6), &v2, &[true; 3]), [true; 3]);
+        assert_eq!(e.angular_consistent(&off(1.6), &v2, &[true; 3]), [false; 3]);
+        assert_eq!(e.angular_consistent(&off(0.4), &v2, &[true; 3]), [false; 3]);
+    }
+
+    /// The linear tracks forget at 1/64 a sample: after a warm-up at 0, an accepted
+    /// residual d leaves the spread (1 − α) α d².
+    #[test]
+    fn the_linear_track_forgets_at_one_sixty_fourth() {
+        let mut e = JointEstimator::new(test_config());
+        e.gate_c = SMatrix::zeros();
+        e.gate_w = SMatrix::identity();
+        for k in 0..6 {
+            e.gate_c[(k, k)] = 1.0;
+        }
+        for _ in 0..100 {
+            assert!(e.linear_consistent(&Sig::zeros(), &[1.0; 6]));
+        }
+        let mut sig = Sig::zeros();
+        for k in 0..6 {
+            sig[k] = 3.0;
+        }
+        assert!(e.linear_consistent(&sig, &[1.0; 6]));
+        let alpha = 1.0 / 64.0;
+        let want = (1.0 - alpha) * alpha * 9.0;
+        for k in 0..6 {
+            assert!((e.lin_track[k].var() / want - 1.0).abs() < 1e-12);
+            assert!((e.lone_track[k].var() / want - 1.0).abs() < 1e-12);
         }
     }
 

@@ -592,6 +592,7 @@ pub(super) fn gaussian(mut seed: u64) -> impl FnMut() -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tuning::BRIDGE_PER_UPDATE;
 
     #[test]
     fn init_in_place_gives_the_same_bytes_whatever_the_memory_held() {
@@ -706,16 +707,24 @@ mod tests {
         assert_eq!(e.n_used + e.n_rejected, tick + 1);
     }
 
-    /// A gap up to the bound is bridged in the update that sees it, as before.
+    /// A gap up to the bound, 8 ticks, is bridged in the update that sees it; one tick
+    /// more takes a second update.
     #[test]
     fn a_short_gap_is_bridged_at_once() {
         let mut e = JointEstimator::new(test_config());
         for t in 0..10 {
             e.update(&quiet(t));
         }
-        e.update(&quiet(10 + BRIDGE_PER_UPDATE));
-        assert_eq!(e.next_tick(), 11 + BRIDGE_PER_UPDATE);
-        assert_eq!(e.causes[CAUSE_TICK_MISSING], BRIDGE_PER_UPDATE);
+        let mut longer = e;
+        e.update(&quiet(10 + 8));
+        assert_eq!(e.next_tick(), 11 + 8);
+        assert_eq!(e.causes[CAUSE_TICK_MISSING], 8);
+        longer.update(&quiet(10 + 9));
+        assert_eq!(
+            longer.next_tick(),
+            10 + 8,
+            "the sample waits for the catch-up"
+        );
     }
 
     /// The bridge's process noise is what the line through a gap's neighbours misses:
@@ -955,5 +964,231 @@ mod tests {
             }
         }
         assert_ne!(after.column(S_PHI), before.column(S_PHI));
+    }
+
+    /// Before any data, σ is the priors': 5 % of β, 5 cm of r, 10⁻² rad of θ0,
+    /// 10⁻⁴ rad/s of θ̇0, 1 V of b′ and 10⁻³ V/s of α′.
+    #[test]
+    fn before_any_data_sigma_is_the_prior() {
+        let cfg = test_config();
+        let e = JointEstimator::new(cfg);
+        for i in 0..2 {
+            for a in 0..3 {
+                assert_eq!(e.sigma[P_BETA + 3 * i + a], 0.05 * cfg.beta_prior[i][a]);
+                assert_eq!(e.sigma[P_R + 3 * i + a], 0.05);
+                assert_eq!(e.sigma[P_B + 3 * i + a], 1.0);
+                assert_eq!(e.sigma[P_AL + 3 * i + a], 1e-3);
+            }
+        }
+        for a in 0..3 {
+            assert_eq!(e.sigma[P_TH0 + a], 1e-2);
+            assert_eq!(e.sigma[P_THD + a], 1e-4);
+        }
+        assert_eq!(e.p_sigma, e.sigma);
+    }
+
+    /// A star-tracker sample of `angle` [rad] about `axis`, its quaternion scaled by
+    /// `scale` (1: unit).
+    fn star(tick: u64, axis: usize, angle: f64, scale: f64) -> SensorSample {
+        let mut s = SensorSample::default();
+        s.header.tick = tick;
+        s.star.valid = 1;
+        let q = UnitQuaternion::from_scaled_axis(Vector3::ith(axis, angle));
+        s.star.q_bn = [q.w, q.i, q.j, q.k].map(|x| x * scale);
+        s
+    }
+
+    /// The star test: a quaternion whose norm is off 1 by 8×10⁻⁷ is taken, by 1.5×10⁻⁶
+    /// refused as invalid; a residual within 5σ of its track passes, beyond it is an
+    /// outlier; an accepted residual moves the track's spread at the rate 1/16.
+    #[test]
+    fn the_star_gate_is_five_sigma() {
+        let cfg = test_config();
+        let sigma = cfg.sigma_star_rad;
+        let kappa = Vector3::zeros();
+        let mut e = JointEstimator::new(cfg);
+        e.update_star(&star(0, 0, 0.0, 1.0), &kappa, 0.0);
+        // About x, ±3σ in turn: that track's spread is 9σ², above the floor σ².
+        for k in 1..200u64 {
+            let x = if k % 2 == 0 { 3.0 } else { -3.0 } * sigma;
+            e.update_star(&star(k, 0, x, 1.0), &kappa, 0.0);
+        }
+        assert_eq!(e.causes[CAUSE_STAR_OUTLIER], 0);
+        assert_eq!(e.causes[CAUSE_STAR_INVALID], 0);
+        let taken = |e: &JointEstimator, s: SensorSample| {
+            let mut e = *e;
+            let n = e.n_star;
+            e.update_star(&s, &kappa, 0.0);
+            (e.n_star == n + 1, e)
+        };
+        // The norm.
+        assert!(taken(&e, star(200, 0, 0.0, 1.0 + 8e-7)).0);
+        let (ok, f) = taken(&e, star(200, 0, 0.0, 1.0 + 1.5e-6));
+        assert!(!ok && f.causes[CAUSE_STAR_INVALID] == 1);
+        // The gate, about y (level 0, spread at its floor σ²).
+        assert!(taken(&e, star(200, 1, 4.9 * sigma, 1.0)).0);
+        let (ok, f) = taken(&e, star(200, 1, 5.1 * sigma, 1.0));
+        assert!(!ok && f.causes[CAUSE_STAR_OUTLIER] == 1);
+        // The forgetting rate: var ← (1 − α)(var + α d²), d from the level (near 0).
+        let v0 = e.star_track[0].var();
+        let (ok, f) = taken(&e, star(200, 0, 12.0 * sigma, 1.0));
+        assert!(ok);
+        let alpha = 1.0 / 16.0;
+        let want = (1.0 - alpha) * (v0 + alpha * (12.0 * sigma).powi(2));
+        assert!(
+            (f.star_track[0].var() / want - 1.0).abs() < 0.03,
+            "{} {want}",
+            f.star_track[0].var()
+        );
+    }
+
+    /// χ²/dof is judged from 2000 degrees of freedom on, against 1 + max(0.25,
+    /// 10 √(2/dof)): at 2100 dof the limit is 1.309, at 3×10⁶ it is 1.25.
+    #[test]
+    fn chi2_is_judged_from_2000_dof_within_its_spread() {
+        let judged = |n_star: u64, chi2: f64| {
+            let mut e = JointEstimator::new(test_config());
+            e.n_star = n_star;
+            let mut cost = [0.0; N_GROUPS];
+            cost[GROUP_STAR] = chi2 * 3.0 * n_star as f64;
+            e.judge_consistency(&cost);
+            e.status & ST_INCONSISTENT != 0
+        };
+        assert!(!judged(666, 5.0), "1998 dof are not judged");
+        assert!(judged(667, 5.0), "2001 dof are");
+        assert!(!judged(700, 1.30));
+        assert!(judged(700, 1.32));
+        assert!(!judged(1_000_000, 1.24));
+        assert!(judged(1_000_000, 1.26));
+    }
+
+    /// Degraded when more than one tick in 50 was rejected.
+    #[test]
+    fn more_than_one_sample_in_50_rejected_is_degraded() {
+        let mut e = JointEstimator::new(test_config());
+        (e.n_used, e.n_rejected) = (98, 2);
+        assert_eq!(e.message(99).status & ST_DEGRADED, 0);
+        (e.n_used, e.n_rejected) = (97, 3);
+        assert_ne!(e.message(99).status & ST_DEGRADED, 0);
+    }
+
+    /// An unconverged first solve is followed up once per update, three times at most.
+    #[test]
+    fn an_unconverged_first_solve_is_followed_up_three_times() {
+        let mut e = JointEstimator::new(test_config());
+        e.status |= ST_INCONSISTENT;
+        e.follow_up(1, true, Some(2.0));
+        assert_eq!(e.solve_due[0], 2);
+        assert_ne!(e.status & ST_NOT_CONVERGED, 0);
+        e.follow_up(3, false, Some(2.0));
+        assert_eq!(e.solve_due[0], 4);
+        e.solve_due = [0; 2];
+        e.follow_up(4, false, Some(2.0));
+        assert_eq!(e.solve_due[0], 0, "a fourth follow-up");
+        assert_eq!(e.status & ST_NOT_CONVERGED, 0);
+    }
+
+    /// A gap of more than a second (10 ticks at 10 Hz) makes the star test learn its
+    /// offset anew; a gap of a second keeps it.
+    #[test]
+    fn a_gap_over_a_second_relearns_the_star_offset() {
+        let mut e = JointEstimator::new(test_config());
+        for t in 0..10 {
+            let mut s = quiet(t);
+            s.star.valid = 0;
+            e.update(&s);
+        }
+        e.star_track[0].learn(1.0, 0.5);
+        let learned = e.star_track;
+        let (mut kept, mut lost) = (e, e);
+        let mut s = quiet(10 + 10);
+        s.star.valid = 0;
+        kept.update(&s);
+        assert_eq!(kept.star_track, learned);
+        s.header.tick = 10 + 11;
+        lost.update(&s);
+        assert_eq!(lost.star_track, [Track::default(); 3]);
+    }
+
+    /// A bridge closed on a jump of ω̇ adds its step's variance v = (span jump)²/12
+    /// 4/3 times to the star filter and 4 times to the turn rows; a bridged tick adds
+    /// dt² times ω̇'s spread 4 times to the turn rows.
+    #[test]
+    fn a_closed_bridge_splits_its_step_four_thirds_and_four() {
+        let mut e = JointEstimator::new(test_config());
+        let (a, n) = (1, 5);
+        e.bridge_run[a] = n;
+        let mut dv = [[0.0; 3]; 2];
+        dv[0][a] = 1e-3;
+        dv[1][a] = 1e-3;
+        let mut before = e;
+        e.close_bridge(a, &dv);
+        let span = n as f64 / e.cfg.fs;
+        let jump: f64 = (0..2).map(|l| 0.5 * e.cfg.beta_prior[l][a] * 1e-3).sum();
+        let v = (span * jump).powi(2) / 12.0;
+        let star = e.st_p[a][1][1] - before.st_p[a][1][1];
+        let turn = e.turn_pq[a][2] - before.turn_pq[a][2];
+        assert!((star / (4.0 / 3.0 * v) - 1.0).abs() < 1e-12, "{star} {v}");
+        assert!((turn / (4.0 * v) - 1.0).abs() < 1e-12, "{turn} {v}");
+        before.jerk_var[a] = 2e-20;
+        let q0 = before.turn_pq[a][2];
+        before.turn_bridged(a);
+        let dt = 1.0 / before.cfg.fs;
+        let want = 4.0 * dt * dt * 2e-20;
+        assert!(((before.turn_pq[a][2] - q0) / want - 1.0).abs() < 1e-12);
+    }
+
+    /// A torque edge (a change far beyond the spread) moves ω̇'s learned spread by the
+    /// rate 1/256 towards its clip, 16 times the spread: by 15/256 of it.
+    #[test]
+    fn a_torque_edge_moves_the_jerk_spread_by_its_clip() {
+        let mut e = JointEstimator::new(test_config());
+        let a = 0;
+        e.jerk_var[a] = 1e-20;
+        e.jerk_last[a] = 0.0;
+        e.jerk_last_ok = 1 << a;
+        let mut dv = [[0.0; 3]; 2];
+        dv[0][a] = 1.0;
+        dv[1][a] = 1.0;
+        e.learn_jerk(a, &dv, &[[0.0; 3]; 2]);
+        let grew = e.jerk_var[a] / 1e-20;
+        assert!((grew - (1.0 + 15.0 / 256.0)).abs() < 1e-12, "{grew}");
+    }
+
+    /// Every axis is rocked once ω̇'s variance is 10⁴ times the readout noise's: for
+    /// isotropic motion of variance v, `rocking` is 4 v / (9 × 10⁴ × noise).
+    #[test]
+    fn rocking_is_motion_over_ten_thousand_times_the_noise() {
+        let noise = 1e-20;
+        let v = 9.0 / 4.0 * 1e4 * noise;
+        assert!(rocking(&(Matrix3::identity() * (1.01 * v)), noise) > 1.0);
+        assert!(rocking(&(Matrix3::identity() * (0.99 * v)), noise) < 1.0);
+    }
+
+    /// The excitation's moments take the linear samples 1, 9, 17, …: every eighth.
+    #[test]
+    fn the_excitation_takes_every_eighth_sample() {
+        let mut e = JointEstimator::new(test_config());
+        let dv = [[1.0, 0.0, 0.0]; 2];
+        for k in 1..=16 {
+            e.n_used = k;
+            e.note_excitation(&dv);
+        }
+        assert_eq!(e.rate_moments[0][0], 2.0);
+    }
+
+    /// The SRP model the estimator whitens with: its PSD at 3 mHz is the table's ASD
+    /// squared, and it falls as f^-2/3 (a factor 100^(2/3) ≈ 21.5 over two decades).
+    #[test]
+    fn the_srp_model_is_f_to_the_minus_two_thirds_from_3_mhz() {
+        let cfg = test_config();
+        let e = JointEstimator::new(cfg);
+        let at = e.bank.psd(3e-3) / cfg.srp_asd_at_3mhz.powi(2);
+        assert!((at - 1.0).abs() < 0.15, "{at}");
+        let slope = e.bank.psd(3e-4) / e.bank.psd(3e-2);
+        assert!(
+            (slope / 100f64.powf(2.0 / 3.0) - 1.0).abs() < 0.15,
+            "{slope}"
+        );
     }
 }
