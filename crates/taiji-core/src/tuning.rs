@@ -26,7 +26,7 @@ pub const STAR_GATE_SIGMA: f64 = 5.0;
 pub const CHI2_TOLERANCE: f64 = 0.25;
 
 /// Status degraded above one rejected input in this many.
-/// Unit: samples. Guarded by: `estimate::joint::tests::more_than_one_sample_in_50_rejected_is_degraded`.
+/// Unit: inputs. Guarded by: `estimate::joint::tests::more_than_one_sample_in_50_rejected_is_degraded`.
 pub const DEGRADED_ONE_IN: u64 = 50;
 
 // The C header is generated from `EstimatorConfig`'s literals: they must be these.
@@ -184,7 +184,7 @@ pub const MOMENT_EVERY: u64 = 8;
 // A 64-bit remainder is a library call on a 32-bit CPU; a mask is not.
 const _: () = assert!(MOMENT_EVERY.is_power_of_two());
 
-// ## Joint estimator: the SRP's noise model (the simulation's, src/model/plant.rs)
+// ## Joint estimator: the SRP's noise model (the simulation's own)
 
 /// Frequency at which the table's `srp_asd_at_3mhz` gives the SRP fluctuation's ASD.
 /// Unit: Hz. Guarded by: `estimate::joint::tests::the_srp_model_is_f_to_the_minus_two_thirds_from_3_mhz`.
