@@ -36,7 +36,7 @@ impl JointEstimator {
     /// over the tick, its ends' midpoint ω̇ dt²/4). The IS measure the
     /// SRP turned by that mean attitude; the ends' midpoint, dv dt²/12 ahead, turned
     /// it as ω̇ × r does, a CoM offset of b dt²/12 along the SRP (2.2 nm of r_z at
-    /// 1 Hz: its err/σ had a mean of +0.29 over 800 seeds).
+    /// 1 Hz).
     pub(super) fn integrate(&mut self, dv: &[[f64; 3]; 2]) -> ([[f64; 3]; 2], [[f64; 3]; 2]) {
         let dt = 1.0 / self.cfg.fs;
         let mut psi_mid = [[0.0; 3]; 2];
@@ -94,8 +94,8 @@ impl JointEstimator {
     /// var_tick = jerk_var/1.5 the learned tick-to-tick spread, mostly the torque
     /// noise's). Real motion, both IS alike: the star tracker sees it and so do the turn
     /// rows. At 1 Hz it is five times IS1's own double-integrated noise at the
-    /// maneuver's frequency; at 2 Hz with 8× the default torque noise it made β's σ
-    /// 20 % optimistic in the star group ((err/σ)² 1.41 over 200 seeds, 1.05 with it).
+    /// maneuver's frequency; left out, β's σ in the star group would be optimistic
+    /// wherever the torque noise is large.
     pub(super) fn intra_tick_walk(&self, a: usize) -> f64 {
         let dt = 1.0 / self.cfg.fs;
         let walk = self.jerk_var[a] * dt * dt * dt * dt / 18.0;
@@ -148,9 +148,9 @@ impl JointEstimator {
     /// IS1's axes that borrowed IS2's voltage this tick (`angular_inputs`) put the
     /// fitted ratio's error into IS1's rate: dt β1 ΔV2 δρ, a step of the attitude that
     /// turns the SRP (`turn_pq`). δρ's variance is the fit's (its residual's readout
-    /// noise and ripple over Σ ΔV2²), or the priors' ratio's before the fit. (At 1 Hz
-    /// the fit after 100 pairs is off by 10⁻⁵; left out, 1 % IS dropouts put β's σ
-    /// 1.5× optimistic once the turn counts as evidence.)
+    /// noise and ripple over Σ ΔV2²), or the priors' ratio's before the fit (at 1 Hz
+    /// the fit after 100 pairs is off by 10⁻⁵; left out, IS dropouts would make β's σ
+    /// optimistic, the turn counting as evidence).
     pub(super) fn note_borrowed(&mut self, axis_ok: &[[bool; 3]; 2], data: &[IsData; 2]) {
         let c = &self.cfg;
         let dt = 1.0 / c.fs;
@@ -182,8 +182,7 @@ impl JointEstimator {
     /// behind a changing ω̇ (a thruster's overshoot after an edge); the line leaves
     /// only its curvature and the torque noise's own scatter. The integrals move by
     /// dt Σ δ_k (rate) and dt² Σ δ_k (n − k + ½) (angle), δ_k = k Δ/(n + 1): Δ dt n/2
-    /// and Δ dt² n(2n + 1)/12. The propagated attitude moves with them. (Measured,
-    /// 5 % IS dropouts, 30 seeds: the common β error 2.3 → 1.9×10⁻⁵.) With one IS
+    /// and Δ dt² n(2n + 1)/12. The propagated attitude moves with them. With one IS
     /// configured the linear test may still undo this sample's angular data, so the
     /// line is drawn only with two.
     pub(super) fn interpolate_bridge(&mut self, a: usize, dv: &[[f64; 3]; 2]) {

@@ -125,8 +125,8 @@ impl JointEstimator {
     /// the mismatch. The linear signals other than ΣV and ΔV are taken from the last
     /// accepted sample (they move by far less in a tick). The IS nearer the previous
     /// ω̇ is kept only before the first accepted linear sample: at a torque edge ω̇
-    /// changes by more than a mismatch, and that guess kept the corrupted IS in seeds
-    /// 5 and 18 of the upset test (`tests/integrity.rs`).
+    /// changes by more than a mismatch, and that guess can keep the corrupted IS
+    /// (`tests/integrity.rs`, an upset at a torque edge).
     pub(super) fn trusted_is(
         &self,
         a: usize,
@@ -260,15 +260,15 @@ impl JointEstimator {
         // `var`: each row's white variance at this sample's drive (1 at the first
         // sample's). A corrupted voltage widens its own test only by the ripple's
         // share of it: an error passes only if below gate × ripple (~10⁻⁴) of the
-        // whole drive. (The last accepted sample's drive instead refused 10 clean
-        // samples a run at the torque edges, with 10× the default ripple.)
+        // whole drive. (The last accepted sample's drive would refuse clean samples at
+        // the torque edges.)
         let mut ok = (0..6).all(|k| self.lin_track[k].check(z[k], var[k], gate));
         if !ok {
             // Before calling it an outlier: could the solution's own uncertainty
             // explain it? (When the maneuver starts exciting a parameter, the residual
-            // grows with that parameter's error; refusing it — hundreds of samples in a
-            // row until the track starts over — refused exactly the samples that
-            // determine it: r_z 5× its bound without thruster noise.)
+            // grows with that parameter's error; refusing it, hundreds of samples in a
+            // row until the track starts over, would refuse exactly the samples that
+            // determine it.)
             let v = self.parameter_spread(sig);
             ok = (0..6).all(|k| self.lin_track[k].check_wider(z[k], var[k], v[k], gate));
         }

@@ -209,11 +209,8 @@ const START_FULL: u64 = 1;
 /// no sample yet had every IS's linear data for the references. An IS missing at the
 /// first tick would otherwise delay the integrals' start to a tick where the
 /// spacecraft already turns: that initial rate θ̇₀ is a ramp in the propagated
-/// attitude, harmless while the turn lacks it (the linear channels' α′ t takes it),
-/// but the star tracker's drift filter (as it was) learned it after its first bridged
-/// tick, and from there the SRP's turn carried θ̇₀ (t − t_k), a kink no line takes (r_z
-/// up to 46σ off in 1 to 2 % of runs with 1 % IS dropouts, every one of them with an
-/// IS missing at tick 0).
+/// attitude that, once the SRP's turn carries it from a bridged tick on, is a kink no
+/// line takes.
 const START_ANGULAR: u64 = 2;
 
 /// The SRP's level is not fixed yet: the samples turn the fitted DC (`S_PHI0`).
