@@ -66,7 +66,7 @@ pub const PRIOR_DRIFT_V_S: f64 = 1e-3;
 // ## Joint estimator: solve and convergence
 
 /// Gauss–Newton iterations of `finish`: a warm start needs 2–3.
-/// Unit: iterations. Guarded by: `tests/integrity.rs::a_final_solve_whose_steps_turn_back_and_shrink_has_converged`.
+/// Unit: iterations. Guarded by: `estimate::joint::tests::finish_iterates_twenty_times_at_most`.
 pub const FINISH_ITERATIONS: usize = 20;
 
 /// Iterations of a scheduled solve (warm-started): bounded work.
@@ -90,7 +90,7 @@ pub const CLOSING_IN_COS: f64 = 0.5;
 pub const FOLLOW_UPS: u64 = 3;
 
 /// Iterations of the bound's nuisance fit: linear but for the SRP's turn.
-/// Unit: iterations. Guarded by: `tests/campaign.rs::thirty_seeds_give_honest_sigma_and_reach_the_crlb`.
+/// Unit: iterations. Guarded by: `estimate::joint::tests::the_nuisance_fit_takes_six_steps`.
 pub const NUISANCE_ITERATIONS: usize = 6;
 
 /// χ²/dof is inconsistent above 1 + this many spreads √(2/dof), or the tolerance.
@@ -298,9 +298,10 @@ mod tests {
             "# The estimators' tuning\n\n\
              Every tuned constant of the flight core's estimators, with its value, unit, what it\n\
              does and the test that fails when it changes materially. Generated from\n\
-             `crates/taiji-core/src/tuning.rs`, where each entry says why in more words; a unit test\n\
-             there fails when this page differs (regenerate: `TAIJI_BLESS=1 cargo test -p taiji-core\n\
-             tuning`). Guards name a unit test of `taiji_core::estimate` or a test file at the root.\n\n\
+             [`crates/taiji-core/src/tuning.rs`](../crates/taiji-core/src/tuning.rs), which the\n\
+             code takes each value from; a unit test there fails when this page differs\n\
+             (regenerate: `TAIJI_BLESS=1 cargo test -p taiji-core tuning`). Guards name a unit\n\
+             test of `taiji_core::estimate` or a test file at the root.\n\n\
              Not here: the maths, physical constants, layouts, wire codes, a table's accepted\n\
              ranges (`EstimatorConfig::check`) and guards that only keep arithmetic finite.\n\n\
              | name | value | unit | what it does | guarded by |\n\

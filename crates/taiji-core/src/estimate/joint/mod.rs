@@ -832,6 +832,10 @@ mod tests {
         // Converged to 10⁻⁴ σ, whatever came before.
         assert!(finish_converged(two(0.0, f64::INFINITY, 0.0)));
         assert!(finish_converged(two(5e-5, 1e-2, 1.0)));
+        // Steps that barely shrink in one direction: 0.9×10⁻⁴ σ is converged, 1.5×10⁻⁴ σ
+        // has far to go.
+        assert!(finish_converged(two(0.9e-4, 0.9e-4 / 0.9999, 1.0)));
+        assert!(!finish_converged(two(1.5e-4, 1.5e-4 / 0.9999, 1.0)));
         // Wandering on a floor of a thousandth of σ: turning back, or not shrinking;
         // sizes repeating turn back and forth without shrinking.
         assert!(finish_converged(two(2.13e-3, 2.14e-3, -1.0)));
@@ -1187,5 +1191,86 @@ mod tests {
             (slope / 100f64.powf(2.0 / 3.0) - 1.0).abs() < 0.15,
             "{slope}"
         );
+    }
+
+    /// An estimator fed 3000 samples of voltages no model fits (its Gauss–Newton steps
+    /// never settle), every scheduled solve and follow-up done.
+    fn unsettled() -> JointEstimator {
+        let mut e = JointEstimator::new(test_config());
+        let mut gauss = gaussian(0x9e37_79b9_7f4a_7c15);
+        for t in 0..3000u64 {
+            let mut s = quiet(t);
+            let x = 1e-3 * (t as f64 * 0.01).sin();
+            let q = UnitQuaternion::from_scaled_axis(Vector3::new(x * 1e-3, 2e-6, -1e-6));
+            s.star.q_bn = [q.w, q.i, q.j, q.k];
+            for i in 0..2 {
+                for p in 0..3 {
+                    let v = 1e-3 * (p as f64 + 1.0) + x + 1e-6 * gauss();
+                    s.is[i].volts[p] = [v + 1e-4 * gauss(), -v + 1e-4 * gauss()];
+                }
+            }
+            e.update(&s);
+        }
+        // The scheduled solves and their follow-ups, done: `finish` then only iterates.
+        while e.solve_due() {
+            e.solve_now();
+        }
+        e
+    }
+
+    /// `finish` iterates up to 20 times: on data whose Gauss–Newton steps never settle
+    /// below `CONVERGED_STEP` (voltages no model fits), its solution is that of 20
+    /// iterations, not of fewer or more.
+    #[test]
+    fn finish_iterates_twenty_times_at_most() {
+        let e = unsettled();
+        let mut w = SolveWork::zeroed();
+        let mut iterate = |n: usize| {
+            let mut f = e;
+            let moved = f.solve(n, true, &mut w).expect("a step")[0];
+            (f.p, moved)
+        };
+        let (p19, moved) = iterate(19);
+        assert!(moved > 1e-4, "converged after 19: {moved}");
+        let (p20, _) = iterate(20);
+        let (p21, _) = iterate(21);
+        let mut finished = e;
+        finished.finish();
+        assert_eq!(finished.p, p20);
+        assert_ne!(p20, p19);
+        assert_ne!(p20, p21);
+    }
+
+    /// The bound's nuisance fit is six Gauss–Newton steps of the nuisances (β and r
+    /// held): on data its steps never settle on, not five, not seven.
+    #[test]
+    fn the_nuisance_fit_takes_six_steps() {
+        let e = unsettled();
+        let mut w = SolveWork::zeroed();
+        // One step, as `nuisance_fit` takes it.
+        let mut step = |mut p: Par| {
+            e.normal_equations(&p, false, &mut w);
+            let SolveWork { n, hs, hinv, .. } = &mut w;
+            for k in P_BETA..P_TH0 {
+                for j in 0..NP {
+                    n.hm[(k, j)] = 0.0;
+                    n.hm[(j, k)] = 0.0;
+                }
+                n.hm[(k, k)] = 1.0;
+                n.g[k] = 0.0;
+            }
+            p += JointEstimator::newton_step(&n.hm, &n.g, hs, hinv).expect("a step");
+            p
+        };
+        let mut p = e.params_with(&e.cfg.beta_prior, &e.cfg.com_prior_m);
+        let fitted = e.nuisance_fit(p);
+        let mut steps = [p; 8];
+        for s in steps.iter_mut() {
+            *s = p;
+            p = step(p);
+        }
+        assert_eq!(fitted, steps[6]);
+        assert_ne!(fitted, steps[5]);
+        assert_ne!(fitted, steps[7]);
     }
 }
