@@ -7,9 +7,8 @@
 //! a unit test keeps the two equal.
 //!
 //! The first four are also the defaults of the table's integrity fields; the C header
-//! declares them from `EstimatorConfig`, where the same literals stand (asserted below).
-
-use crate::estimate::EstimatorConfig;
+//! declares them from `EstimatorConfig`, where the same literals stand (asserted there).
+//! This module uses nothing of the crate: every estimator depends on it, never it on one.
 
 // ## Integrity defaults (`EstimatorConfig`, overridable per table)
 
@@ -28,14 +27,6 @@ pub const CHI2_TOLERANCE: f64 = 0.25;
 /// Status degraded above one rejected input in this many.
 /// Unit: inputs. Guarded by: `estimate::joint::tests::more_than_one_sample_in_50_rejected_is_degraded`.
 pub const DEGRADED_ONE_IN: u64 = 50;
-
-// The C header is generated from `EstimatorConfig`'s literals: they must be these.
-const _: () = assert!(
-    GATE_SIGMA == EstimatorConfig::GATE_SIGMA
-        && STAR_GATE_SIGMA == EstimatorConfig::STAR_GATE_SIGMA
-        && CHI2_TOLERANCE == EstimatorConfig::CHI2_TOLERANCE
-        && DEGRADED_ONE_IN == EstimatorConfig::DEGRADED_ONE_IN
-);
 
 // ## Joint estimator: priors of the solve (1σ)
 
