@@ -82,6 +82,10 @@ pub enum ConfigError {
 }
 
 impl EstimatorConfig {
+    // The integrity defaults, as literals: the C header is generated from them. Their
+    // entries (what, why, unit, guarding test) are `crate::tuning`'s, and they are its
+    // values (asserted below the impl).
+
     /// Gate in σ: a Gaussian residual exceeds it once in 2.6×10⁷ draws, so clean data
     /// lose about one sample per campaign, while an upset moving a voltage by a few
     /// noise σ already fails the cross-IS test (whose noise is far below a voltage's own).
@@ -171,6 +175,14 @@ impl EstimatorConfig {
         Ok(())
     }
 }
+
+// The C header's defaults are the tuning table's values.
+const _: () = assert!(
+    EstimatorConfig::GATE_SIGMA == crate::tuning::GATE_SIGMA
+        && EstimatorConfig::STAR_GATE_SIGMA == crate::tuning::STAR_GATE_SIGMA
+        && EstimatorConfig::CHI2_TOLERANCE == crate::tuning::CHI2_TOLERANCE
+        && EstimatorConfig::DEGRADED_ONE_IN == crate::tuning::DEGRADED_ONE_IN
+);
 
 /// Eq. 2: linear scale factors from the angular ones and the known geometry,
 /// kx = Gz βz, ky = Gx βx, kz = Gy βy [m s⁻² V⁻¹].

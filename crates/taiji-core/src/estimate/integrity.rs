@@ -13,13 +13,7 @@
 //! * [`RatioFit`]: the per-axis ratio of the two IS's angular voltages (β2/β1, the
 //!   same rotation seen twice), fitted from accepted samples only.
 
-/// Samples a track takes to learn its spread before it gates (it still rejects gross
-/// outliers from the 8th on).
-const WARM: u32 = 48;
-
-/// Consecutive rejections after which a track re-learns (a persistent change is the
-/// new normal, not an outlier); counted by the caller as rejections until then.
-const RELEARN: u32 = 200;
+use crate::tuning::{RATIO_FIT_MIN, TRACK_RELEARN, TRACK_UNCHECKED, TRACK_WARM, TRACK_WARMING_VAR};
 
 /// Level and spread of a residual: exponentially weighted mean and variance of the
 /// accepted values, with a floor on the variance (the known noise).
@@ -44,8 +38,8 @@ pub struct Track {
 
 impl Track {
     /// Does `x` pass, within `gate` σ? σ² is the learned spread, at least `floor`
-    /// (the known white noise). While the track is still learning it rejects only
-    /// gross outliers.
+    /// (the known white noise). Its first `TRACK_UNCHECKED` samples pass unchecked;
+    /// until `TRACK_WARM` it rejects only gross outliers (`TRACK_WARMING_VAR`).
     pub fn check(&self, x: f64, floor: f64, gate: f64) -> bool {
         self.check_wider(x, floor, 0.0, gate)
     }
@@ -65,8 +59,8 @@ impl Track {
                 0.0
             };
         match self.n {
-            0..=7 => true,
-            n if n < WARM => d * d <= 1e4 * gate * gate * var,
+            n if n < TRACK_UNCHECKED => true,
+            n if n < TRACK_WARM => d * d <= TRACK_WARMING_VAR * gate * gate * var,
             _ => d * d <= gate * gate * var,
         }
     }
@@ -75,7 +69,7 @@ impl Track {
     pub fn learn(&mut self, x: f64, alpha: f64) {
         self.rejected_run = 0;
         let d = x - self.level;
-        if self.n < WARM {
+        if self.n < TRACK_WARM {
             // Welford over the first samples.
             self.n += 1;
             self.level += d / self.n as f64;
@@ -87,10 +81,11 @@ impl Track {
         }
     }
 
-    /// A rejected sample: after `RELEARN` in a row the track starts over.
+    /// A rejected sample: after `TRACK_RELEARN` in a row the track starts over (a persistent
+    /// change is the new normal; the caller counts rejections until then).
     pub fn miss(&mut self) {
         self.rejected_run += 1;
-        if self.rejected_run >= RELEARN {
+        if self.rejected_run >= TRACK_RELEARN {
             *self = Track::default();
         }
     }
@@ -176,7 +171,7 @@ pub struct RatioFit {
 
 impl RatioFit {
     /// Samples needed before the fit replaces the prior ratio.
-    pub const MIN: u64 = 20;
+    pub const MIN: u64 = RATIO_FIT_MIN;
 
     pub fn add(&mut self, x: f64, y: f64) {
         self.sxy += x * y;
@@ -194,7 +189,7 @@ impl RatioFit {
 #[cfg(test)]
 mod tests {
     use super::*;
-    const GATE: f64 = crate::estimate::EstimatorConfig::GATE_SIGMA;
+    const GATE: f64 = crate::tuning::GATE_SIGMA;
     use rand::SeedableRng;
 
     fn gauss(r: &mut rand_chacha::ChaCha8Rng) -> f64 {
@@ -233,7 +228,27 @@ mod tests {
                 break;
             }
         }
-        assert_eq!(accepted_after, Some(RELEARN as usize));
+        assert_eq!(accepted_after, Some(200));
+    }
+
+    /// A track takes its first 8 samples unchecked; until its 48th it rejects only
+    /// outliers beyond 100 gates (a variance 10⁴ times the gate's); then the gate.
+    #[test]
+    fn a_warming_track_rejects_only_gross_outliers() {
+        let mut t = Track::default();
+        let check = |t: &Track, gates: f64| t.check(gates * GATE, 1.0, GATE);
+        for _ in 0..7 {
+            t.learn(0.0, 0.1);
+        }
+        assert!(check(&t, 1e6));
+        t.learn(0.0, 0.1);
+        assert!(check(&t, 99.0) && !check(&t, 101.0));
+        for _ in 8..47 {
+            t.learn(0.0, 0.1);
+        }
+        assert!(check(&t, 99.0));
+        t.learn(0.0, 0.1);
+        assert!(!check(&t, 99.0) && !check(&t, 1.01) && check(&t, 0.99));
     }
 
     #[test]
@@ -262,6 +277,8 @@ mod tests {
         for k in 1..=30 {
             let y = k as f64;
             f.add(0.9 * y, y);
+            // The fit replaces the prior ratio from its 20th sample.
+            assert_eq!(f.ratio().is_some(), k >= 20);
         }
         let (rho, _) = f.ratio().unwrap();
         assert!((rho - 0.9).abs() < 1e-15);

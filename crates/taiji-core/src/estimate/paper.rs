@@ -14,12 +14,11 @@ use crate::model::attitude::coupling_matrix;
 use crate::msg::{EstimateMsg, Header, SensorSample};
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
-/// The paper's low-pass corner on both sides of the β regression [Hz].
-const FC: f64 = 0.05;
-/// The β regression starts once both low-passes have settled (5 time constants of the
-/// corner, 100 s): their start-up transients, driven by the star noise, otherwise bias
-/// the axis rocked first by up to ~15 %.
-const SETTLE_S: f64 = 5.0 / FC;
+use crate::tuning;
+
+/// The β regression starts once both low-passes have settled: their start-up
+/// transients, driven by the star noise, would otherwise bias the axis rocked first.
+const SETTLE_S: f64 = tuning::PAPER_SETTLE_PERIODS / tuning::PAPER_LOWPASS_HZ;
 
 /// Second-order Butterworth low-pass (bilinear transform), direct form II transposed.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
@@ -73,7 +72,7 @@ pub struct PaperEstimator {
 impl PaperEstimator {
     pub fn new(cfg: EstimatorConfig) -> Self {
         let fs = cfg.fs;
-        let lp = Biquad::lowpass(FC, fs);
+        let lp = Biquad::lowpass(tuning::PAPER_LOWPASS_HZ, fs);
         // Variance of the low-passed double-differentiated star noise (impulse response).
         let mut f = lp;
         let dt2 = fs * fs;
@@ -93,7 +92,7 @@ impl PaperEstimator {
                 let b = cfg.beta_prior[i][a];
                 StaticKf::new(
                     SVector::<f64, 1>::new(b),
-                    SMatrix::<f64, 1, 1>::new((0.05 * b).powi(2)),
+                    SMatrix::<f64, 1, 1>::new((tuning::PAPER_PRIOR_BETA_REL * b).powi(2)),
                 )
             })
         });
@@ -102,9 +101,9 @@ impl PaperEstimator {
             let mut p = SMatrix::<f64, 9, 9>::zeros();
             for a in 0..3 {
                 x[a] = cfg.com_prior_m[i][a];
-                p[(a, a)] = (5e-3f64).powi(2);
-                p[(3 + a, 3 + a)] = (1e-10f64).powi(2);
-                p[(6 + a, 6 + a)] = (1e-6f64).powi(2);
+                p[(a, a)] = tuning::PAPER_PRIOR_COM_M.powi(2);
+                p[(3 + a, 3 + a)] = tuning::PAPER_PRIOR_DRIFT.powi(2);
+                p[(6 + a, 6 + a)] = tuning::PAPER_PRIOR_BIAS.powi(2);
             }
             StaticKf::new(x, p)
         });
@@ -209,7 +208,7 @@ impl PaperEstimator {
                 }
                 h[3 + j] = t - t0;
                 h[6 + j] = 1.0;
-                self.com_kf[i].update(&h, k[j] * sum[j], (2e-12f64).powi(2));
+                self.com_kf[i].update(&h, k[j] * sum[j], tuning::PAPER_SRP_SIGMA.powi(2));
             }
         }
         self.theta_hist = [Some(theta), self.theta_hist[0]];
@@ -242,5 +241,32 @@ impl PaperEstimator {
         m.n_used = self.n_used;
         m.n_rejected = self.n_rejected;
         m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paper's values (§2.1, §3.2.2): a 0.05 Hz corner, settled after 100 s; priors of
+    /// 5 % of β, 5 mm of r, 10⁻¹⁰ m/s³ of drift and 10⁻⁶ m/s² of bias; the SRP as
+    /// 2×10⁻¹² m/s² of measurement noise.
+    #[test]
+    fn the_paper_routes_values_are_the_papers() {
+        let cfg = super::super::joint::test_config();
+        let e = PaperEstimator::new(cfg);
+        let lp = Biquad::lowpass(0.05, cfg.fs);
+        assert_eq!((e.lp_star[0].b, e.lp_star[0].a), (lp.b, lp.a));
+        assert_eq!(SETTLE_S, 100.0);
+        for i in 0..2 {
+            for a in 0..3 {
+                let b = cfg.beta_prior[i][a];
+                assert!((e.beta_kf[i][a].sigma(0) / (0.05 * b).abs() - 1.0).abs() < 1e-15);
+                assert!((e.com_kf[i].sigma(a) / 5e-3 - 1.0).abs() < 1e-15);
+                assert!((e.com_kf[i].sigma(3 + a) / 1e-10 - 1.0).abs() < 1e-15);
+                assert!((e.com_kf[i].sigma(6 + a) / 1e-6 - 1.0).abs() < 1e-15);
+            }
+        }
+        assert_eq!(tuning::PAPER_SRP_SIGMA, 2e-12);
     }
 }

@@ -36,7 +36,7 @@ impl JointEstimator {
     /// over the tick, its ends' midpoint ω̇ dt²/4). The IS measure the
     /// SRP turned by that mean attitude; the ends' midpoint, dv dt²/12 ahead, turned
     /// it as ω̇ × r does, a CoM offset of b dt²/12 along the SRP (2.2 nm of r_z at
-    /// 1 Hz: its err/σ had a mean of +0.29 over 800 seeds).
+    /// 1 Hz).
     pub(super) fn integrate(&mut self, dv: &[[f64; 3]; 2]) -> ([[f64; 3]; 2], [[f64; 3]; 2]) {
         let dt = 1.0 / self.cfg.fs;
         let mut psi_mid = [[0.0; 3]; 2];
@@ -94,8 +94,8 @@ impl JointEstimator {
     /// var_tick = jerk_var/1.5 the learned tick-to-tick spread, mostly the torque
     /// noise's). Real motion, both IS alike: the star tracker sees it and so do the turn
     /// rows. At 1 Hz it is five times IS1's own double-integrated noise at the
-    /// maneuver's frequency; at 2 Hz with 8× the default torque noise it made β's σ
-    /// 20 % optimistic in the star group ((err/σ)² 1.41 over 200 seeds, 1.05 with it).
+    /// maneuver's frequency; left out, β's σ in the star group would be optimistic
+    /// wherever the torque noise is large.
     pub(super) fn intra_tick_walk(&self, a: usize) -> f64 {
         let dt = 1.0 / self.cfg.fs;
         let walk = self.jerk_var[a] * dt * dt * dt * dt / 18.0;
@@ -148,9 +148,9 @@ impl JointEstimator {
     /// IS1's axes that borrowed IS2's voltage this tick (`angular_inputs`) put the
     /// fitted ratio's error into IS1's rate: dt β1 ΔV2 δρ, a step of the attitude that
     /// turns the SRP (`turn_pq`). δρ's variance is the fit's (its residual's readout
-    /// noise and ripple over Σ ΔV2²), or the priors' ratio's before the fit. (At 1 Hz
-    /// the fit after 100 pairs is off by 10⁻⁵; left out, 1 % IS dropouts put β's σ
-    /// 1.5× optimistic once the turn counts as evidence.)
+    /// noise and ripple over Σ ΔV2²), or the priors' ratio's before the fit (at 1 Hz
+    /// the fit after 100 pairs is off by 10⁻⁵; left out, IS dropouts would make β's σ
+    /// optimistic, the turn counting as evidence).
     pub(super) fn note_borrowed(&mut self, axis_ok: &[[bool; 3]; 2], data: &[IsData; 2]) {
         let c = &self.cfg;
         let dt = 1.0 / c.fs;
@@ -182,8 +182,7 @@ impl JointEstimator {
     /// behind a changing ω̇ (a thruster's overshoot after an edge); the line leaves
     /// only its curvature and the torque noise's own scatter. The integrals move by
     /// dt Σ δ_k (rate) and dt² Σ δ_k (n − k + ½) (angle), δ_k = k Δ/(n + 1): Δ dt n/2
-    /// and Δ dt² n(2n + 1)/12. The propagated attitude moves with them. (Measured,
-    /// 5 % IS dropouts, 30 seeds: the common β error 2.3 → 1.9×10⁻⁵.) With one IS
+    /// and Δ dt² n(2n + 1)/12. The propagated attitude moves with them. With one IS
     /// configured the linear test may still undo this sample's angular data, so the
     /// line is drawn only with two.
     pub(super) fn interpolate_bridge(&mut self, a: usize, dv: &[[f64; 3]; 2]) {
@@ -223,7 +222,7 @@ impl JointEstimator {
                 jump += self.w(l) * self.cfg.beta_prior[l][a] * (dv[l][a] - self.dv_anchor[l][a]);
             }
             let v = (span * jump).powi(2) / 12.0;
-            let (vs, vt) = (STEP_IN_STAR * v, STEP_IN_TURN * v);
+            let (vs, vt) = (tuning::STEP_IN_STAR * v, tuning::STEP_IN_TURN * v);
             if v.is_finite() {
                 let h = 0.5 * span;
                 let p = &mut self.st_p[a];
@@ -246,7 +245,7 @@ impl JointEstimator {
     /// that turns the SRP.
     pub(super) fn turn_bridged(&mut self, a: usize) {
         let dt = 1.0 / self.cfg.fs;
-        self.turn_pq[a][2] += STEP_IN_TURN * dt * dt * self.jerk_var[a];
+        self.turn_pq[a][2] += tuning::STEP_IN_TURN * dt * dt * self.jerk_var[a];
     }
 
     /// Add this linear sample to the excitation's moments (`rate_moments`,
@@ -255,7 +254,7 @@ impl JointEstimator {
     /// software floating-point operations. They change only here, so here too is where
     /// the first tick with motion of its own on every axis is noted (`rocked_tick`).
     pub(super) fn note_excitation(&mut self, dv: &[[f64; 3]; 2]) {
-        if self.n_used & (MOMENT_EVERY - 1) != 1 {
+        if self.n_used & (tuning::MOMENT_EVERY - 1) != 1 {
             return;
         }
         for (m, v) in self.rate_moments.iter_mut().zip(&dv[0]) {
@@ -275,7 +274,7 @@ impl JointEstimator {
     /// β): half the change of the sample-to-sample change, for the previous sample.
     /// White ω̇ noise of variance σ² gives 1.5 σ², what a one-tick gap bridged by the
     /// line is off by; the maneuver's own change cancels but at its edges, which
-    /// `close_bridge` measures instead and which are clipped here at 4σ.
+    /// `close_bridge` measures instead and which are clipped here (`JERK_CLIP_VAR`).
     pub(super) fn learn_jerk(&mut self, a: usize, dv: &[[f64; 3]; 2], last: &[[f64; 3]; 2]) {
         let mut change = 0.0;
         for l in 0..self.n_is() {
@@ -289,7 +288,7 @@ impl JointEstimator {
             let d = 0.5 * (change - self.jerk_last[a]);
             let v = &mut self.jerk_var[a];
             if *v > 0.0 {
-                *v += ALPHA_JERK * ((d * d).min(16.0 * *v) - *v);
+                *v += tuning::ALPHA_JERK * ((d * d).min(tuning::JERK_CLIP_VAR * *v) - *v);
             } else {
                 // The running mean starts at its first value.
                 *v = d * d;

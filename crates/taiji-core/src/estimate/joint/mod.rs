@@ -36,6 +36,9 @@ use super::integrity::{RatioFit, Stuck, Track};
 use crate::math::Real;
 use crate::model::noise::{PowerLawBank, MAX_POLES};
 use crate::msg::*;
+use crate::tuning;
+/// The solve's weak priors, named where the std layer reads them.
+pub use crate::tuning::{PRIOR_BETA_REL, PRIOR_COM_M};
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod bridge;
@@ -206,11 +209,8 @@ const START_FULL: u64 = 1;
 /// no sample yet had every IS's linear data for the references. An IS missing at the
 /// first tick would otherwise delay the integrals' start to a tick where the
 /// spacecraft already turns: that initial rate θ̇₀ is a ramp in the propagated
-/// attitude, harmless while the turn lacks it (the linear channels' α′ t takes it),
-/// but the star tracker's drift filter (as it was) learned it after its first bridged
-/// tick, and from there the SRP's turn carried θ̇₀ (t − t_k), a kink no line takes (r_z
-/// up to 46σ off in 1 to 2 % of runs with 1 % IS dropouts, every one of them with an
-/// IS missing at tick 0).
+/// attitude that, once the SRP's turn carries it from a bridged tick on, is a kink no
+/// line takes.
 const START_ANGULAR: u64 = 2;
 
 /// The SRP's level is not fixed yet: the samples turn the fitted DC (`S_PHI0`).
@@ -221,13 +221,6 @@ const LEVEL_SET: u64 = 1;
 /// sample turns it: the bound's statistics, of the model most of a run's samples have.
 const LEVEL_AT_END: u64 = 2;
 
-/// Real motion dominates the angular readout noise on an axis once ω̇'s variance is
-/// this many times the noise's (`every_axis_rocked`): the errors in variables then
-/// leave r̂ off by that share of r, 10⁻⁴ of a 5 cm offset (5 µm), and the maneuver's
-/// A r by ~10⁻¹⁴ m/s², below the SRP fluctuation the level is measured against.
-/// The thrusters' torque noise alone gives ~10⁸ (default scenario).
-const ROCKED_VAR_RATIO: f64 = 1e4;
-
 /// How far motion of covariance `cov` [rad²/s⁴] dominates angular readout noise of
 /// variance `noise_var` on every axis, in units of `ROCKED_VAR_RATIO`: 4 det / trace²
 /// (a lower bound of the smallest eigenvalue, the other two being at most trace / 2
@@ -237,48 +230,8 @@ const ROCKED_VAR_RATIO: f64 = 1e4;
 /// without it a sequential schedule leaves the SRP's level waiting for its last axis.
 pub fn rocking(cov: &Matrix3<f64>, noise_var: f64) -> f64 {
     let tr = cov.trace();
-    4.0 * cov.determinant() / (ROCKED_VAR_RATIO * noise_var * tr * tr)
+    4.0 * cov.determinant() / (tuning::ROCKED_VAR_RATIO * noise_var * tr * tr)
 }
-
-/// The excitation's cross products take every this many linear samples (`rate_cross`; a
-/// power of two: a 64-bit remainder is a library call on a 32-bit CPU).
-const MOMENT_EVERY: u64 = 8;
-const _: () = assert!(MOMENT_EVERY.is_power_of_two());
-
-/// Weak priors of the solve, 1σ. Wide against what the data determine (β to
-/// 10⁻⁵ relative, r to µm), so they only keep the normal equations regular before the
-/// maneuver has excited every parameter; the ground calibration is far tighter.
-/// β: this fraction of its prior [-] (the scenario allows priors within 10 %).
-pub const PRIOR_BETA_REL: f64 = 0.05;
-/// CoM offset [m]: 5 cm, beyond any plausible test-mass offset.
-pub const PRIOR_COM_M: f64 = 0.05;
-/// Star-tracker reference offset θ0 [rad] (0.6°) and its rate θ̇0 [rad/s].
-const PRIOR_THETA0_RAD: f64 = 1e-2;
-const PRIOR_THETA_RATE_RAD_S: f64 = 1e-4;
-/// Linear-channel bias b' [V] and drift α' [V/s]: beyond any drive-voltage offset.
-const PRIOR_BIAS_V: f64 = 1.0;
-const PRIOR_DRIFT_V_S: f64 = 1e-3;
-/// Gauss–Newton iterations of `finish` (to convergence; the warm-started run needs
-/// 2–3, the rest is margin) and of a scheduled solve (one, warm-started).
-const FINISH_ITERATIONS: usize = 20;
-const SCHEDULED_ITERATIONS: usize = 1;
-
-/// A solve has converged when no parameter moved by more than this fraction of its σ.
-const CONVERGED_STEP: f64 = 1e-4;
-
-/// What the final solve may still be off by, in σ of any parameter, and be called
-/// converged. Iterations that stop short of `CONVERGED_STEP` have either met the
-/// floating-point floor or are still closing in. At the floor the steps do not shrink
-/// and turn back and forth: with the IS's angular noise and ripple a hundred times
-/// smaller over 10⁵ s, 20 iterations end moving by 5×10⁻⁴–3×10⁻³ σ, sizes repeating
-/// (1.60×10⁻³, 3.20×10⁻³) and consecutive steps at cosines −1.00 to −0.88 (12 of 30
-/// runs were flagged for it).
-const UNCONVERGED_STEP: f64 = 1e-2;
-
-/// Consecutive steps closer in direction than this cosine (or turning back, closer than
-/// its negative) follow one pattern: closing in on one point from one side, or from
-/// both sides in turn, not wandering on a floor.
-const CLOSING_IN_COS: f64 = 0.5;
 
 /// Whether `finish`'s solve converged, from its last three steps (`solve`: their
 /// largest moves in σ and the cosines between consecutive ones; `None` when a step
@@ -287,71 +240,28 @@ const CLOSING_IN_COS: f64 = 0.5;
 /// last two pairs of steps both turn back and shrink, the distance still to go within
 /// it, however large the last step. The distance to go of steps that shrink by ρ and
 /// turn by the angle between them: the last times ρ/√(1 − 2ρ cos + ρ²), ρ/(1 − ρ) in
-/// one direction, ρ/(1 + ρ) turning back. Steps that turn back and shrink slowly
-/// (ρ ≈ 0.85 without thruster noise and the sun along z: 1.2–2.1×10⁻² σ after 20
-/// iterations, 5–10×10⁻³ σ from where they meet) have converged.
+/// one direction, ρ/(1 + ρ) turning back. Steps that turn back and shrink slowly, to a
+/// point within `UNCONVERGED_STEP`, have converged.
 fn finish_converged(moved: Option<[f64; 5]>) -> bool {
     let Some([last, before, cos, earlier, cos_before]) = moved else {
         return false;
     };
-    if last < CONVERGED_STEP {
+    if last < tuning::CONVERGED_STEP {
         return true;
     }
     let rho = last / before;
     let to_go = last * rho / (1.0 - 2.0 * rho * cos + rho * rho).sqrt();
-    let turning_back = cos < -CLOSING_IN_COS && cos_before < -CLOSING_IN_COS;
+    let turning_back = cos < -tuning::CLOSING_IN_COS && cos_before < -tuning::CLOSING_IN_COS;
     if turning_back && rho < 1.0 && before < earlier {
-        return to_go <= UNCONVERGED_STEP;
+        return to_go <= tuning::UNCONVERGED_STEP;
     }
-    if last.is_nan() || last > UNCONVERGED_STEP {
+    if last.is_nan() || last > tuning::UNCONVERGED_STEP {
         return false;
     }
-    let closing_in = rho < 1.0 && cos.abs() > CLOSING_IN_COS;
-    !closing_in || to_go <= UNCONVERGED_STEP
+    let closing_in = rho < 1.0 && cos.abs() > tuning::CLOSING_IN_COS;
+    !closing_in || to_go <= tuning::UNCONVERGED_STEP
 }
 
-/// Solves that may follow the first scheduled one, one per update, while its step moved
-/// some parameter by more than its σ and left the data inconsistent (`solve_now_with`).
-/// `solve_due[0]` counts them: 1 for the scheduled solve, 2… for the follow-ups.
-const FOLLOW_UPS: u64 = 3;
-/// A gap longer than this [s] may have let the propagated attitude step away from the
-/// star tracker's: the star test then learns its offset anew (in ticks: × fs).
-const STAR_RELEARN_GAP_S: f64 = 1.0;
-
-/// Most missing ticks one `update` bridges (each about 10⁴ instructions on a Cortex-M7:
-/// a propagation step of the attitude, the whitening filter and the star filter).
-/// After a longer gap the samples that arrive while the estimator catches up are
-/// bridged too, B − 1 ticks gained a call: a 600 s gap at 10 Hz costs about 86 s of
-/// data, and no call costs more than this many steps. Gaps up to it lose nothing.
-const BRIDGE_PER_UPDATE: u64 = 8;
-/// A bridged tick's rate step is one unknown that two groups see, the star tracker's
-/// and the turn rows' (the same ramp of the attitude in both), each filter taking it
-/// as its own: the star group at c₁ v, the turn rows at c₂ v. With signatures h₁, h₂
-/// of the one step (variance v) in the two groups, c₁ h₁h₁ᵀ ⊕ c₂ h₂h₂ᵀ covers its joint
-/// covariance (h₁; h₂)(h₁; h₂)ᵀ whenever 1/c₁ + 1/c₂ ≤ 1, so no split of that kind is
-/// optimistic; taken once in each (c = 1, the cross term missed) β's σ read 1.3–1.7×
-/// optimistic at 10 Hz with 5 % IS dropouts or 0.1–0.25 % of ticks lost on the bus.
-/// Where the split falls is a trade, as the step confounds β in the star group and r in
-/// the turn rows. Measured, β / r (err/σ)² over 100 seeds, an outside review's
-/// scenario with bus faults and the default with 5 % IS dropouts: 2, 2: 0.65 / 0.97
-/// and 0.71 / 0.85; 4/3, 4: 0.85 / 0.94 and 0.84 / 0.83; 1.2, 6: 0.91 / 0.92 and
-/// 0.89 / 0.81; 1.01, 101: 0.98 / 0.79 and 0.99 / 0.66 (docs/integrity.md, known gaps).
-/// The exact joint (one filter both groups share) is not built: its Grams would pair
-/// every signal of one group with every signal of the other.
-const STEP_IN_STAR: f64 = 4.0 / 3.0;
-/// The turn rows' share of a bridged tick's rate step (`STEP_IN_STAR`).
-const STEP_IN_TURN: f64 = 4.0;
-// The split never counts more than the joint likelihood of the one step.
-const _: () = assert!(1.0 / STEP_IN_STAR + 1.0 / STEP_IN_TURN <= 1.0 + 1e-12);
-
-/// Forgetting rates of the residual tracks (per sample; per star-tracker sample).
-const ALPHA_LIN: f64 = 1.0 / 64.0;
-const ALPHA_STAR: f64 = 1.0 / 16.0;
-const ALPHA_JERK: f64 = 1.0 / 256.0;
-/// Margin on the measurement range for the voltage range test (priors and ripple).
-const RANGE_MARGIN: f64 = 1.25;
-/// Degrees of freedom a group needs before its χ² is judged.
-const CHI2_MIN_DOF: f64 = 2000.0;
 impl JointEstimator {
     pub fn new(cfg: EstimatorConfig) -> Self {
         let mut e = <Self as bytemuck::Zeroable>::zeroed();
@@ -370,18 +280,23 @@ impl JointEstimator {
         for i in 0..2 {
             for a in 0..3 {
                 p[P_BETA + 3 * i + a] = cfg.beta_prior[i][a];
-                ps[P_BETA + 3 * i + a] = PRIOR_BETA_REL * cfg.beta_prior[i][a];
+                ps[P_BETA + 3 * i + a] = tuning::PRIOR_BETA_REL * cfg.beta_prior[i][a];
                 p[P_R + 3 * i + a] = cfg.com_prior_m[i][a];
-                ps[P_R + 3 * i + a] = PRIOR_COM_M;
-                ps[P_B + 3 * i + a] = PRIOR_BIAS_V;
-                ps[P_AL + 3 * i + a] = PRIOR_DRIFT_V_S;
+                ps[P_R + 3 * i + a] = tuning::PRIOR_COM_M;
+                ps[P_B + 3 * i + a] = tuning::PRIOR_BIAS_V;
+                ps[P_AL + 3 * i + a] = tuning::PRIOR_DRIFT_V_S;
             }
         }
         for a in 0..3 {
-            ps[P_TH0 + a] = PRIOR_THETA0_RAD;
-            ps[P_THD + a] = PRIOR_THETA_RATE_RAD_S;
+            ps[P_TH0 + a] = tuning::PRIOR_THETA0_RAD;
+            ps[P_THD + a] = tuning::PRIOR_THETA_RATE_RAD_S;
         }
-        dst.bank = PowerLawBank::new(cfg.srp_asd_at_3mhz, 3e-3, 2.0 / 3.0, cfg.fs);
+        dst.bank = PowerLawBank::new(
+            cfg.srp_asd_at_3mhz,
+            tuning::SRP_REF_HZ,
+            tuning::SRP_PSD_EXPONENT,
+            cfg.fs,
+        );
         for k in 0..dst.bank.poles() {
             dst.wp[(k, k)] = dst.bank.var[k];
         }
@@ -405,7 +320,7 @@ impl JointEstimator {
             && self.bank.n <= MAX_POLES as u64
             && self.started <= START_ANGULAR
             && self.q_ref_set <= 1
-            && self.solve_due[0] <= 1 + FOLLOW_UPS
+            && self.solve_due[0] <= 1 + tuning::FOLLOW_UPS
     }
 
     /// Every tick below this one has been processed or bridged.
@@ -475,12 +390,12 @@ impl JointEstimator {
                 return self.tick_mask;
             }
         } else {
-            if gap as f64 > STAR_RELEARN_GAP_S * self.cfg.fs {
+            if gap as f64 > tuning::STAR_RELEARN_GAP_S * self.cfg.fs {
                 // A long gap: the star test learns its offset anew rather than
                 // rejecting every sample until it gives up.
                 self.star_track = [Track::default(); 3];
             }
-            let n = gap.min(BRIDGE_PER_UPDATE);
+            let n = gap.min(tuning::BRIDGE_PER_UPDATE);
             for k in 0..n {
                 self.bridge(self.next_tick + k);
             }
@@ -537,7 +452,9 @@ impl JointEstimator {
             return false;
         }
         let first = self.status & ST_NO_SOLUTION != 0;
-        let moved = self.solve(SCHEDULED_ITERATIONS, true, w).map(|m| m[0]);
+        let moved = self
+            .solve(tuning::SCHEDULED_ITERATIONS, true, w)
+            .map(|m| m[0]);
         self.solved_tick = tick;
         self.follow_up(round, first, moved);
         self.status & ST_SOLVE_FAILED == 0
@@ -551,7 +468,7 @@ impl JointEstimator {
     #[inline(never)]
     fn follow_up(&mut self, round: u64, first: bool, moved: Option<f64>) {
         let unconverged = moved.is_some_and(|m| m > 1.0) && self.status & ST_INCONSISTENT != 0;
-        let chain = (round == 1 && first) || (2..=FOLLOW_UPS).contains(&round);
+        let chain = (round == 1 && first) || (2..=tuning::FOLLOW_UPS).contains(&round);
         if unconverged && chain {
             self.status |= ST_NOT_CONVERGED;
             self.solve_due = [round + 1, self.next_tick];
@@ -573,7 +490,7 @@ impl JointEstimator {
         self.tick_mask = 0;
         let last = self.next_tick.saturating_sub(1);
         if self.started == START_FULL {
-            if finish_converged(self.solve(FINISH_ITERATIONS, true, w)) {
+            if finish_converged(self.solve(tuning::FINISH_ITERATIONS, true, w)) {
                 self.status &= !ST_NOT_CONVERGED;
             } else {
                 self.status |= ST_NOT_CONVERGED;
@@ -672,6 +589,7 @@ pub(super) fn gaussian(mut seed: u64) -> impl FnMut() -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tuning::BRIDGE_PER_UPDATE;
 
     #[test]
     fn init_in_place_gives_the_same_bytes_whatever_the_memory_held() {
@@ -786,16 +704,24 @@ mod tests {
         assert_eq!(e.n_used + e.n_rejected, tick + 1);
     }
 
-    /// A gap up to the bound is bridged in the update that sees it, as before.
+    /// A gap up to the bound, 8 ticks, is bridged in the update that sees it; one tick
+    /// more takes a second update.
     #[test]
     fn a_short_gap_is_bridged_at_once() {
         let mut e = JointEstimator::new(test_config());
         for t in 0..10 {
             e.update(&quiet(t));
         }
-        e.update(&quiet(10 + BRIDGE_PER_UPDATE));
-        assert_eq!(e.next_tick(), 11 + BRIDGE_PER_UPDATE);
-        assert_eq!(e.causes[CAUSE_TICK_MISSING], BRIDGE_PER_UPDATE);
+        let mut longer = e;
+        e.update(&quiet(10 + 8));
+        assert_eq!(e.next_tick(), 11 + 8);
+        assert_eq!(e.causes[CAUSE_TICK_MISSING], 8);
+        longer.update(&quiet(10 + 9));
+        assert_eq!(
+            longer.next_tick(),
+            10 + 8,
+            "the sample waits for the catch-up"
+        );
     }
 
     /// The bridge's process noise is what the line through a gap's neighbours misses:
@@ -906,6 +832,10 @@ mod tests {
         // Converged to 10⁻⁴ σ, whatever came before.
         assert!(finish_converged(two(0.0, f64::INFINITY, 0.0)));
         assert!(finish_converged(two(5e-5, 1e-2, 1.0)));
+        // Steps that barely shrink in one direction: 0.9×10⁻⁴ σ is converged, 1.5×10⁻⁴ σ
+        // has far to go.
+        assert!(finish_converged(two(0.9e-4, 0.9e-4 / 0.9999, 1.0)));
+        assert!(!finish_converged(two(1.5e-4, 1.5e-4 / 0.9999, 1.0)));
         // Wandering on a floor of a thousandth of σ: turning back, or not shrinking;
         // sizes repeating turn back and forth without shrinking.
         assert!(finish_converged(two(2.13e-3, 2.14e-3, -1.0)));
@@ -1035,5 +965,312 @@ mod tests {
             }
         }
         assert_ne!(after.column(S_PHI), before.column(S_PHI));
+    }
+
+    /// Before any data, σ is the priors': 5 % of β, 5 cm of r, 10⁻² rad of θ0,
+    /// 10⁻⁴ rad/s of θ̇0, 1 V of b′ and 10⁻³ V/s of α′.
+    #[test]
+    fn before_any_data_sigma_is_the_prior() {
+        let cfg = test_config();
+        let e = JointEstimator::new(cfg);
+        for i in 0..2 {
+            for a in 0..3 {
+                assert_eq!(e.sigma[P_BETA + 3 * i + a], 0.05 * cfg.beta_prior[i][a]);
+                assert_eq!(e.sigma[P_R + 3 * i + a], 0.05);
+                assert_eq!(e.sigma[P_B + 3 * i + a], 1.0);
+                assert_eq!(e.sigma[P_AL + 3 * i + a], 1e-3);
+            }
+        }
+        for a in 0..3 {
+            assert_eq!(e.sigma[P_TH0 + a], 1e-2);
+            assert_eq!(e.sigma[P_THD + a], 1e-4);
+        }
+        assert_eq!(e.p_sigma, e.sigma);
+    }
+
+    /// A star-tracker sample of `angle` [rad] about `axis`, its quaternion scaled by
+    /// `scale` (1: unit).
+    fn star(tick: u64, axis: usize, angle: f64, scale: f64) -> SensorSample {
+        let mut s = SensorSample::default();
+        s.header.tick = tick;
+        s.star.valid = 1;
+        let q = UnitQuaternion::from_scaled_axis(Vector3::ith(axis, angle));
+        s.star.q_bn = [q.w, q.i, q.j, q.k].map(|x| x * scale);
+        s
+    }
+
+    /// The star test: a quaternion whose norm is off 1 by 8×10⁻⁷ is taken, by 1.5×10⁻⁶
+    /// refused as invalid; a residual within 5σ of its track passes, beyond it is an
+    /// outlier; an accepted residual moves the track's spread at the rate 1/16.
+    #[test]
+    fn the_star_gate_is_five_sigma() {
+        let cfg = test_config();
+        let sigma = cfg.sigma_star_rad;
+        let kappa = Vector3::zeros();
+        let mut e = JointEstimator::new(cfg);
+        e.update_star(&star(0, 0, 0.0, 1.0), &kappa, 0.0);
+        // About x, ±3σ in turn: that track's spread is 9σ², above the floor σ².
+        for k in 1..200u64 {
+            let x = if k % 2 == 0 { 3.0 } else { -3.0 } * sigma;
+            e.update_star(&star(k, 0, x, 1.0), &kappa, 0.0);
+        }
+        assert_eq!(e.causes[CAUSE_STAR_OUTLIER], 0);
+        assert_eq!(e.causes[CAUSE_STAR_INVALID], 0);
+        let taken = |e: &JointEstimator, s: SensorSample| {
+            let mut e = *e;
+            let n = e.n_star;
+            e.update_star(&s, &kappa, 0.0);
+            (e.n_star == n + 1, e)
+        };
+        // The norm.
+        assert!(taken(&e, star(200, 0, 0.0, 1.0 + 8e-7)).0);
+        let (ok, f) = taken(&e, star(200, 0, 0.0, 1.0 + 1.5e-6));
+        assert!(!ok && f.causes[CAUSE_STAR_INVALID] == 1);
+        // The gate, about y (level 0, spread at its floor σ²).
+        assert!(taken(&e, star(200, 1, 4.9 * sigma, 1.0)).0);
+        let (ok, f) = taken(&e, star(200, 1, 5.1 * sigma, 1.0));
+        assert!(!ok && f.causes[CAUSE_STAR_OUTLIER] == 1);
+        // The forgetting rate: var ← (1 − α)(var + α d²), d from the level (near 0).
+        let v0 = e.star_track[0].var();
+        let (ok, f) = taken(&e, star(200, 0, 12.0 * sigma, 1.0));
+        assert!(ok);
+        let alpha = 1.0 / 16.0;
+        let want = (1.0 - alpha) * (v0 + alpha * (12.0 * sigma).powi(2));
+        assert!(
+            (f.star_track[0].var() / want - 1.0).abs() < 0.03,
+            "{} {want}",
+            f.star_track[0].var()
+        );
+    }
+
+    /// χ²/dof is judged from 2000 degrees of freedom on, against 1 + max(0.25,
+    /// 10 √(2/dof)): at 2100 dof the limit is 1.309, at 3×10⁶ it is 1.25.
+    #[test]
+    fn chi2_is_judged_from_2000_dof_within_its_spread() {
+        let judged = |n_star: u64, chi2: f64| {
+            let mut e = JointEstimator::new(test_config());
+            e.n_star = n_star;
+            let mut cost = [0.0; N_GROUPS];
+            cost[GROUP_STAR] = chi2 * 3.0 * n_star as f64;
+            e.judge_consistency(&cost);
+            e.status & ST_INCONSISTENT != 0
+        };
+        assert!(!judged(666, 5.0), "1998 dof are not judged");
+        assert!(judged(667, 5.0), "2001 dof are");
+        assert!(!judged(700, 1.30));
+        assert!(judged(700, 1.32));
+        assert!(!judged(1_000_000, 1.24));
+        assert!(judged(1_000_000, 1.26));
+    }
+
+    /// Degraded when more than one tick in 50 was rejected.
+    #[test]
+    fn more_than_one_sample_in_50_rejected_is_degraded() {
+        let mut e = JointEstimator::new(test_config());
+        (e.n_used, e.n_rejected) = (98, 2);
+        assert_eq!(e.message(99).status & ST_DEGRADED, 0);
+        (e.n_used, e.n_rejected) = (97, 3);
+        assert_ne!(e.message(99).status & ST_DEGRADED, 0);
+    }
+
+    /// An unconverged first solve is followed up once per update, three times at most.
+    #[test]
+    fn an_unconverged_first_solve_is_followed_up_three_times() {
+        let mut e = JointEstimator::new(test_config());
+        e.status |= ST_INCONSISTENT;
+        e.follow_up(1, true, Some(2.0));
+        assert_eq!(e.solve_due[0], 2);
+        assert_ne!(e.status & ST_NOT_CONVERGED, 0);
+        e.follow_up(3, false, Some(2.0));
+        assert_eq!(e.solve_due[0], 4);
+        e.solve_due = [0; 2];
+        e.follow_up(4, false, Some(2.0));
+        assert_eq!(e.solve_due[0], 0, "a fourth follow-up");
+        assert_eq!(e.status & ST_NOT_CONVERGED, 0);
+    }
+
+    /// A gap of more than a second (10 ticks at 10 Hz) makes the star test learn its
+    /// offset anew; a gap of a second keeps it.
+    #[test]
+    fn a_gap_over_a_second_relearns_the_star_offset() {
+        let mut e = JointEstimator::new(test_config());
+        for t in 0..10 {
+            let mut s = quiet(t);
+            s.star.valid = 0;
+            e.update(&s);
+        }
+        e.star_track[0].learn(1.0, 0.5);
+        let learned = e.star_track;
+        let (mut kept, mut lost) = (e, e);
+        let mut s = quiet(10 + 10);
+        s.star.valid = 0;
+        kept.update(&s);
+        assert_eq!(kept.star_track, learned);
+        s.header.tick = 10 + 11;
+        lost.update(&s);
+        assert_eq!(lost.star_track, [Track::default(); 3]);
+    }
+
+    /// A bridge closed on a jump of ω̇ adds its step's variance v = (span jump)²/12
+    /// 4/3 times to the star filter and 4 times to the turn rows; a bridged tick adds
+    /// dt² times ω̇'s spread 4 times to the turn rows.
+    #[test]
+    fn a_closed_bridge_splits_its_step_four_thirds_and_four() {
+        let mut e = JointEstimator::new(test_config());
+        let (a, n) = (1, 5);
+        e.bridge_run[a] = n;
+        let mut dv = [[0.0; 3]; 2];
+        dv[0][a] = 1e-3;
+        dv[1][a] = 1e-3;
+        let mut before = e;
+        e.close_bridge(a, &dv);
+        let span = n as f64 / e.cfg.fs;
+        let jump: f64 = (0..2).map(|l| 0.5 * e.cfg.beta_prior[l][a] * 1e-3).sum();
+        let v = (span * jump).powi(2) / 12.0;
+        let star = e.st_p[a][1][1] - before.st_p[a][1][1];
+        let turn = e.turn_pq[a][2] - before.turn_pq[a][2];
+        assert!((star / (4.0 / 3.0 * v) - 1.0).abs() < 1e-12, "{star} {v}");
+        assert!((turn / (4.0 * v) - 1.0).abs() < 1e-12, "{turn} {v}");
+        before.jerk_var[a] = 2e-20;
+        let q0 = before.turn_pq[a][2];
+        before.turn_bridged(a);
+        let dt = 1.0 / before.cfg.fs;
+        let want = 4.0 * dt * dt * 2e-20;
+        assert!(((before.turn_pq[a][2] - q0) / want - 1.0).abs() < 1e-12);
+    }
+
+    /// A torque edge (a change far beyond the spread) moves ω̇'s learned spread by the
+    /// rate 1/256 towards its clip, 16 times the spread: by 15/256 of it.
+    #[test]
+    fn a_torque_edge_moves_the_jerk_spread_by_its_clip() {
+        let mut e = JointEstimator::new(test_config());
+        let a = 0;
+        e.jerk_var[a] = 1e-20;
+        e.jerk_last[a] = 0.0;
+        e.jerk_last_ok = 1 << a;
+        let mut dv = [[0.0; 3]; 2];
+        dv[0][a] = 1.0;
+        dv[1][a] = 1.0;
+        e.learn_jerk(a, &dv, &[[0.0; 3]; 2]);
+        let grew = e.jerk_var[a] / 1e-20;
+        assert!((grew - (1.0 + 15.0 / 256.0)).abs() < 1e-12, "{grew}");
+    }
+
+    /// Every axis is rocked once ω̇'s variance is 10⁴ times the readout noise's: for
+    /// isotropic motion of variance v, `rocking` is 4 v / (9 × 10⁴ × noise).
+    #[test]
+    fn rocking_is_motion_over_ten_thousand_times_the_noise() {
+        let noise = 1e-20;
+        let v = 9.0 / 4.0 * 1e4 * noise;
+        assert!(rocking(&(Matrix3::identity() * (1.01 * v)), noise) > 1.0);
+        assert!(rocking(&(Matrix3::identity() * (0.99 * v)), noise) < 1.0);
+    }
+
+    /// The excitation's moments take the linear samples 1, 9, 17, …: every eighth.
+    #[test]
+    fn the_excitation_takes_every_eighth_sample() {
+        let mut e = JointEstimator::new(test_config());
+        let dv = [[1.0, 0.0, 0.0]; 2];
+        for k in 1..=16 {
+            e.n_used = k;
+            e.note_excitation(&dv);
+        }
+        assert_eq!(e.rate_moments[0][0], 2.0);
+    }
+
+    /// The SRP model the estimator whitens with: its PSD at 3 mHz is the table's ASD
+    /// squared, and it falls as f^-2/3 (a factor 100^(2/3) ≈ 21.5 over two decades).
+    #[test]
+    fn the_srp_model_is_f_to_the_minus_two_thirds_from_3_mhz() {
+        let cfg = test_config();
+        let e = JointEstimator::new(cfg);
+        let at = e.bank.psd(3e-3) / cfg.srp_asd_at_3mhz.powi(2);
+        assert!((at - 1.0).abs() < 0.15, "{at}");
+        let slope = e.bank.psd(3e-4) / e.bank.psd(3e-2);
+        assert!(
+            (slope / 100f64.powf(2.0 / 3.0) - 1.0).abs() < 0.15,
+            "{slope}"
+        );
+    }
+
+    /// An estimator fed 3000 samples of voltages no model fits (its Gauss–Newton steps
+    /// never settle), every scheduled solve and follow-up done.
+    fn unsettled() -> JointEstimator {
+        let mut e = JointEstimator::new(test_config());
+        let mut gauss = gaussian(0x9e37_79b9_7f4a_7c15);
+        for t in 0..3000u64 {
+            let mut s = quiet(t);
+            let x = 1e-3 * (t as f64 * 0.01).sin();
+            let q = UnitQuaternion::from_scaled_axis(Vector3::new(x * 1e-3, 2e-6, -1e-6));
+            s.star.q_bn = [q.w, q.i, q.j, q.k];
+            for i in 0..2 {
+                for p in 0..3 {
+                    let v = 1e-3 * (p as f64 + 1.0) + x + 1e-6 * gauss();
+                    s.is[i].volts[p] = [v + 1e-4 * gauss(), -v + 1e-4 * gauss()];
+                }
+            }
+            e.update(&s);
+        }
+        // The scheduled solves and their follow-ups, done: `finish` then only iterates.
+        while e.solve_due() {
+            e.solve_now();
+        }
+        e
+    }
+
+    /// `finish` iterates up to 20 times: on data whose Gauss–Newton steps never settle
+    /// below `CONVERGED_STEP` (voltages no model fits), its solution is that of 20
+    /// iterations, not of fewer or more.
+    #[test]
+    fn finish_iterates_twenty_times_at_most() {
+        let e = unsettled();
+        let mut w = SolveWork::zeroed();
+        let mut iterate = |n: usize| {
+            let mut f = e;
+            let moved = f.solve(n, true, &mut w).expect("a step")[0];
+            (f.p, moved)
+        };
+        let (p19, moved) = iterate(19);
+        assert!(moved > 1e-4, "converged after 19: {moved}");
+        let (p20, _) = iterate(20);
+        let (p21, _) = iterate(21);
+        let mut finished = e;
+        finished.finish();
+        assert_eq!(finished.p, p20);
+        assert_ne!(p20, p19);
+        assert_ne!(p20, p21);
+    }
+
+    /// The bound's nuisance fit is six Gauss–Newton steps of the nuisances (β and r
+    /// held): on data its steps never settle on, not five, not seven.
+    #[test]
+    fn the_nuisance_fit_takes_six_steps() {
+        let e = unsettled();
+        let mut w = SolveWork::zeroed();
+        // One step, as `nuisance_fit` takes it.
+        let mut step = |mut p: Par| {
+            e.normal_equations(&p, false, &mut w);
+            let SolveWork { n, hs, hinv, .. } = &mut w;
+            for k in P_BETA..P_TH0 {
+                for j in 0..NP {
+                    n.hm[(k, j)] = 0.0;
+                    n.hm[(j, k)] = 0.0;
+                }
+                n.hm[(k, k)] = 1.0;
+                n.g[k] = 0.0;
+            }
+            p += JointEstimator::newton_step(&n.hm, &n.g, hs, hinv).expect("a step");
+            p
+        };
+        let mut p = e.params_with(&e.cfg.beta_prior, &e.cfg.com_prior_m);
+        let fitted = e.nuisance_fit(p);
+        let mut steps = [p; 8];
+        for s in steps.iter_mut() {
+            *s = p;
+            p = step(p);
+        }
+        assert_eq!(fitted, steps[6]);
+        assert_ne!(fitted, steps[5]);
+        assert_ne!(fitted, steps[7]);
     }
 }

@@ -101,14 +101,13 @@ impl JointEstimator {
                 // measures it: a level a0 (`srp_level`, IS1's volts times the parameter
                 // k) turned with the parameter β1, and its change since, a(t) − a0
                 // (the fluctuation, ~10⁻¹² m/s²), turned with the running β̂1 (`S_TF`):
-                // the running β̂'s error then multiplies only the change. δ turns with the attitude, up to
-                // 5×10⁻¹⁴ m/s² across the sun; taken as white noise it kept r_z at
-                // 1.3× its bound at 10⁴ s and (err/σ)² at 2.2–3.2 at 10⁵–3×10⁵ s.
+                // the running β̂'s error then multiplies only the change (the turn, up to
+                // 5×10⁻¹⁴ m/s² across the sun, is no white noise).
                 // Before the level is known, the fitted DC (no `S_TF` yet); the samples
                 // taken then keep it after (`S_PHI0`: their Φ1 on the difference), so
                 // the level's own error, the running solution's, reaches only the
-                // samples whose measured change cancels it (without: r_z up to 40σ off
-                // in 1 % of runs without thruster noise, where the level is fixed early).
+                // samples whose measured change cancels it (which matters most without
+                // thruster noise, where the level is fixed early).
                 let a0 = |m: usize| match self.srp_level_set {
                     LEVEL_SET => self.k_of(p, 0, m) * self.srp_level[m.min(2)],
                     _ => bc[m.min(2)],

@@ -3,10 +3,6 @@
 
 use super::*;
 
-/// Gauss–Newton iterations of the bound's nuisance fit: the nuisances enter linearly
-/// but for the SRP's turn, so 2 suffice; 6 leave no doubt.
-const NUISANCE_ITERATIONS: usize = 6;
-
 impl JointEstimator {
     /// 1σ at `p` without priors, as the solve reports it (`estimate_var`: the Fisher
     /// information of the linear, star-tracker and angular groups). The
@@ -24,7 +20,7 @@ impl JointEstimator {
     /// without priors: the reference point of the Cramér–Rao bound.
     pub fn nuisance_fit(&self, mut p: Par) -> Par {
         let mut w = SolveWork::zeroed();
-        for _ in 0..NUISANCE_ITERATIONS {
+        for _ in 0..tuning::NUISANCE_ITERATIONS {
             self.normal_equations(&p, false, &mut w);
             let SolveWork { n, hs, hinv, .. } = &mut w;
             let Normal { hm, g, .. } = n;

@@ -44,11 +44,11 @@ impl JointEstimator {
     /// priors: each IS's acceleration with the maneuver's A r̂ of this sample taken
     /// out (its ω̇; ω is ~0: the integrals start here or a few ticks before), averaged
     /// over the IS, and in volts with the same prior k as the noise model, so that it
-    /// lies in that model's common-mode subspace. It fixes the common-mode channel for the whole campaign,
-    /// where a slot of little white noise weighs its share of the direction by the
-    /// inverse of that noise: the thrusters' torque noise times a CoM offset of
-    /// 0.2 m, left in, tilted it by 10⁻³ towards the sunless axis and made that axis
-    /// the channel (χ²/dof 0.75 and 5.8 with 10× the drive ripple).
+    /// lies in that model's common-mode subspace. It fixes the common-mode channel for
+    /// the whole campaign, where a slot of little white noise weighs its share of the
+    /// direction by the inverse of that noise: the thrusters' torque noise times a CoM
+    /// offset, left in, would tilt it towards the sunless axis and make that axis the
+    /// channel.
     fn first_srp_dc(&self, data: &[IsData; 2]) -> Vector3<f64> {
         let p = &self.p;
         let n = self.n_is();
@@ -238,9 +238,9 @@ impl JointEstimator {
             // (readout and drive ripple), so the group constrains the ratio only and
             // cannot pull the common scale. Its Gram is kept on ΔV1 − ρ0 ΔV2 and ΔV2,
             // ρ0 the priors' ratio: on ΔV1 and ΔV2 themselves the residual's sum of
-            // squares was the small difference of sums 10¹³ times larger (the signals'
-            // SNR squared with a quiet IS), and their rounding (10⁻¹³ of them over
-            // 10⁶ samples) moved the group's χ²/dof by ±0.5.
+            // squares would be the small difference of sums 10¹³ times larger (the
+            // signals' SNR squared with a quiet IS), whose rounding (10⁻¹³ of them over
+            // 10⁶ samples) would move the group's χ²/dof by ±0.5.
             let c = &self.cfg;
             let rho = self.prior_ratio(a);
             let var = 2.0 * (c.sigma_angular / c.beta_prior[0][a]).powi(2)
@@ -365,7 +365,7 @@ impl JointEstimator {
     /// r̂ a millimetre off carries its A r error, which the measured change then turns.
     /// The samples before the level turn the fitted DC (`S_PHI0`) and lose only the turn
     /// of the SRP's fluctuation by waiting (without thruster noise, two thirds of the
-    /// planned campaign: r_z 1.4× its bound there, docs/integrity.md).
+    /// planned campaign).
     pub(super) fn every_axis_rocked(&self) -> bool {
         self.rocked_tick != 0
             && self.solved_tick >= self.rocked_tick
@@ -376,7 +376,7 @@ impl JointEstimator {
     /// (`ROCKED_VAR_RATIO`)? From the excitation's moments (`note_excitation`, which
     /// asks when they change and keeps the answer in `rocked_tick`).
     pub(super) fn motion_on_every_axis(&self) -> bool {
-        let n = self.n_used.div_ceil(MOMENT_EVERY) as f64;
+        let n = self.n_used.div_ceil(tuning::MOMENT_EVERY) as f64;
         if n < 2.0 {
             return false;
         }

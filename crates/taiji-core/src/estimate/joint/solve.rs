@@ -294,8 +294,8 @@ impl JointEstimator {
                 + self
                     .cfg
                     .chi2_tolerance
-                    .max(10.0 * (2.0 / dof[k].max(1.0)).sqrt());
-            if dof[k] >= CHI2_MIN_DOF && nan_or_above(self.chi2[k], limit) {
+                    .max(tuning::CHI2_SPREAD_SIGMAS * (2.0 / dof[k].max(1.0)).sqrt());
+            if dof[k] >= tuning::CHI2_MIN_DOF && nan_or_above(self.chi2[k], limit) {
                 inconsistent = true;
                 let x = if self.chi2[k].is_finite() {
                     self.chi2[k]
@@ -370,7 +370,7 @@ impl JointEstimator {
     }
 
     /// Gauss–Newton iterations from the current solution, until converged (no
-    /// parameter moved by `CONVERGED_STEP` of its σ). Returns the last step's largest
+    /// parameter moved by `tuning::CONVERGED_STEP` of its σ). Returns the last step's largest
     /// move in σ of its parameter, the step's before it (∞ after one step), the cosine
     /// between the two steps in σ units (0 after one step), and the same move and
     /// cosine one step earlier (∞ and 0 when there was none); None when a step failed
@@ -415,7 +415,7 @@ impl JointEstimator {
                 0.0
             };
             last = step;
-            if moved < CONVERGED_STEP {
+            if moved < tuning::CONVERGED_STEP {
                 break;
             }
         }

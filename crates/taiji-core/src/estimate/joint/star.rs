@@ -21,7 +21,7 @@ impl JointEstimator {
             if n_valid[a] == 0 {
                 // Bridged (the line drawn once data return): off by ω̇'s departure
                 // from that line, a step the turn rows see too (`STEP_IN_STAR`).
-                q += STEP_IN_STAR * self.jerk_var[a];
+                q += tuning::STEP_IN_STAR * self.jerk_var[a];
             } else {
                 // Borrowed voltages carry the other IS's noise in full.
                 q *= self.n_is() as f64 / n_valid[a] as f64;
@@ -56,8 +56,8 @@ impl JointEstimator {
             s.star.q_bn[2],
             s.star.q_bn[3],
         );
-        // A star-tracker quaternion is normalised far better than 1e-6.
-        if !s.star.usable() || nan_or_above((q.norm() - 1.0).abs(), 1e-6) {
+        // A star-tracker quaternion is normalised far better than this.
+        if !s.star.usable() || nan_or_above((q.norm() - 1.0).abs(), tuning::STAR_NORM_TOLERANCE) {
             self.reject(CAUSE_STAR_INVALID);
             return;
         }
@@ -83,7 +83,7 @@ impl JointEstimator {
         let ok = (0..3).all(|a| self.star_track[a].check(e[a], var_star, self.cfg.star_gate_sigma));
         for a in 0..3 {
             if ok {
-                self.star_track[a].learn(e[a], ALPHA_STAR);
+                self.star_track[a].learn(e[a], tuning::ALPHA_STAR);
             } else {
                 self.star_track[a].miss();
             }

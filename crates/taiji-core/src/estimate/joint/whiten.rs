@@ -198,9 +198,8 @@ impl JointEstimator {
     /// White variance of row `k` of `gate_w` (5: the common-mode channel) at a
     /// sample's `drive`, in units of the first sample's (to which the rows whiten):
     /// the drive ripple scales with the drive, so its share grows with the linear and
-    /// angular voltages. Held at the first sample's, a maneuver that drives a slot of
-    /// little white noise (a sunless axis) made the common-mode χ²/dof up to 7.2 with 10×
-    /// the default ripple.
+    /// angular voltages. Held at the first sample's, it would misjudge a maneuver that
+    /// drives a slot of little white noise (a sunless axis).
     fn white_var_of_row<const R: usize>(
         ripple: f64,
         rows: &SMatrix<f64, R, 6>,
@@ -422,8 +421,8 @@ impl JointEstimator {
     /// levers are common to both IS through the k at `p`, and the thrusters' force
     /// noise, common through the true k, is the larger part of the common modes' noise
     /// (10⁻⁷ N/√Hz: 1.7×10⁴ times the readout's). At the priors' k (5×10⁻³ off) its
-    /// part across the priors' common modes, 10⁻³ of it, was whitened as readout: the
-    /// rows' χ²/dof reached 10⁴.
+    /// part across the priors' common modes, 10⁻³ of it, would be whitened as readout,
+    /// and the rows' χ²/dof be far above 1.
     pub(super) fn turn_rows(&self, p: &Par) -> Option<SMatrix<f64, 2, 6>> {
         let b = Vector3::from(self.srp_dc(p));
         let mut msq = [0.0; 6];
@@ -483,10 +482,9 @@ impl JointEstimator {
     /// noise: the linear model's ω̇ × r carries it at once (lever `turn_lever`), and the
     /// attitude the IS propagate takes it as the step that ends this tick (½ dt² in
     /// angle, dt in rate, on the lever `turn_z`). Their covariance enters the gain
-    /// (`turn_cross`); without it, with the IS's angular noise above its linear noise
-    /// over r (one IS, angular noise 3.6× the default, the sun along −x), β's σ was
-    /// 1.4× cautious ((err/σ)² 0.50 over 100 seeds): the rows' white noise tells
-    /// the attitude error's steps, which the filter then ignored.
+    /// (`turn_cross`): the rows' white noise tells the attitude error's steps, and a
+    /// filter that ignored it would leave β's σ cautious wherever the IS's angular noise
+    /// is above its linear noise over r.
     #[inline(always)]
     fn update_turn(&mut self, s: &Sig, white: &[f64; 2]) {
         self.turn_time_update();
