@@ -47,11 +47,11 @@ fn create(dir: &Path, name: &str) -> Result<std::io::BufWriter<std::fs::File>, E
 /// Writes the export of `rec` into `dir`; returns the number of samples.
 pub fn write(rec: &Recording, dir: &Path) -> Result<u64, ExportError> {
     std::fs::create_dir_all(dir)
-        .map_err(|source| ExportError::from(FileError::create(dir.to_path_buf(), source)))?;
+        .map_err(|source| ExportError::from(FileError::create(dir, source)))?;
     let s = &rec.scenario;
     let cfg = s.estimator_config(&s.priors());
     let mut f = create(dir, CONFIG_FILE)?;
-    let err = |source| ExportError::from(FileError::write(dir.to_path_buf(), source));
+    let err = |source| ExportError::from(FileError::write(dir, source));
     f.write_all(&header::<crate::sim::estimate::EstimatorConfig>(1))
         .map_err(err)?;
     f.write_all(bytemuck::bytes_of(&cfg)).map_err(err)?;

@@ -74,7 +74,7 @@ impl EstimatorTable {
     pub fn write(&self, path: &std::path::Path) -> Result<(), ProcessError> {
         let text = serde_json::to_string_pretty(self).map_err(ProcessError::TableJson)?;
         std::fs::write(path, text)
-            .map_err(|source| ProcessError::from(FileError::write(path.to_path_buf(), source)))
+            .map_err(|source| ProcessError::from(FileError::write(path, source)))
     }
 
     pub fn load(path: &std::path::Path) -> Result<Self, ProcessError> {
