@@ -4,14 +4,15 @@
 //! Rust standard library.
 
 mod hosts;
+mod support;
 mod tmpdir;
 
-use hosts::{assert_same_bits, json, record_and_replay, root, tmp, BIN};
+use hosts::{assert_same_bits, json, record_and_replay, root, BIN};
 use std::process::Command;
 
 #[test]
 fn the_c_host_reproduces_replay_bit_for_bit_and_links_no_rust_std() {
-    let dir = tmp("c-host");
+    let dir = support::tmp("c-host");
     let (tel, r) = record_and_replay(
         &dir,
         "name = \"c-host\"\nseed = 4242\nduration_s = 3000.0\n\

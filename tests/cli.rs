@@ -1,18 +1,15 @@
 //! The CLI: a user mistake gets a one-line error and exit code 2, never a panic trace.
 
+mod support;
 mod tmpdir;
 use std::process::Command;
-
-fn calib() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
-}
 
 #[test]
 fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
     let dir = tmpdir::TmpDir::new("cli");
     let f = dir.join("bad.toml");
     std::fs::write(&f, "duration_s = -1.0\n").unwrap();
-    let out = calib()
+    let out = support::calib()
         .args(["run", "--scenario"])
         .arg(&f)
         .arg("--out")
@@ -25,7 +22,7 @@ fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
         err.contains("duration_s") && !err.contains("panicked"),
         "{err}"
     );
-    let out = calib()
+    let out = support::calib()
         .args(["crlb", "--scenario", "/nonexistent/x.toml"])
         .output()
         .unwrap();
@@ -36,7 +33,7 @@ fn a_malformed_scenario_is_a_clear_error_not_a_panic() {
 #[test]
 fn run_writes_the_documented_report() {
     let dir = tmpdir::TmpDir::new("cli-run");
-    let out = calib()
+    let out = support::calib()
         .args(["run", "--seed", "3", "--out"])
         .arg(&dir)
         .output()
@@ -73,7 +70,7 @@ fn run_at_a_seed_is_the_monte_carlos_run_of_that_seed() {
         (["run", "--seed", "3"], &one),
         (["montecarlo", "--seed", "3"], &mc),
     ] {
-        let mut c = calib();
+        let mut c = support::calib();
         c.args(args);
         if args[0] == "montecarlo" {
             c.args(["--runs", "1"]);
@@ -117,14 +114,14 @@ fn run_at_a_seed_is_the_monte_carlos_run_of_that_seed() {
 
 #[test]
 fn montecarlo_with_no_runs_or_seeds_past_the_end_is_a_user_error() {
-    let out = calib()
+    let out = support::calib()
         .args(["montecarlo", "--runs", "0"])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--runs") && !err.contains("panicked"), "{err}");
-    let out = calib()
+    let out = support::calib()
         .args([
             "montecarlo",
             "--runs",
@@ -149,7 +146,7 @@ fn a_scenario_name_with_a_newline_is_refused() {
 
 #[test]
 fn run_help_describes_every_option() {
-    let out = calib().args(["run", "--help"]).output().unwrap();
+    let out = support::calib().args(["run", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&out.stdout);
     for (opt, words) in [
         ("--scenario", "Scenario file"),
@@ -167,7 +164,11 @@ fn an_out_folder_through_a_file_is_refused_before_the_campaign_runs() {
     let file = dir.join("plain-file");
     std::fs::write(&file, "x").unwrap();
     for out in [file.clone(), file.join("below")] {
-        let o = calib().args(["run", "--out"]).arg(&out).output().unwrap();
+        let o = support::calib()
+            .args(["run", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
         assert_eq!(o.status.code(), Some(2));
         let err = String::from_utf8_lossy(&o.stderr);
         // The up-front check's message (the campaign never started: no table).
@@ -200,7 +201,12 @@ fn a_user_error_creates_no_output_folder() {
         ],
     ];
     for args in cases {
-        let o = calib().args(&args).arg("--out").arg(&out).output().unwrap();
+        let o = support::calib()
+            .args(&args)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
         assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
@@ -213,7 +219,7 @@ fn a_user_error_creates_no_output_folder() {
 /// through the log and again as `warning:`).
 #[test]
 fn crlb_prints_readable_numbers_and_the_planners_warning_once() {
-    let o = calib().arg("crlb").output().unwrap();
+    let o = support::calib().arg("crlb").output().unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("maneuver 0.6000 mHz"), "{text}");
     assert!(!text.contains("0.00060002"), "{text}");
@@ -232,7 +238,7 @@ fn crlb_prints_readable_numbers_and_the_planners_warning_once() {
     let dir = tmpdir::TmpDir::new("cli-warn");
     let short = dir.join("short.toml");
     std::fs::write(&short, "name = \"short\"\nduration_s = 300.0\n").unwrap();
-    let o = calib()
+    let o = support::calib()
         .args(["crlb", "--scenario"])
         .arg(&short)
         .env("TAIJI_PLAN_CACHE", "off")
@@ -259,9 +265,9 @@ fn crlb_with_dropouts_says_whose_data_it_bounds() {
         let inside = line.split('[').nth(1).unwrap();
         inside.split(',').next().unwrap().trim().parse().unwrap()
     };
-    let clean = calib().arg("crlb").output().unwrap();
+    let clean = support::calib().arg("crlb").output().unwrap();
     let clean = String::from_utf8_lossy(&clean.stdout).to_string();
-    let o = calib()
+    let o = support::calib()
         .args(["crlb", "--scenario"])
         .arg(&lossy)
         .output()
@@ -305,7 +311,7 @@ fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data(
     let dir = tmpdir::TmpDir::new("cli-typo");
     let f = dir.join("typo.toml");
     std::fs::write(&f, "name = \"typo\"\n[maneuver]\nfrequency_hz = 1.0\n").unwrap();
-    let out = calib()
+    let out = support::calib()
         .args(["run", "--scenario"])
         .arg(&f)
         .arg("--out")
@@ -356,7 +362,7 @@ fn a_mistyped_maneuver_is_warned_of_and_the_report_says_what_came_from_the_data(
         }
     }
     // The default (planned) maneuver: no warning, the requirements all but certain.
-    let out = calib()
+    let out = support::calib()
         .args(["run", "--out"])
         .arg(dir.join("default"))
         .output()

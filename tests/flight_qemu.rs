@@ -7,9 +7,10 @@
 //! (tools/test installs them).
 
 mod hosts;
+mod support;
 mod tmpdir;
 
-use hosts::{assert_same_bits, json, record_and_replay, root, tmp, BIN};
+use hosts::{assert_same_bits, json, record_and_replay, root, BIN};
 use std::path::Path;
 use std::process::Command;
 
@@ -72,7 +73,7 @@ fn replays_bit_for_bit(dir: &Path, toml: &str, cpu: &str, cpu_name: &str, update
 
 #[test]
 fn the_emulated_cortex_m7_reproduces_replay_bit_for_bit() {
-    let dir = tmp("flight-m7");
+    let dir = support::tmp("flight-m7");
     replays_bit_for_bit(
         &dir,
         &scenario("flight-m7", 5151, 3000.0),
@@ -86,7 +87,7 @@ fn the_emulated_cortex_m7_reproduces_replay_bit_for_bit() {
 /// recording than the Cortex-M7's (the image's build takes most of the time).
 #[test]
 fn the_emulated_leon3_reproduces_replay_bit_for_bit() {
-    let dir = tmp("flight-leon3");
+    let dir = support::tmp("flight-leon3");
     replays_bit_for_bit(
         &dir,
         &scenario("flight-leon3", 3803, 1000.0),

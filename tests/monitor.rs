@@ -7,6 +7,7 @@
 //! the run through the supervisor; `n` does not.
 
 mod common;
+mod support;
 mod tmpdir;
 
 use common::{estimates, in_process, prefix, report, serial, shm_left};
@@ -168,7 +169,7 @@ fn signal(pid: i32, sig: i32) {
 }
 
 fn snapshot(pfx: &str, extra: &[&str]) -> Value {
-    let o = Command::new(CALIB)
+    let o = support::calib()
         .args(["monitor", "--bus-prefix", pfx, "--once", "--json"])
         .args(extra)
         .output()
@@ -439,7 +440,7 @@ fn a_stop_asked_from_the_monitor_is_confirmed_first_and_stops_the_run_through_th
 #[test]
 fn a_snapshot_without_a_run_says_so_and_leaves_nothing_on_the_bus() {
     let pfx = prefix("none");
-    let o = Command::new(CALIB)
+    let o = support::calib()
         .args([
             "monitor",
             "--bus-prefix",
@@ -461,12 +462,12 @@ fn a_snapshot_without_a_run_says_so_and_leaves_nothing_on_the_bus() {
     let left = shm_left(&pfx);
     assert!(left.is_empty(), "left in /dev/shm: {left:?}");
     // User mistakes are refused with a line naming the option.
-    let o = Command::new(CALIB)
+    let o = support::calib()
         .args(["monitor", "--bus-prefix", &pfx, "--once", "--watch", "-1"])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    let o = Command::new(CALIB)
+    let o = support::calib()
         .args(["monitor", "--hosts", "/nonexistent/hosts.toml", "--once"])
         .output()
         .unwrap();

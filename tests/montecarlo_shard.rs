@@ -2,6 +2,7 @@
 //! give the single-machine run's table and montecarlo.json byte for byte; a missing, a
 //! duplicated, a malformed or a foreign result is an error naming it, never counted.
 
+mod support;
 mod tmpdir;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -10,21 +11,17 @@ use std::sync::OnceLock;
 const RUNS: &str = "8";
 
 fn calib() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_taiji-calib"));
+    let mut c = support::calib();
     // Every job plans the maneuver itself, as on separate cluster nodes.
     c.env("TAIJI_PLAN_CACHE", "off");
     c
-}
-
-fn tmp(name: &str) -> tmpdir::TmpDir {
-    tmpdir::TmpDir::new(&format!("shard-{name}"))
 }
 
 /// A short planned campaign (2000 s: ~0.1 s a seed).
 fn scenario() -> PathBuf {
     static S: OnceLock<PathBuf> = OnceLock::new();
     S.get_or_init(|| {
-        let f = remove_at_exit(tmp("scenario")).join("short.toml");
+        let f = remove_at_exit(support::tmp("scenario")).join("short.toml");
         std::fs::write(&f, "name = \"short\"\nduration_s = 2000.0\n").unwrap();
         f
     })
@@ -81,7 +78,7 @@ fn remove_at_exit(d: tmpdir::TmpDir) -> PathBuf {
 fn shards() -> &'static Path {
     static D: OnceLock<PathBuf> = OnceLock::new();
     D.get_or_init(|| {
-        let d = remove_at_exit(tmp("shards"));
+        let d = remove_at_exit(support::tmp("shards"));
         for i in 0..4 {
             let out = ok(&shard(i, &[], &d));
             assert!(
@@ -95,7 +92,7 @@ fn shards() -> &'static Path {
 
 /// A folder holding copies of the shards' files for `seeds`.
 fn copy(name: &str, seeds: &[u64]) -> tmpdir::TmpDir {
-    let d = tmp(name);
+    let d = support::tmp(name);
     for s in seeds {
         let f = format!("run-{s}.json");
         std::fs::copy(shards().join(&f), d.join(&f)).unwrap();
@@ -121,7 +118,7 @@ fn refused(o: &Output) -> String {
 
 #[test]
 fn four_shards_merged_are_the_single_run_byte_for_byte() {
-    let single = tmp("single");
+    let single = support::tmp("single");
     let table = ok(&calib()
         .args(["montecarlo", "--runs", RUNS, "--scenario"])
         .arg(scenario())
@@ -133,7 +130,7 @@ fn four_shards_merged_are_the_single_run_byte_for_byte() {
     assert_eq!(files.len(), 8, "one file per seed, no temporary left");
     // Two folders, as from two clusters' scratch spaces.
     let (a, b) = (copy("a", &[1, 2, 3, 5, 6, 7]), copy("b", &[4, 8]));
-    let merged = tmp("merged");
+    let merged = support::tmp("merged");
     let merged_table = ok(&calib()
         .args(["montecarlo", "merge"])
         .args([&a, &b])
@@ -236,14 +233,14 @@ fn a_malformed_or_misnamed_result_file_is_named() {
     std::fs::rename(d.join("run-1.json"), d.join("run-9.json")).unwrap();
     let err = refused(&merge(&[&d]));
     assert!(err.contains("run-9.json: holds seed 1"), "{err}");
-    let empty = tmp("empty");
+    let empty = support::tmp("empty");
     let err = refused(&merge(&[&empty]));
     assert!(err.contains("no result files"), "{err}");
 }
 
 #[test]
 fn results_of_another_campaign_are_refused() {
-    let other = tmp("other");
+    let other = support::tmp("other");
     ok(&shard(1, &["--seed", "2"], &other));
     let all = copy("mine", &[1, 2, 3, 4, 5, 6, 7, 8]);
     let err = refused(&merge(&[&all, &other]));
@@ -292,7 +289,7 @@ fn results_of_another_campaign_are_refused() {
 
 #[test]
 fn bad_shard_arguments_are_user_errors() {
-    let d = tmp("args");
+    let d = support::tmp("args");
     for (spec, says) in [
         ("4/4", "0-based"),
         ("0/0", "at least 1"),
@@ -366,7 +363,7 @@ fn a_report_with_nan_and_infinities_reads_back_bit_for_bit() {
     if let Some(s) = f.report.estimator_status.as_mut() {
         s.chi2_per_dof.insert("linear".into(), f64::NAN);
     }
-    let d = tmp("nonfinite");
+    let d = support::tmp("nonfinite");
     write_run_file(&d, &f).unwrap();
     let text = std::fs::read_to_string(d.join("run-1.json")).unwrap();
     assert!(

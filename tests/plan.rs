@@ -1,6 +1,7 @@
 //! The maneuver planner: it plans any window a scenario leaves open, its constraints
 //! hold, an impossible request names what binds it, and its bound predicts reality.
 
+mod support;
 mod tmpdir;
 use nalgebra::{Matrix3, Vector3};
 use taiji::analysis::plan::{self, PlanOptions};
@@ -181,7 +182,7 @@ fn the_shortest_window_meets_every_requirement_with_the_margin() {
 fn the_plan_command_writes_the_maneuver_and_refuses_an_impossible_window() {
     let tmp = tmpdir::TmpDir::new("plan");
     let dir = tmp.join("out");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+    let out = support::calib()
         .args(["plan", "--duration", "5000", "--out"])
         .arg(&dir)
         .output()
@@ -203,7 +204,7 @@ fn the_plan_command_writes_the_maneuver_and_refuses_an_impossible_window() {
         assert!(dir.join(f).is_file(), "{f}");
     }
     let _ = std::fs::remove_dir_all(&dir);
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+    let out = support::calib()
         .args(["plan", "--duration", "100", "--out"])
         .arg(&dir)
         .output()
@@ -224,7 +225,7 @@ fn a_second_run_of_a_scenario_reuses_its_plan_from_the_cache() {
     let sc = dir.join("s.toml");
     std::fs::write(&sc, "name = \"cache\"\nduration_s = 3000.0\n").unwrap();
     let crlb = |cache: &str| {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+        let o = support::calib()
             .args(["crlb", "--scenario"])
             .arg(&sc)
             .env("TAIJI_PLAN_CACHE", cache)

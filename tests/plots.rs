@@ -3,8 +3,8 @@
 //! curves; report.md links them and report.html inlines them. Every panel's axes hold
 //! all its data, and the styles keep overlapping curves apart.
 
+mod support;
 mod tmpdir;
-use std::process::Command;
 use taiji::analysis::plots::render::{panel_ranges, BandStyle, BLACK_INDEX, FIGURE_WIDTH};
 use taiji::analysis::report_doc::FIGURES;
 use taiji::sim::estimate::Method;
@@ -15,7 +15,7 @@ fn run_with_plots_writes_every_figure_labelled_and_non_blank() {
     let dir = tmpdir::TmpDir::new("plots");
     let sc = dir.join("short.toml");
     std::fs::write(&sc, "name = \"short\"\nduration_s = 3000.0\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+    let out = support::calib()
         .args(["run", "--plots", "--scenario"])
         .arg(&sc)
         .arg("--out")

@@ -7,6 +7,7 @@
 //! real-time test measures the set alone rather than four sets sharing two cores.
 
 mod common;
+mod support;
 mod tmpdir;
 
 use common::{estimates, in_process, pids_with, prefix, report, serial, shm_left};
@@ -18,16 +19,6 @@ use taiji::sim::estimate::Method;
 use taiji::sim::scenario::Scenario;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
-
-fn tmp(name: &str) -> tmpdir::TmpDir {
-    tmpdir::TmpDir::new(&format!("ps-{name}"))
-}
-
-fn write_scenario(dir: &Path, text: &str) -> PathBuf {
-    let p = dir.join("scenario.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 fn supervisor(scenario: &Path, out: &Path, prefix: &str, extra: &[&str]) -> Command {
     let mut c = Command::new(SUPERVISOR);
@@ -134,8 +125,8 @@ const SHORT: &str = "name = \"short\"\nseed = 11\nduration_s = 3000.0\n";
 #[test]
 fn accelerated_run_is_bit_identical_to_in_process_and_allocation_free() {
     let _serial = serial();
-    let dir = tmp("accel");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("accel");
+    let sc = support::write_scenario(&dir, SHORT);
     let out = dir.join("out");
     let o = supervisor(&sc, &out, &prefix("a"), &[]).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -164,8 +155,8 @@ fn accelerated_run_is_bit_identical_to_in_process_and_allocation_free() {
 #[test]
 fn a_seed_on_the_command_line_draws_the_priors_too() {
     let _serial = serial();
-    let dir = tmp("seed");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("seed");
+    let sc = support::write_scenario(&dir, SHORT);
     let out = dir.join("out");
     let o = supervisor(&sc, &out, &prefix("s"), &["--seed", "3"])
         .output()
@@ -179,10 +170,10 @@ fn a_seed_on_the_command_line_draws_the_priors_too() {
 #[test]
 fn realtime_run_loses_no_sample_and_misses_no_deadline() {
     let _serial = serial();
-    let dir = tmp("rt");
+    let dir = support::tmp("rt");
     // 300 s simulated at ×10: 30 s of wall time at a 10 ms tick period (this shared
     // 2-core machine shows scheduling stalls of several ms; `tools/bench` reports ×100).
-    let sc = write_scenario(
+    let sc = support::write_scenario(
         &dir,
         "name = \"rt\"\nduration_s = 300.0\n[maneuver]\nfrequency_hz = 1e-2\n",
     );
@@ -279,8 +270,8 @@ fn same_telemetry(a: &Path, b: &Path) {
 #[test]
 fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
     let _serial = serial();
-    let dir = tmp("kill");
-    let sc = write_scenario(&dir, "name = \"paper\"\nseed = 5\n");
+    let dir = support::tmp("kill");
+    let sc = support::write_scenario(&dir, "name = \"paper\"\nseed = 5\n");
     let out = dir.join("out");
     let pfx = prefix("k");
     // Recording too: the recorder must skip what the front-end resends after the restart.
@@ -312,8 +303,8 @@ fn estimator_killed_mid_run_is_restarted_and_the_campaign_is_unchanged() {
 #[test]
 fn a_hung_estimator_is_killed_and_restarted_by_the_watchdog() {
     let _serial = serial();
-    let dir = tmp("hung");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("hung");
+    let sc = support::write_scenario(&dir, SHORT);
     let out = dir.join("out");
     let pfx = prefix("h");
     // The shipped launch description with a 2 s heartbeat timeout.
@@ -342,8 +333,8 @@ fn a_hung_estimator_is_killed_and_restarted_by_the_watchdog() {
 #[test]
 fn slow_checkpoint_disk_neither_stalls_the_set_nor_loses_a_sample() {
     let _serial = serial();
-    let dir = tmp("slowdisk");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("slowdisk");
+    let sc = support::write_scenario(&dir, SHORT);
     let out = dir.join("out");
     let pfx = prefix("d");
     // Every checkpoint write takes 100 ms: the writer falls thousands of ticks behind,
@@ -366,8 +357,8 @@ fn slow_checkpoint_disk_neither_stalls_the_set_nor_loses_a_sample() {
 #[test]
 fn plant_death_stops_the_set_with_a_clear_error() {
     let _serial = serial();
-    let dir = tmp("plant");
-    let sc = write_scenario(&dir, "name = \"paper\"\n");
+    let dir = support::tmp("plant");
+    let sc = support::write_scenario(&dir, "name = \"paper\"\n");
     let out = dir.join("out");
     let pfx = prefix("p");
     let child = supervisor(&sc, &out, &pfx, &[]).spawn().unwrap();
@@ -394,8 +385,8 @@ fn plant_death_stops_the_set_with_a_clear_error() {
 #[test]
 fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
     let _serial = serial();
-    let dir = tmp("stale");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("stale");
+    let sc = support::write_scenario(&dir, SHORT);
     let out = dir.join("out");
     let pfx = prefix("s");
     // Crash a whole run: kill -9 the supervisor and every process, mid-run.
@@ -437,9 +428,9 @@ fn a_run_after_a_crash_cleans_the_stale_shared_memory_and_completes() {
 #[test]
 fn a_finished_run_leaves_nothing_on_the_bus() {
     let _serial = serial();
-    let dir = tmp("leaves");
+    let dir = support::tmp("leaves");
     // About 2 s, so the nodes can be seen while it runs.
-    let sc = write_scenario(&dir, "name = \"leaves\"\nduration_s = 10000.0\n");
+    let sc = support::write_scenario(&dir, "name = \"leaves\"\nduration_s = 10000.0\n");
     let out = dir.join("out");
     let pfx = prefix("l");
     let child = supervisor(&sc, &out, &pfx, &[]).spawn().unwrap();
@@ -461,8 +452,8 @@ fn a_finished_run_leaves_nothing_on_the_bus() {
 #[test]
 fn of_two_supervisors_started_together_on_one_prefix_one_runs_the_other_is_refused() {
     let _serial = serial();
-    let dir = tmp("pair");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("pair");
+    let sc = support::write_scenario(&dir, SHORT);
     let pfx = prefix("2");
     for trial in 0..5 {
         let outs = [dir.join(format!("a{trial}")), dir.join(format!("b{trial}"))];
@@ -495,8 +486,8 @@ fn of_two_supervisors_started_together_on_one_prefix_one_runs_the_other_is_refus
 #[test]
 fn bad_launch_description_and_arguments_are_user_errors() {
     let _serial = serial();
-    let dir = tmp("bad");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("bad");
+    let sc = support::write_scenario(&dir, SHORT);
     let launch = dir.join("launch.toml");
     std::fs::write(&launch, "heartbeat_timeout_s = 1.0\n").unwrap();
     let o = supervisor(&sc, &dir.join("out"), &prefix("b"), &["--launch"])
@@ -505,13 +496,13 @@ fn bad_launch_description_and_arguments_are_user_errors() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("launch description"));
-    let bad = write_scenario(&dir, "duration_s = -1.0\n");
+    let bad = support::write_scenario(&dir, "duration_s = -1.0\n");
     let o = supervisor(&bad, &dir.join("out"), &prefix("b"), &[])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("duration_s"));
-    let sc = write_scenario(&dir, SHORT);
+    let sc = support::write_scenario(&dir, SHORT);
     let o = supervisor(&sc, &dir.join("out"), "a/b c", &[])
         .output()
         .unwrap();
@@ -523,9 +514,9 @@ fn bad_launch_description_and_arguments_are_user_errors() {
 #[test]
 fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
     let _serial = serial();
-    let dir = tmp("term");
+    let dir = support::tmp("term");
     // 2000 s at ×100: 20 s of wall time, interrupted after the first checkpoint (~1 s).
-    let sc = write_scenario(
+    let sc = support::write_scenario(
         &dir,
         "name = \"term\"\nduration_s = 2000.0\n[maneuver]\nfrequency_hz = 2e-3\n",
     );
@@ -553,7 +544,7 @@ fn sigterm_stops_every_process_cleanly_and_leaves_nothing_stale() {
     let left = left_on_the_bus(&pfx, &[]);
     assert!(left.is_empty(), "{left:?}");
     // Every process exited by itself: the next run on this prefix finds nothing stale.
-    let sc2 = write_scenario(&dir, SHORT);
+    let sc2 = support::write_scenario(&dir, SHORT);
     let o = supervisor(&sc2, &out, &pfx, &[]).output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
@@ -572,8 +563,8 @@ reorder_rate = 1e-3\nmissing_rate = 2e-4\ngarbage_headers = 3\n";
 #[test]
 fn injected_faults_are_the_same_in_the_process_set_and_a_killed_estimator_changes_nothing() {
     let _serial = serial();
-    let dir = tmp("faults");
-    let sc = write_scenario(&dir, FAULTY);
+    let dir = support::tmp("faults");
+    let sc = support::write_scenario(&dir, FAULTY);
     // Uninterrupted, recorded: report and recording (fault log and detections
     // included) bit-identical to the in-process run.
     let out = dir.join("out");
@@ -634,8 +625,8 @@ fn python_clients_attaching_mid_run_change_nothing_and_allocate_nothing() {
     {
         panic!("the iceoryx2 Python bindings are missing: tools/test installs them");
     }
-    let dir = tmp("python");
-    let sc = write_scenario(
+    let dir = support::tmp("python");
+    let sc = support::write_scenario(
         &dir,
         "name = \"py\"\nseed = 5\nduration_s = 600.0\n[maneuver]\nfrequency_hz = 1e-2\n",
     );
@@ -723,8 +714,8 @@ fn a_follower_without_a_run_times_out_and_leaves_no_shared_memory() {
 #[test]
 fn a_second_run_into_a_busy_out_folder_is_refused_and_changes_nothing() {
     let _serial = serial();
-    let dir = tmp("busy");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("busy");
+    let sc = support::write_scenario(&dir, SHORT);
     let other = dir.join("other.toml");
     std::fs::write(&other, SHORT.replace("seed = 11", "seed = 99")).unwrap();
     let out = dir.join("out");

@@ -6,6 +6,7 @@
 
 #[allow(dead_code)] // the in-process helper is for the process-set tests
 mod common;
+mod support;
 mod tmpdir;
 
 use common::{estimates, pids_with, prefix, report, serial};
@@ -14,7 +15,6 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
-const CALIB: &str = env!("CARGO_BIN_EXE_taiji-calib");
 
 fn scenario(dir: &Path, duration_s: f64) -> PathBuf {
     let p = dir.join("scenario.toml");
@@ -102,7 +102,7 @@ fn an_h5py_swmr_reader_and_replay_follow_read_a_live_recording_as_it_grows() {
     let run = supervisor(&sc, &out, &prefix("f"), "20");
     wait_for("telemetry.h5", Duration::from_secs(60), || file.exists());
     let h5py = follower(&file, 4000, 30.0);
-    let replay = Command::new(CALIB)
+    let replay = support::calib()
         .args(["replay", "--follow", "--telemetry"])
         .arg(&file)
         .arg("--out")
@@ -142,7 +142,7 @@ fn a_recorder_killed_mid_run_leaves_a_readable_file_in_proportion_to_its_rows() 
     let sc = scenario(&dir, 3000.0);
     // The whole recording of the same campaign, for the size of a row.
     let whole = dir.join("whole");
-    let o = Command::new(CALIB)
+    let o = support::calib()
         .args(["run", "--record", "--scenario"])
         .arg(&sc)
         .arg("--out")
@@ -205,7 +205,7 @@ fn a_recorder_killed_mid_run_leaves_a_readable_file_in_proportion_to_its_rows() 
     // Replay says it is truncated, with its last tick, and fails only when asked for a
     // complete recording.
     let replay = |extra: &[&str], to: &str| {
-        Command::new(CALIB)
+        support::calib()
             .args(["replay", "--telemetry"])
             .arg(&file)
             .arg("--out")

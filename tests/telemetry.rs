@@ -3,26 +3,19 @@
 //! an independent numpy/h5py simulation wrote, and rejects bad files with a clear error.
 //! Needs python3 with numpy and h5py (`.ci/run` installs them).
 
+mod support;
 mod tmpdir;
 use std::path::Path;
 use std::process::{Command, Output};
 
-fn calib() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
-}
-
 /// `taiji-calib replay --telemetry FILE --out DIR`, to be run (or given more arguments).
 fn replay(file: impl AsRef<std::ffi::OsStr>, out: impl AsRef<std::ffi::OsStr>) -> Command {
-    let mut c = calib();
+    let mut c = support::calib();
     c.args(["replay", "--telemetry"])
         .arg(file)
         .arg("--out")
         .arg(out);
     c
-}
-
-fn tmp(name: &str) -> tmpdir::TmpDir {
-    tmpdir::TmpDir::new(&format!("tel-{name}"))
 }
 
 fn tool(script: &str) -> Command {
@@ -80,11 +73,11 @@ com_offset_m = [0.19, 0.13, -0.003]
 
 #[test]
 fn recording_opens_in_h5py_matches_the_report_and_replays_bit_for_bit() {
-    let dir = tmp("record");
+    let dir = support::tmp("record");
     let sc = dir.join("short.toml");
     std::fs::write(&sc, SHORT).unwrap();
     let run = ok(
-        calib()
+        support::calib()
             .args(["run", "--record", "--seed", "9", "--scenario"])
             .arg(&sc)
             .arg("--out")
@@ -122,7 +115,7 @@ fn recording_opens_in_h5py_matches_the_report_and_replays_bit_for_bit() {
 
 #[test]
 fn replay_of_an_independently_simulated_h5py_file_meets_the_requirements() {
-    let dir = tmp("external");
+    let dir = support::tmp("external");
     let file = dir.join("external.h5");
     ok(
         tool("make_external_telemetry.py")
@@ -198,7 +191,7 @@ fn replay_error(file: &Path) -> String {
 
 #[test]
 fn bad_telemetry_files_get_a_clear_error() {
-    let dir = tmp("bad");
+    let dir = support::tmp("bad");
     // Mis-shaped, missing, non-monotonic and invalid-scenario files from h5py.
     for (kind, expect) in [
         (
@@ -280,7 +273,7 @@ fn a_recording_of_the_former_hand_written_encoder_still_reads_bit_for_bit() {
     // end. (Its samples are those of the plant of its day: the tick's SRP then took
     // the attitude at the sub-steps' ends, so a run of its scenario now differs.)
     let h5 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/legacy-encoder.h5");
-    let dir = tmp("legacy");
+    let dir = support::tmp("legacy");
     let (ours, _) = taiji::telemetry::read::full(&h5).unwrap();
     let sets = [
         "truth/attitude",
@@ -328,14 +321,14 @@ fn a_recording_of_the_former_hand_written_encoder_still_reads_bit_for_bit() {
 fn corrupted_recordings_are_refused_or_replayed_never_a_crash_a_panic_or_a_hang() {
     // A recording of ours (libhdf5's chunked SWMR layout), corrupted 60 ways: bytes
     // flipped, zeroed or randomised anywhere in the file, or the file cut.
-    let dir = tmp("fuzz");
+    let dir = support::tmp("fuzz");
     let sc = dir.join("s.toml");
     std::fs::write(
         &sc,
         "name = \"fuzz\"\nduration_s = 300.0\n[maneuver]\nfrequency_hz = 1e-2\n",
     )
     .unwrap();
-    let o = calib()
+    let o = support::calib()
         .args(["run", "--record", "--scenario"])
         .arg(&sc)
         .arg("--out")
@@ -400,7 +393,7 @@ fn a_recording_with_bus_faults_replays_bit_for_bit_faults_scored_alike() {
     // this run) hit the star tracker's valid byte too (1 → 5, say): the recording keeps
     // the byte as received, so replay rejects those samples as the live run did (it read
     // any nonzero byte as 1 once: 2 star samples fewer rejected, every estimate moved).
-    let dir = tmp("bus");
+    let dir = support::tmp("bus");
     let sc = dir.join("bus.toml");
     std::fs::write(
         &sc,
@@ -409,7 +402,7 @@ fn a_recording_with_bus_faults_replays_bit_for_bit_faults_scored_alike() {
     )
     .unwrap();
     let live = dir.join("live");
-    let o = calib()
+    let o = support::calib()
         .args(["run", "--record", "--scenario"])
         .arg(&sc)
         .arg("--out")
@@ -487,7 +480,7 @@ fn row_bits(e: &taiji::sim::msg::EstimateMsg, n_is: usize) -> Vec<u64> {
 fn a_recording_streamed_in_small_chunks_reads_back_identically() {
     use taiji::sim::estimate::Method;
     use taiji::telemetry::{read, Meta, Writer};
-    let dir = tmp("chunks");
+    let dir = support::tmp("chunks");
     // With `[faults]`, so that the fault log goes through the writer too.
     let s = taiji::sim::scenario::Scenario::from_toml_str(
         "name = \"chunks\"\nseed = 3\nduration_s = 3000.0\n[faults]\nupset_rate = 1e-4\n\
@@ -555,7 +548,7 @@ fn a_recording_streamed_in_small_chunks_reads_back_identically() {
 #[test]
 fn replay_reading_in_small_windows_matches_the_live_run_bit_for_bit() {
     use taiji::sim::estimate::Method;
-    let dir = tmp("windows");
+    let dir = support::tmp("windows");
     let s = taiji::sim::scenario::Scenario::from_toml_str(SHORT).unwrap();
     let (live, mem) = taiji::analysis::campaign::run_recorded(&s, 9, Method::Joint, |_| {});
     let path = dir.join("telemetry.h5");
@@ -584,7 +577,7 @@ fn replay_reading_in_small_windows_matches_the_live_run_bit_for_bit() {
 #[test]
 fn a_recording_cut_short_keeps_every_written_chunk_and_opens_in_h5py() {
     use taiji::sim::msg::{Header, SensorSample, TruthState};
-    let dir = tmp("crash");
+    let dir = support::tmp("crash");
     let s = taiji::sim::scenario::Scenario::from_toml_str(SHORT).unwrap();
     let path = dir.join("telemetry.h5");
     let meta = taiji::telemetry::Meta::of(&s, 9, "joint", "in-process");
@@ -647,7 +640,7 @@ fn a_recording_cut_short_keeps_every_written_chunk_and_opens_in_h5py() {
 fn a_child_started_while_a_recording_is_open_does_not_hold_its_lock() {
     use taiji::sim::estimate::Method;
     use taiji::telemetry::{read, Meta, Writer};
-    let dir = tmp("child");
+    let dir = support::tmp("child");
     let s = taiji::sim::scenario::Scenario::from_toml_str(
         "name = \"child\"\nseed = 2\nduration_s = 3000.0\n",
     )

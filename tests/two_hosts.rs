@@ -14,6 +14,7 @@
 //! test says why it is skipped and passes.
 
 mod common;
+mod support;
 mod tmpdir;
 
 use common::{estimates, in_process, report};
@@ -144,16 +145,6 @@ impl Drop for Hosts {
     }
 }
 
-fn tmp(name: &str) -> tmpdir::TmpDir {
-    tmpdir::TmpDir::new(&format!("2h-{name}"))
-}
-
-fn write_scenario(dir: &Path, text: &str) -> PathBuf {
-    let p = dir.join("scenario.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
 fn text(o: &Output) -> String {
     format!(
         "{}{}",
@@ -253,8 +244,8 @@ fn two_host_lock_step_is_bit_identical_and_names_every_host() {
     need_two_hosts!();
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("ls");
-    let dir = tmp("lockstep");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("lockstep");
+    let sc = support::write_scenario(&dir, SHORT);
     let flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
     // The report above the hosts' folders, as `tools/launch --two-hosts --out DIR`
     // writes DIR/report.json.
@@ -294,8 +285,8 @@ fn a_tunnel_killed_mid_run_is_named_and_the_run_resumes_with_nothing_lost() {
     need_two_hosts!();
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("kt");
-    let dir = tmp("killtunnel");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("killtunnel");
+    let sc = support::write_scenario(&dir, SHORT);
     let hold = Hold::new(&dir);
     let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
@@ -323,8 +314,8 @@ fn a_link_cut_past_the_timeout_stops_cleanly_naming_the_link_and_keeps_the_check
     need_two_hosts!();
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("lc");
-    let dir = tmp("cut");
-    let sc = write_scenario(&dir, "name = \"cut\"\nseed = 3\nduration_s = 20000.0\n");
+    let dir = support::tmp("cut");
+    let sc = support::write_scenario(&dir, "name = \"cut\"\nseed = 3\nduration_s = 20000.0\n");
     let launch = std::fs::read_to_string(Path::new(ROOT).join("tools/two_hosts.toml"))
         .unwrap()
         .replace("link_timeout_s = 20.0", "link_timeout_s = 6.0");
@@ -375,8 +366,8 @@ fn a_link_stalled_for_seconds_is_named_and_the_run_resumes_with_nothing_lost() {
     need_two_hosts!();
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("st");
-    let dir = tmp("stall");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("stall");
+    let sc = support::write_scenario(&dir, SHORT);
     let hold = Hold::new(&dir);
     let (k, v) = hold.env();
     let mut flight = hosts.supervisor("flight", &sc, &dir.join("flight"), &[]);
@@ -411,8 +402,8 @@ fn a_final_estimate_and_stops_lost_on_the_link_are_sent_again_and_the_run_ends_c
     need_two_hosts!();
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("fe");
-    let dir = tmp("end");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("end");
+    let sc = support::write_scenario(&dir, SHORT);
     // The link "breaks" as the run ends: the estimator's final estimate and the first
     // stop commands of the supervisor in charge never cross (fault injection). Sent
     // once, the first would stall the set (exit 3) and the second leave the flight
@@ -469,8 +460,8 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
     // first final estimate is not sent (fault injection), so it sends it again. Both
     // paths run in the filter loop, which must still touch no heap.
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = tmp("resync");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("resync");
+    let sc = support::write_scenario(&dir, SHORT);
     // Held just past the first checkpoint: the estimator starves while held.
     let hold = Hold::at(&dir, 1500);
     let (k, v) = hold.env();
@@ -537,8 +528,8 @@ fn the_link_fault_paths_allocate_nothing_in_the_estimator_loop() {
 #[test]
 fn host_options_that_cannot_work_are_user_errors() {
     // No namespaces needed: refused before anything starts.
-    let dir = tmp("usage");
-    let sc = write_scenario(&dir, SHORT);
+    let dir = support::tmp("usage");
+    let sc = support::write_scenario(&dir, SHORT);
     let two = Path::new(ROOT).join("tools/two_hosts.toml");
     let run = |args: &[&str]| {
         Command::new(SUPERVISOR)
@@ -578,9 +569,9 @@ fn a_monitor_on_either_host_shows_the_whole_set_and_changes_nothing() {
     need_two_hosts!();
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let hosts = Hosts::up("mo");
-    let dir = tmp("monitor");
+    let dir = support::tmp("monitor");
     // 600 000 ticks: over 10 s in lock-step over the tunnel; held near the end.
-    let sc = write_scenario(
+    let sc = support::write_scenario(
         &dir,
         "name = \"mon\"\nseed = 11\nduration_s = 60000.0\n[maneuver]\nfrequency_hz = 1e-2\n",
     );

@@ -10,11 +10,6 @@ pub fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A fresh temporary folder for one test, removed when it ends.
-pub fn tmp(name: &str) -> crate::tmpdir::TmpDir {
-    crate::tmpdir::TmpDir::new(name)
-}
-
 pub fn json(bytes: &[u8]) -> serde_json::Value {
     serde_json::from_slice(bytes)
         .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(bytes)))
