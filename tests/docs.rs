@@ -1,12 +1,22 @@
 //! The repository explains itself: no file points outside it, every key a run writes
 //! and every scenario key is documented in `docs/`, and every relative link resolves.
 
+mod support;
 mod tmpdir;
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+// The crate's paths this file uses, together so a move of modules changes only these.
+use taiji::analysis::campaign::Threads;
+use taiji::analysis::crlb::{crlb, maneuver_bound_on, Crlb};
+use taiji::analysis::montecarlo;
+use taiji::analysis::plan::{describe, min_duration, resolve};
 use taiji::analysis::report::Report;
+use taiji::runtime::process::supervisor::PLANNED_SCENARIO_FILE;
+use taiji::sim::capi::{
+    taiji_checkpoint_size, taiji_estimator_size, taiji_solve_work_size, TAIJI_ABI_VERSION,
+};
 use taiji::sim::estimate::Method;
 use taiji::sim::scenario::Scenario;
 
@@ -116,7 +126,7 @@ fn all_keys(v: &Value, out: &mut BTreeSet<String>) {
 #[test]
 fn every_key_of_a_default_runs_report_is_documented() {
     let dir = tmpdir::TmpDir::new("docs");
-    let out = Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+    let out = support::calib()
         .args(["run", "--out"])
         .arg(&dir)
         .output()
@@ -151,7 +161,7 @@ fn every_key_of_a_default_runs_report_is_documented() {
 #[test]
 fn every_key_of_montecarlo_json_is_documented() {
     let s = Scenario::from_toml_str("name = \"short\"\nduration_s = 3000.0\n").unwrap();
-    let mc = taiji::analysis::montecarlo::run(&s, 1, 1, Method::Joint).unwrap();
+    let mc = montecarlo::run(&s, 1, 1, Method::Joint).unwrap();
     let mut v = serde_json::to_value(&mc).unwrap();
     // The runs' reports are report.json's, checked above.
     v.as_object_mut().unwrap().remove("reports");
@@ -274,7 +284,7 @@ fn sig2(x: f64) -> String {
 
 /// β's bound as "lo–hi×10⁻⁶" (relative, over every IS and axis) and r's worst per axis
 /// as "x / y / z µm".
-fn bound_numbers(s: &Scenario, c: &taiji::analysis::crlb::Crlb) -> (String, String) {
+fn bound_numbers(s: &Scenario, c: &Crlb) -> (String, String) {
     let mut beta = Vec::new();
     let mut r_um = [0.0f64; 3];
     for (i, is) in s.inertial_sensor.iter().enumerate() {
@@ -293,39 +303,278 @@ fn bound_numbers(s: &Scenario, c: &taiji::analysis::crlb::Crlb) -> (String, Stri
     )
 }
 
+/// `x` as "m×10ⁿ" with `digits` decimals of the mantissa (5.5×10⁻⁴).
+fn sci(x: f64, digits: usize) -> String {
+    let e = x.abs().log10().floor() as i32;
+    format!("{:.digits$}×10{}", x / 10f64.powi(e), superscript(e))
+}
+
+fn superscript(e: i32) -> String {
+    let digits = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+    let sign = if e < 0 { "⁻" } else { "" };
+    let n: String = e
+        .unsigned_abs()
+        .to_string()
+        .chars()
+        .map(|c| digits[c.to_digit(10).unwrap_or(0) as usize])
+        .collect();
+    format!("{sign}{n}")
+}
+
+/// A size in bytes as the docs write it: "62 848 B".
+fn bytes(n: usize) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    format!("{out} B")
+}
+
+/// What each computed number is and what computes it: the rows of docs/validation.md's
+/// "Deterministic figures" (`print_deterministic_figures`), one per name of
+/// `computed_numbers`.
+const FIGURES: &[(&str, &str, &str)] = &[
+    (
+        "crlb-beta",
+        "CRLB of β (= k), relative, every IS and axis: the run at the scenario's seed",
+        "`taiji-calib crlb`",
+    ),
+    (
+        "crlb-r",
+        "CRLB of r, the worst IS per axis x / y / z: the run at the scenario's seed",
+        "`taiji-calib crlb`",
+    ),
+    (
+        "maneuver-crlb-beta",
+        "CRLB of β (= k), relative: the planned maneuver alone, at the planner's rate",
+        "`taiji-calib crlb`",
+    ),
+    (
+        "maneuver-crlb-r",
+        "CRLB of r per axis: the planned maneuver alone, at the planner's rate",
+        "`taiji-calib crlb`",
+    ),
+    (
+        "crlb-worst",
+        "the planned maneuver's worst CRLB / requirement (search bound)",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-worst-parameter",
+        "the parameter with that worst ratio",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-schedule",
+        "planned maneuver: schedule (axis order)",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-frequency",
+        "planned maneuver: frequency",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-torque",
+        "planned maneuver: torque amplitude per axis",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-periods",
+        "planned maneuver: periods per axis",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-attitude",
+        "planned maneuver: peak attitude",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-binding",
+        "what binds the planned torque",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-candidates",
+        "candidates a run's plan searches (`taiji-calib plan` adds an amplitude sweep)",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-best-sequential",
+        "best worst ratio of a sequential schedule (search bound)",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "plan-best-simultaneous",
+        "best worst ratio of a simultaneous schedule (search bound)",
+        "`taiji-calib run`'s plan (report.json `maneuver`)",
+    ),
+    (
+        "min-duration",
+        "shortest window meeting every requirement with margin 3 on the bound",
+        "`taiji-calib plan --min-duration`",
+    ),
+    (
+        "min-duration-schedule",
+        "that window's schedule",
+        "`taiji-calib plan --min-duration`",
+    ),
+    (
+        "min-duration-slow",
+        "that window's slowest axis frequency",
+        "`taiji-calib plan --min-duration`",
+    ),
+    (
+        "state-bytes",
+        "the flight core's state (the C library's `mem`)",
+        "`taiji_estimator_size()`",
+    ),
+    (
+        "checkpoint-bytes",
+        "a checkpoint of it",
+        "`taiji_checkpoint_size()`",
+    ),
+    (
+        "scratch-bytes",
+        "the solve's scratch, the caller's",
+        "`taiji_solve_work_size()`",
+    ),
+    ("abi-version", "the C ABI's version", "`TAIJI_ABI_VERSION`"),
+];
+
 /// The numbers the docs quote that a command computes deterministically, by anchor
 /// name: `<!--n:NAME-->value<!--/n-->` in a .md file must read `value`. Computed here
-/// through the library calls `plan --min-duration` and `crlb` make, so a change of the
-/// model, planner or defaults fails this test until the docs say the new number.
+/// through the library calls `plan`, `plan --min-duration` and `crlb` make and the C
+/// ABI's size functions, so a change of the model, planner, defaults or state fails
+/// this test until the docs say the new number.
 fn computed_numbers() -> std::collections::BTreeMap<&'static str, String> {
     let s = Scenario::load_or_default(None).unwrap();
-    let shortest = taiji::analysis::plan::min_duration(&s, 3.0).unwrap();
-    let (planned, info) = taiji::analysis::plan::resolve(s).unwrap();
+    let shortest = min_duration(&s, 3.0).unwrap();
+    let (planned, info) = resolve(s).unwrap();
     let info = info.expect("the default scenario is planned");
     // The run's bound at the scenario's seed (`crlb`), and the maneuver's alone at the
     // scenario's rate (the planner's tables).
-    let run = taiji::analysis::crlb::crlb(&planned).unwrap();
-    let maneuver = taiji::analysis::crlb::maneuver_bound_on(
-        &planned,
-        taiji::analysis::campaign::Threads::available(),
-    )
-    .unwrap();
+    let run = crlb(&planned).unwrap();
+    let maneuver = maneuver_bound_on(&planned, Threads::available()).unwrap();
     let (beta, r) = bound_numbers(&planned, &run);
     let (beta_m, r_m) = bound_numbers(&planned, &maneuver);
+    let m = describe(&planned, Some(&run), Some(&info));
+    let axes: Vec<String> = m.axis_order.chars().map(String::from).collect();
+    let schedule = if m.schedule == "sequential" {
+        format!("{} ({})", m.schedule, axes.join(", "))
+    } else {
+        m.schedule.clone()
+    };
+    let torque_exp = m
+        .torque_amplitude_nm
+        .iter()
+        .fold(0.0f64, |a, t| a.max(t.abs()))
+        .log10()
+        .floor() as i32;
+    let torque: Vec<String> = m
+        .torque_amplitude_nm
+        .iter()
+        .map(|t| format!("{:.2}", t / 10f64.powi(torque_exp)))
+        .collect();
+    let periods: Vec<String> = m.periods.iter().map(u64::to_string).collect();
+    let best = |name: &str| {
+        info.best_by_schedule
+            .iter()
+            .find(|(s, _)| s == name)
+            .map_or("—".to_string(), |(_, r)| sig2(*r))
+    };
     [
         ("min-duration", format!("{} s", shortest.duration_s)),
         (
             "min-duration-slow",
             format!("{:.2} mHz", shortest.chosen.maneuver.frequency_hz * 1e3),
         ),
+        (
+            "min-duration-schedule",
+            shortest.chosen.maneuver.schedule.name().to_string(),
+        ),
         ("crlb-beta", beta),
         ("crlb-r", r),
         ("maneuver-crlb-beta", beta_m),
         ("maneuver-crlb-r", r_m),
         ("crlb-worst", sig2(info.worst_ratio)),
+        ("plan-worst-parameter", info.worst_parameter.clone()),
+        ("plan-schedule", schedule),
+        (
+            "plan-frequency",
+            format!("{} mHz", sig2(planned.maneuver.frequency_hz * 1e3)),
+        ),
+        (
+            "plan-torque",
+            format!("[{}]×10{} N m", torque.join(", "), superscript(torque_exp)),
+        ),
+        ("plan-periods", periods.join(" / ")),
+        (
+            "plan-attitude",
+            format!("{} rad", sci(m.peak_attitude_rad, 1)),
+        ),
+        ("plan-binding", info.binding.clone()),
+        ("plan-candidates", info.candidates.to_string()),
+        ("plan-best-sequential", best("sequential")),
+        ("plan-best-simultaneous", best("simultaneous")),
+        ("state-bytes", bytes(taiji_estimator_size())),
+        ("checkpoint-bytes", bytes(taiji_checkpoint_size())),
+        ("scratch-bytes", bytes(taiji_solve_work_size())),
+        ("abi-version", TAIJI_ABI_VERSION.to_string()),
     ]
     .into_iter()
     .collect()
+}
+
+/// docs/validation.md's "Deterministic figures" table, printed for `tools/validate`
+/// (`cargo test --release --test docs -- --ignored --exact print_deterministic_figures
+/// --nocapture`): the rows begin with "| ".
+#[test]
+#[ignore = "run by tools/validate"]
+fn print_deterministic_figures() {
+    let want = computed_numbers();
+    println!("| figure | value | computed by |");
+    println!("|---|---|---|");
+    for (name, what, by) in FIGURES {
+        let value = want.get(name).expect("FIGURES names only computed numbers");
+        println!("| {what} | <!--n:{name}-->{value}<!--/n--> | {by} |");
+    }
+}
+
+/// The text of `heading`'s section (up to the next `## `) in `page`.
+fn section<'a>(page: &'a str, heading: &str) -> &'a str {
+    let start = page
+        .find(&format!("\n{heading}\n"))
+        .unwrap_or_else(|| panic!("no section {heading:?}"));
+    let body = &page[start + heading.len() + 2..];
+    body.find("\n## ").map_or(body, |end| &body[..end])
+}
+
+/// Every computed number has a row in docs/validation.md's deterministic section, and
+/// every row there is a computed number (`tools/validate` writes them from `FIGURES`).
+#[test]
+fn every_computed_number_is_in_the_validation_reports_deterministic_figures() {
+    let want = computed_numbers();
+    let names: BTreeSet<&str> = FIGURES.iter().map(|f| f.0).collect();
+    let computed: BTreeSet<&str> = want.keys().copied().collect();
+    assert_eq!(
+        names, computed,
+        "FIGURES and computed_numbers name different figures"
+    );
+    let page = read("docs/validation.md");
+    let table = section(&page, "## Deterministic figures");
+    let missing: Vec<_> = names
+        .iter()
+        .filter(|n| !table.contains(&format!("<!--n:{n}-->")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "docs/validation.md's deterministic figures lack {missing:?}: run tools/validate --quick"
+    );
 }
 
 #[test]
@@ -376,7 +625,7 @@ fn every_file_of_a_run_folder_is_in_the_table_of_report_md() {
         "report.html",
         "telemetry.h5",
         "plots/",
-        taiji::runtime::process::supervisor::PLANNED_SCENARIO_FILE,
+        PLANNED_SCENARIO_FILE,
         "estimator_table.json",
         "montecarlo.json",
     ] {
