@@ -18,6 +18,7 @@ use std::path::PathBuf;
 const SOURCES: &[&[u8]] = &[
     include_bytes!("mod.rs"),
     include_bytes!("cache.rs"),
+    include_bytes!("search.rs"),
     include_bytes!("../../sim/scenario/maneuver.rs"),
     include_bytes!("../crlb.rs"),
     include_bytes!("../campaign.rs"),
