@@ -64,7 +64,7 @@ fn write_reports(
         let path = args
             .out
             .join(taiji::runtime::process::recorder::TELEMETRY_FILE);
-        let (tel, s) = taiji::telemetry::read::full(&path)?;
+        let (tel, s) = taiji::telemetry::truth::full(&path)?;
         taiji::analysis::plots::write_all(&tel, &s, &args.out)?;
     }
     Ok(taiji::analysis::report_doc::write(report, dir, plots)?)

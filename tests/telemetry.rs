@@ -274,7 +274,7 @@ fn a_recording_of_the_former_hand_written_encoder_still_reads_bit_for_bit() {
     // the attitude at the sub-steps' ends, so a run of its scenario now differs.)
     let h5 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/legacy-encoder.h5");
     let dir = support::tmp("legacy");
-    let (ours, _) = taiji::telemetry::read::full(&h5).unwrap();
+    let (ours, _) = taiji::telemetry::truth::full(&h5).unwrap();
     let sets = [
         "truth/attitude",
         "truth/tm_acceleration",
@@ -502,7 +502,7 @@ fn a_recording_streamed_in_small_chunks_reads_back_identically() {
         "recording changed the estimate"
     );
     // Read back in windows of 5 rows: every stream, estimate row and fault, bit for bit.
-    let (back, _) = read::full(&path).unwrap();
+    let (back, _) = taiji::telemetry::truth::full(&path).unwrap();
     assert_eq!(stream_bits(&back), stream_bits(&mem));
     let rows = |t: &taiji::telemetry::Telemetry| -> Vec<Vec<u64>> {
         t.estimates.iter().map(|e| row_bits(e, 2)).collect()
@@ -531,7 +531,7 @@ fn a_recording_streamed_in_small_chunks_reads_back_identically() {
     // The in-memory writer makes the same recording (its chunks are another size).
     let whole = dir.join("whole.h5");
     mem.write(&whole, &meta).unwrap();
-    let (again, _) = read::full(&whole).unwrap();
+    let (again, _) = taiji::telemetry::truth::full(&whole).unwrap();
     assert_eq!(stream_bits(&again), stream_bits(&back));
     assert_eq!(rows(&again), rows(&back));
     assert_eq!(faults(&again), faults(&back));

@@ -8,6 +8,7 @@ mod cloexec;
 mod columns;
 pub mod layout;
 pub mod read;
+pub mod truth;
 mod write;
 
 pub use write::{Compression, CompressionParseError, Writer, CHUNK_ROWS};

@@ -4,7 +4,8 @@
 //! from disk as needed, a window of rows at a time, so memory does not grow with it.
 
 use super::layout as l;
-use super::{Telemetry, TelemetryError};
+use super::truth::read_faults;
+use super::TelemetryError;
 use crate::sim::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
 use crate::sim::scenario::Scenario;
 use hdf5::types::{VarLenAscii, VarLenUnicode};
@@ -37,7 +38,7 @@ pub struct Recording {
     /// Rows handed out so far (a followed recording grows past `n`).
     seen: std::cell::Cell<u64>,
     has_tick: bool,
-    r: Reader,
+    pub(super) r: Reader,
 }
 
 /// A recording whose writer stopped before the end of its campaign.
@@ -81,41 +82,45 @@ pub(super) fn rows_selection(start: usize, end: usize, row: &[usize]) -> hdf5::S
     hdf5::Selection::new(hdf5::Hyperslab::from(dims))
 }
 
-struct Reader {
+pub(super) struct Reader {
     file: File,
     origin: PathBuf,
 }
 
 impl Reader {
-    fn err(&self, what: impl std::fmt::Display) -> TelemetryError {
+    pub(super) fn err(&self, what: impl std::fmt::Display) -> TelemetryError {
         TelemetryError::Format {
             path: self.origin.clone(),
             what: what.to_string(),
         }
     }
 
-    fn missing(&self, dataset: &str) -> TelemetryError {
+    pub(super) fn missing(&self, dataset: &str) -> TelemetryError {
         TelemetryError::MissingDataset {
             path: self.origin.clone(),
             dataset: dataset.into(),
         }
     }
 
-    fn has(&self, path: &str) -> bool {
+    pub(super) fn has(&self, path: &str) -> bool {
         self.file.dataset(path).is_ok()
     }
 
     /// Root attribute `name`, if the file has one.
-    fn attr(&self, name: &str) -> Option<hdf5::Attribute> {
+    pub(super) fn attr(&self, name: &str) -> Option<hdf5::Attribute> {
         self.file.attr(name).ok()
     }
 
-    fn dataset(&self, path: &str) -> Result<hdf5::Dataset, TelemetryError> {
+    pub(super) fn dataset(&self, path: &str) -> Result<hdf5::Dataset, TelemetryError> {
         self.file.dataset(path).map_err(|_| self.missing(path))
     }
 
     /// Dataset `path`, which must exist with exactly `shape`.
-    fn shaped(&self, path: &str, shape: &[u64]) -> Result<hdf5::Dataset, TelemetryError> {
+    pub(super) fn shaped(
+        &self,
+        path: &str,
+        shape: &[u64],
+    ) -> Result<hdf5::Dataset, TelemetryError> {
         let d = self.dataset(path)?;
         let got: Vec<u64> = d.shape().iter().map(|&x| x as u64).collect();
         if got != shape {
@@ -132,7 +137,7 @@ impl Reader {
 
     /// Dataset `path` with `n` rows of `row` shape, or at least `n` rows where the
     /// recording is `truncated` (its datasets were extended one after another).
-    fn shaped_rows(
+    pub(super) fn shaped_rows(
         &self,
         path: &str,
         n: u64,
@@ -158,13 +163,13 @@ impl Reader {
         Ok(d)
     }
 
-    fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, TelemetryError> {
+    pub(super) fn f64s(&self, path: &str, shape: &[u64]) -> Result<Vec<f64>, TelemetryError> {
         self.shaped(path, shape)?
             .read_raw::<f64>()
             .map_err(|e| self.err(format!("/{path}: cannot read its data ({e})")))
     }
 
-    fn ints(&self, path: &str, n: u64) -> Result<Vec<u64>, TelemetryError> {
+    pub(super) fn ints(&self, path: &str, n: u64) -> Result<Vec<u64>, TelemetryError> {
         self.shaped(path, &[n])?
             .read_raw::<u64>()
             .map_err(|e| self.err(format!("/{path}: cannot read it as integers ({e})")))
@@ -172,7 +177,7 @@ impl Reader {
 
     /// Rows `[start, start + count)` of `d` (dataset `path`), as `T`, clipped to its
     /// rows.
-    fn rows<T: hdf5::H5Type>(
+    pub(super) fn rows<T: hdf5::H5Type>(
         &self,
         d: &hdf5::Dataset,
         path: &str,
@@ -192,7 +197,7 @@ impl Reader {
     }
 
     /// Rows of `d` as floats.
-    fn f64_rows(
+    pub(super) fn f64_rows(
         &self,
         d: &hdf5::Dataset,
         path: &str,
@@ -203,7 +208,7 @@ impl Reader {
     }
 
     /// Rows of `d` as integers.
-    fn int_rows(
+    pub(super) fn int_rows(
         &self,
         d: &hdf5::Dataset,
         path: &str,
@@ -251,7 +256,7 @@ pub fn open_following(path: &Path, idle: std::time::Duration) -> Result<Recordin
 }
 
 /// Run `f` on the file; a panic inside the HDF5 binding is reported as corruption.
-fn guarded<T>(
+pub(super) fn guarded<T>(
     r: &Reader,
     f: impl FnOnce(&Reader) -> Result<T, TelemetryError>,
 ) -> Result<T, TelemetryError> {
@@ -268,7 +273,7 @@ const SWMR_READ_ATTEMPTS: u32 = 27;
 /// Open the file with libhdf5, which checks its superblock and length (data is read
 /// on demand). A file still open for writing, or whose writer died, opens as an SWMR
 /// reader sees it: every row flushed so far.
-fn load(path: &Path) -> Result<Reader, TelemetryError> {
+pub(super) fn load(path: &Path) -> Result<Reader, TelemetryError> {
     std::fs::metadata(path).map_err(|source| TelemetryError::Read {
         path: path.to_path_buf(),
         source,
@@ -653,152 +658,4 @@ impl Iterator for Samples<'_> {
             }
         }
     }
-}
-
-/// The fault log of a recording and how many samples of each fault were rejected.
-pub fn fault_log(
-    path: &Path,
-) -> Result<(Vec<crate::sim::faults::FaultRecord>, Vec<u64>), TelemetryError> {
-    let r = load(path)?;
-    guarded(&r, |r| {
-        let recs = read_faults(r)?;
-        let det = if recs.is_empty() {
-            Vec::new()
-        } else {
-            r.ints(l::FAULT_DETECTED, recs.len() as u64)?
-        };
-        Ok((recs, det))
-    })
-}
-
-/// The `/faults/*` log, if the file has one.
-fn read_faults(r: &Reader) -> Result<Vec<crate::sim::faults::FaultRecord>, TelemetryError> {
-    if !r.has(l::FAULT_TICK) {
-        return Ok(Vec::new());
-    }
-    let nf = r
-        .dataset(l::FAULT_TICK)?
-        .shape()
-        .first()
-        .copied()
-        .unwrap_or(0) as u64;
-    let tick = r.ints(l::FAULT_TICK, nf)?;
-    let kind = r.ints(l::FAULT_KIND, nf)?;
-    let field = r.ints(l::FAULT_FIELD, nf)?;
-    let bit = r.ints(l::FAULT_BIT, nf)?;
-    let samples = r.ints(l::FAULT_SAMPLES, nf)?;
-    let before = r.f64s(l::FAULT_BEFORE, &[nf])?;
-    let after = r.f64s(l::FAULT_AFTER, &[nf])?;
-    let sigmas = r.f64s(l::FAULT_SIGMAS, &[nf])?;
-    Ok((0..nf as usize)
-        .map(|i| crate::sim::faults::FaultRecord {
-            tick: tick[i],
-            kind: kind[i].min(255) as u8,
-            field: field[i].min(255) as u8,
-            bit: bit[i].min(63) as u8,
-            samples: samples[i].min(u32::MAX as u64) as u32,
-            before: before[i],
-            after: after[i],
-            sigmas: sigmas[i],
-        })
-        .collect())
-}
-
-/// Every stream of a complete recording (truth included), in memory: for figures and
-/// tests, not replay.
-pub fn full(path: &Path) -> Result<(Telemetry, Scenario), TelemetryError> {
-    let rec = open(path)?;
-    guarded(&rec.r, |r| with_truth(r, &rec))
-}
-
-fn with_truth(r: &Reader, rec: &Recording) -> Result<(Telemetry, Scenario), TelemetryError> {
-    let s = rec.scenario.clone();
-    let n = rec.n;
-    let ni = s.inertial_sensor.len() as u64;
-    let m = r
-        .dataset(l::EST_TIME)?
-        .shape()
-        .first()
-        .copied()
-        .unwrap_or(0) as u64;
-    let mut t = Telemetry::new(ni as usize, s.sample_rate_hz, 0);
-    t.torque_cmd = r.f64s(l::TORQUE_CMD, &[n, 3])?;
-    t.torque = r.f64s(l::TORQUE, &[n, 3])?;
-    t.attitude = r.f64s(l::ATTITUDE, &[n, 4])?;
-    t.omega = r.f64s(l::OMEGA, &[n, 3])?;
-    t.omega_dot = r.f64s(l::OMEGA_DOT, &[n, 3])?;
-    t.tm_acc = r.f64s(l::TM_ACC, &[n, ni, 3])?;
-    t.srp_acc = r.f64s(l::SRP_ACC, &[n, 3])?;
-    for x in rec.samples() {
-        let x = x?;
-        t.truth_tick.push(x.header.tick);
-        t.star_q.extend_from_slice(&x.star.q_bn);
-        t.star_valid.push(x.star.valid);
-        for i in 0..ni as usize {
-            t.is_volts[i].extend(x.is[i].volts.iter().flatten());
-            t.is_flags[i].push(x.is[i].flags);
-        }
-    }
-    t.sensor_tick = t.truth_tick.clone();
-    t.faults = rec.faults.clone();
-    if !t.faults.is_empty() {
-        t.faults_detected = r.ints(l::FAULT_DETECTED, t.faults.len() as u64)?;
-    }
-    let e_tick = r.ints(l::EST_TICK, m)?;
-    let e_time = r.f64s(l::EST_TIME, &[m])?;
-    let used = r.ints(l::EST_N_USED, m)?;
-    let rejected = r.ints(l::EST_N_REJECTED, m)?;
-    let fin = r.ints(l::EST_FINAL, m)?;
-    let status = r.ints(l::EST_STATUS, m)?;
-    let nc = crate::sim::msg::N_CAUSES;
-    let by_cause = r
-        .shaped(l::EST_REJECTED_BY_CAUSE, &[m, nc as u64])?
-        .read_raw::<u64>()
-        .map_err(|e| r.err(format!("/{}: {e}", l::EST_REJECTED_BY_CAUSE)))?;
-    let chi2 = r.f64s(l::EST_CHI2, &[m, crate::sim::msg::N_GROUPS as u64])?;
-    let block = |p: &str| r.f64s(p, &[m, ni, 3]);
-    let (beta, beta_s, k, k_s, rr, rr_s) = (
-        block(l::EST_BETA)?,
-        block(l::EST_BETA_SIGMA)?,
-        block(l::EST_K)?,
-        block(l::EST_K_SIGMA)?,
-        block(l::EST_R)?,
-        block(l::EST_R_SIGMA)?,
-    );
-    let fs = s.sample_rate_hz;
-    for row in 0..m as usize {
-        let mut e = crate::sim::msg::EstimateMsg {
-            header: Header::at(
-                row as u64,
-                ((e_time[row] * fs).round() as u64).saturating_sub(1),
-                fs,
-            ),
-            solved_tick: e_tick[row],
-            n_used: used[row],
-            n_rejected: rejected[row],
-            status: status[row],
-            flags: if fin[row] != 0 {
-                crate::sim::msg::EST_FINAL
-            } else {
-                0
-            },
-            ..Default::default()
-        };
-        e.rejected_by_cause = std::array::from_fn(|c| by_cause[row * nc + c]);
-        let ng = crate::sim::msg::N_GROUPS;
-        e.chi2_per_dof = std::array::from_fn(|g| chi2[row * ng + g]);
-        for i in 0..ni as usize {
-            let at = |v: &[f64], a: usize| v[(row * ni as usize + i) * 3 + a];
-            for a in 0..3 {
-                e.beta[i][a] = at(&beta, a);
-                e.beta_sigma[i][a] = at(&beta_s, a);
-                e.k[i][a] = at(&k, a);
-                e.k_sigma[i][a] = at(&k_s, a);
-                e.r_b[i][a] = at(&rr, a);
-                e.r_sigma[i][a] = at(&rr_s, a);
-            }
-        }
-        t.estimates.push(e);
-    }
-    Ok((t, s))
 }

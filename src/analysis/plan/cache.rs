@@ -26,6 +26,7 @@ const SOURCES: &[&[u8]] = &[
     include_bytes!("../../sim/fee.rs"),
     include_bytes!("../../sim/scenario/mod.rs"),
     include_bytes!("../../sim/scenario/check.rs"),
+    include_bytes!("../../sim/scenario/limits.rs"),
     include_bytes!("../../sim/scenario/faults.rs"),
     include_bytes!("../../sim/model/plant.rs"),
     include_bytes!("../../sim/model/thruster.rs"),

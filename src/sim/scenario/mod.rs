@@ -10,6 +10,7 @@ use taiji_core::model::noise::white_sigma;
 
 mod check;
 pub mod faults;
+mod limits;
 pub mod maneuver;
 
 /// Arc-second in radians.

@@ -165,7 +165,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
                 let path = args
                     .out
                     .join(crate::runtime::process::recorder::TELEMETRY_FILE);
-                match crate::telemetry::read::fault_log(&path) {
+                match crate::telemetry::truth::fault_log(&path) {
                     Ok((records, detected)) => {
                         report.faults = Some(
                             crate::sim::faults::FaultScore::from_log(&s, records, detected)
