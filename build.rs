@@ -1,5 +1,5 @@
 //! One hash of the flight core's sources (crates/taiji-core/src), so that the plan
-//! cache (src/plan/cache.rs) never reuses a plan made by another build of the estimator.
+//! cache (src/analysis/plan/cache.rs) never reuses a plan made by another build of the estimator.
 
 use std::path::{Path, PathBuf};
 

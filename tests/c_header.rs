@@ -14,7 +14,7 @@ fn generate() -> String {
         .with_src(root.join("crates/taiji-core/src/msg.rs"))
         .with_src(root.join("crates/taiji-core/src/estimate/config.rs"))
         // The set's own messages (truth, progress, control), for outside bus clients.
-        .with_src(root.join("src/msg.rs"))
+        .with_src(root.join("src/sim/msg.rs"))
         .generate()
         .expect("cbindgen parses the C ABI")
         .write(&mut out);

@@ -20,30 +20,35 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The layers of a source tree: the modules its `lib.rs` declares, in order, each of
-/// which must be a folder (`NAME/mod.rs`). What is wrong with the tree itself (a layer
-/// that is a single file, a file beside `lib.rs`) goes to `problems`.
+/// The layers of a source tree: the modules its `lib.rs` declares, in order. A layer
+/// is a folder (`NAME/mod.rs`), or a single file (`NAME.rs`) for a table every layer
+/// above may read, such as the tuned constants. What is wrong with the tree itself (a
+/// declared layer that does not exist, a file beside `lib.rs` that it does not
+/// declare) goes to `problems`.
 fn layers_of_tree(src: &Path, problems: &mut Vec<String>) -> Table {
     let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap_or_default();
-    let mut table = Vec::new();
+    let mut table: Table = Vec::new();
     for line in code_of(&lib).lines() {
         let line = line.trim();
         let decl = line
             .strip_prefix("pub mod ")
             .or_else(|| line.strip_prefix("mod "));
-        let Some(name) = decl.and_then(|d| d.strip_suffix(';')) else {
+        let Some(name) = decl.and_then(|d| d.strip_suffix(';')).map(str::trim) else {
             continue;
         };
-        if !src.join(name).join("mod.rs").is_file() {
-            problems.push(format!("layer {name} is not a folder (src/{name}/mod.rs)"));
+        if !src.join(name).join("mod.rs").is_file() && !src.join(format!("{name}.rs")).is_file() {
+            problems.push(format!(
+                "layer {name} is neither src/{name}/mod.rs nor src/{name}.rs"
+            ));
         }
-        table.push((table.len() as u32 + 1, name.trim().to_string()));
+        table.push((table.len() as u32 + 1, name.to_string()));
     }
     if let Ok(entries) = std::fs::read_dir(src) {
         let mut beside: Vec<String> = entries
             .flatten()
             .map(|e| e.file_name().to_string_lossy().into_owned())
             .filter(|n| n.ends_with(".rs") && n != "lib.rs")
+            .filter(|n| !table.iter().any(|(_, l)| format!("{l}.rs") == *n))
             .collect();
         beside.sort();
         for n in beside {
@@ -67,7 +72,7 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// `src/process/hosts.rs` → `[process, hosts]`; `mod.rs` and `lib.rs` name their folder.
+/// `src/runtime/process/hosts.rs` → `[runtime, process, hosts]`; `mod.rs` and `lib.rs` name their folder.
 fn mod_path(src: &Path, file: &Path) -> ModPath {
     let rel = file.strip_prefix(src).unwrap().with_extension("");
     let mut parts: Vec<String> = rel
@@ -361,7 +366,7 @@ fn problems(src: &Path, layered: bool) -> Vec<String> {
     }
     let table = layers_of_tree(src, &mut out);
     for (m, edges) in &g {
-        if m.len() < 2 {
+        if m.is_empty() || (m.len() == 1 && layer_of(&table, m).is_none()) {
             continue; // lib.rs, and files beside it (reported by layers_of_tree)
         }
         let Some(lm) = layer_of(&table, m) else {
@@ -501,7 +506,8 @@ fn the_check_catches_an_upward_import_and_files_in_no_layer() {
     let t = Tree::new(
         "up",
         &[
-            ("lib.rs", "pub mod low;\npub mod high;\npub mod flat;\n"),
+            ("lib.rs", "pub mod table;\npub mod low;\npub mod high;\npub mod gone;\n"),
+            ("table.rs", "use crate::low::a::X;\n"),
             ("low/mod.rs", "pub mod a;\n"),
             ("low/a.rs", "use crate::high::c::{self, Thing as Other};\n"),
             ("high/mod.rs", "pub mod c;\n"),
@@ -509,16 +515,16 @@ fn the_check_catches_an_upward_import_and_files_in_no_layer() {
                 "high/c.rs",
                 "use crate::low::a;\n// use crate::stray::d; (a comment is no import)\n",
             ),
-            ("flat.rs", ""),
             ("stray.rs", ""),
             ("lost/d.rs", "fn f() { let s = \"crate::high::c::X\"; }\n#[cfg(test)]\nmod tests { use crate::high::c; }\n"),
         ],
     );
     let found = problems(&t.0, true);
     for want in [
-        "upward import: low/a (layer 1, low) imports high/c (layer 2, high)",
+        "upward import: low/a (layer 2, low) imports high/c (layer 3, high)",
+        "upward import: table (layer 1, table) imports low/a (layer 2, low)",
         "import cycle: high/c ↔ low/a",
-        "layer flat is not a folder (src/flat/mod.rs)",
+        "layer gone is neither src/gone/mod.rs nor src/gone.rs",
         "stray.rs is in no layer: a file beside lib.rs",
         "lost/d is in no layer: lib.rs declares no lost",
     ] {
@@ -555,5 +561,102 @@ fn the_architecture_page_shows_the_set_from_its_table() {
     assert!(
         doc.contains(&format!("```mermaid\n{graph}```")),
         "docs/architecture.md's graph is stale: paste `tools/launch --graph mermaid`"
+    );
+}
+
+/// Every `.rs` file under `dir`, with the lines before its unit tests (the first
+/// `#[cfg(test)]` at the start of a line).
+fn code_lines(dir: &Path) -> Vec<(PathBuf, Vec<String>)> {
+    let mut files = Vec::new();
+    rust_files(dir, &mut files);
+    files.sort();
+    files
+        .into_iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(&f).unwrap();
+            let lines = text
+                .lines()
+                .take_while(|l| !l.starts_with("#[cfg(test)]"))
+                .map(str::to_string)
+                .collect();
+            (f, lines)
+        })
+        .collect()
+}
+
+/// Files over `max_file` lines without their tests, and functions over `max_fn` lines
+/// (from `fn` to the brace that closes it at the same indentation).
+fn too_long(dir: &Path, max_file: usize, max_fn: usize) -> Vec<String> {
+    let mut out = Vec::new();
+    for (f, lines) in code_lines(dir) {
+        let rel = f.strip_prefix(root()).unwrap_or(&f).display().to_string();
+        if lines.len() > max_file {
+            out.push(format!(
+                "{rel}: {} lines without its tests (at most {max_file})",
+                lines.len()
+            ));
+        }
+        for (i, l) in lines.iter().enumerate() {
+            let body = l.trim_start();
+            let indent = &l[..l.len() - body.len()];
+            let is_fn = [
+                "fn ",
+                "pub fn ",
+                "pub(crate) fn ",
+                "pub(super) fn ",
+                "const fn ",
+                "pub const fn ",
+            ]
+            .iter()
+            .any(|p| body.starts_with(p))
+                || body.starts_with("pub unsafe extern \"C\" fn ");
+            if !is_fn || body.ends_with(';') {
+                continue;
+            }
+            let close = format!("{indent}}}");
+            if let Some(n) = lines[i + 1..].iter().position(|x| *x == close) {
+                if n + 2 > max_fn {
+                    let name = body.split("fn ").nth(1).unwrap_or(body);
+                    let name = name.split(['(', '<']).next().unwrap_or(name);
+                    out.push(format!(
+                        "{rel}:{}: fn {name} is {} lines (at most {max_fn})",
+                        i + 1,
+                        n + 2
+                    ));
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn no_file_over_800_lines_and_no_function_over_120() {
+    let mut found = too_long(&root().join("src"), 800, 120);
+    found.extend(too_long(&root().join("crates"), 800, 120));
+    assert!(found.is_empty(), "{}", found.join("\n"));
+}
+
+#[test]
+fn the_size_check_counts_code_not_tests() {
+    let body: String = (0..5).map(|i| format!("    let x{i} = {i};\n")).collect();
+    let t = Tree::new(
+        "sizes",
+        &[(
+            "long.rs",
+            &format!("fn short() {{\n}}\n\nfn long() {{\n{body}}}\n#[cfg(test)]\nmod tests {{\n{body}}}\n"),
+        )],
+    );
+    let found = too_long(&t.0, 10, 6);
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(
+        found[0].ends_with("fn long is 7 lines (at most 6)"),
+        "{found:?}"
+    );
+    let found = too_long(&t.0, 9, 7);
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(
+        found[0].ends_with("10 lines without its tests (at most 9)"),
+        "{found:?}"
     );
 }

@@ -1,4 +1,4 @@
-//! Single-event upsets in the estimator's own memory (src/upset.rs): a C-ABI host
+//! Single-event upsets in the estimator's own memory (src/analysis/upset.rs): a C-ABI host
 //! replays a campaign while one random bit of the state flips at a random moment
 //! between calls. No flip may abort, hang or move the final estimate by 3σ unseen; a
 //! flip is found at the next call, and the host's restore of its last checkpoint

@@ -30,7 +30,7 @@ N_CAUSES = 11
 N_GROUPS = 4
 EST_FINAL = 1
 SERVICE = "taiji/estimate"
-# Must equal the crate's bus settings (src/bus.rs): iceoryx2 checks them on open.
+# Must equal the crate's bus settings (src/bus/wiring.rs): iceoryx2 checks them on open.
 MAX_PUBLISHERS, MAX_SUBSCRIBERS, MAX_NODES = 8, 8, 16
 RECORDER_QUEUE = 2048
 

@@ -42,7 +42,7 @@ pub struct ProcessSpec {
     pub host: Option<String>,
 }
 
-/// One host of a set spread over hosts joined by a network link (`src/process/hosts.rs`).
+/// One host of a set spread over hosts joined by a network link (`src/runtime/process/hosts.rs`).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct HostSpec {

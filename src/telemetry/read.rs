@@ -4,7 +4,6 @@
 //! from disk as needed, a window of rows at a time, so memory does not grow with it.
 
 use super::layout as l;
-use super::truth::read_faults;
 use super::TelemetryError;
 use crate::sim::msg::{Header, IsSample, SensorSample, StarSample, FLAG_ABSENT};
 use crate::sim::scenario::Scenario;
@@ -658,4 +657,39 @@ impl Iterator for Samples<'_> {
             }
         }
     }
+}
+
+/// The `/faults/*` log, if the file has one.
+pub(super) fn read_faults(
+    r: &Reader,
+) -> Result<Vec<crate::sim::faults::FaultRecord>, TelemetryError> {
+    if !r.has(l::FAULT_TICK) {
+        return Ok(Vec::new());
+    }
+    let nf = r
+        .dataset(l::FAULT_TICK)?
+        .shape()
+        .first()
+        .copied()
+        .unwrap_or(0) as u64;
+    let tick = r.ints(l::FAULT_TICK, nf)?;
+    let kind = r.ints(l::FAULT_KIND, nf)?;
+    let field = r.ints(l::FAULT_FIELD, nf)?;
+    let bit = r.ints(l::FAULT_BIT, nf)?;
+    let samples = r.ints(l::FAULT_SAMPLES, nf)?;
+    let before = r.f64s(l::FAULT_BEFORE, &[nf])?;
+    let after = r.f64s(l::FAULT_AFTER, &[nf])?;
+    let sigmas = r.f64s(l::FAULT_SIGMAS, &[nf])?;
+    Ok((0..nf as usize)
+        .map(|i| crate::sim::faults::FaultRecord {
+            tick: tick[i],
+            kind: kind[i].min(255) as u8,
+            field: field[i].min(255) as u8,
+            bit: bit[i].min(63) as u8,
+            samples: samples[i].min(u32::MAX as u64) as u32,
+            before: before[i],
+            after: after[i],
+            sigmas: sigmas[i],
+        })
+        .collect())
 }

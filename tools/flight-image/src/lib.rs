@@ -12,7 +12,7 @@
 //! virtual time one nanosecond per instruction; the board's timer counts that time,
 //! calibrated against a loop of known length) and the stack depth, by painting.
 //!
-//! The export is little-endian (src/export.rs); its records are decoded field by field
+//! The export is little-endian (src/analysis/export.rs); its records are decoded field by field
 //! into this CPU's byte order, so the same code reads it on a big-endian SPARC.
 #![no_std]
 
