@@ -278,7 +278,6 @@ pub(super) fn load(path: &Path) -> Result<Reader, TelemetryError> {
         let mut b = File::with_options();
         // An SWMR reader retries metadata whose checksum fails, backing off twice as
         // long each time from 1 ns (100 tries by default: hours on a corrupt file).
-        // 27 tries wait 0.13 s in all: a live writer's flush is not torn longer.
         b.fapl()
             .metadata_read_attempts(crate::tuning::SWMR_READ_ATTEMPTS);
         std::panic::catch_unwind(|| b.open_as(path, mode)).map_err(|_| TelemetryError::Corrupt {
