@@ -162,7 +162,8 @@ fn worst_off(a: &Crlb, b: &Crlb) -> f64 {
 /// the bound on average over the default campaign (half the points: 5 %).
 #[test]
 fn the_status_bound_is_within_three_percent_of_the_curve_on_average() {
-    let (s, _) = plan::resolve(Scenario::default()).unwrap();
+    let default = Scenario::load_or_default(None).unwrap();
+    let (s, _) = plan::resolve(default).unwrap();
     let fine = crlb_curve(&s, 1024, Threads::available());
     let curve = crlb_curve(&s, tuning::BOUND_POINTS, Threads::available());
     let errors: Vec<f64> = fine
