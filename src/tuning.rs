@@ -14,8 +14,8 @@
 /// Unit: samples. Guarded by: `tests/docs.rs::every_computed_number_in_the_docs_is_what_its_command_prints_now`.
 pub const SEARCH_SAMPLES: f64 = 10_000.0;
 
-/// Least samples per period of the fastest axis in the search, so its waves are resolved.
-/// Unit: samples per period. Guarded by: `tests/docs.rs::every_computed_number_in_the_docs_is_what_its_command_prints_now`.
+/// Least samples per period of the fastest axis in the search: a long window's search bound is then a few per cent loose.
+/// Unit: samples per period. Guarded by: `tests/tuning.rs::the_search_bound_of_a_long_window_is_within_three_percent_of_the_full_rate_bound`.
 pub const SEARCH_SAMPLES_PER_PERIOD: f64 = 32.0;
 
 /// Highest maneuver frequency searched: above it the angles are too small to calibrate β, and the IS noise rises.

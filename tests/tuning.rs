@@ -215,3 +215,27 @@ fn the_final_bound_of_a_long_window_is_the_full_rate_bound_to_two_parts_in_1e5()
         p.chosen.rate_hz
     );
 }
+
+/// The search bound of a 10⁵ s window, where the samples per period set the search
+/// rate, is its full-rate bound within 3 % (half the samples per period: 6 % off).
+#[test]
+fn the_search_bound_of_a_long_window_is_within_three_percent_of_the_full_rate_bound() {
+    let s = load("duration_s = 1.0e5\n");
+    let p = plan::plan(&s, &PlanOptions::default()).unwrap();
+    let f_fast = p
+        .candidates
+        .iter()
+        .flat_map(|c| c.frequencies_hz)
+        .fold(0.0, f64::max);
+    assert!(
+        p.search_rate_hz > tuning::SEARCH_SAMPLES / 1.0e5,
+        "{}",
+        p.search_rate_hz
+    );
+    assert!((p.search_rate_hz / f_fast - tuning::SEARCH_SAMPLES_PER_PERIOD).abs() < 1e-9);
+    let (s, _) = plan::resolve(s).unwrap();
+    assert_eq!(s.maneuver.frequency_hz, p.chosen.maneuver.frequency_hz);
+    let full = taiji::analysis::crlb::crlb_at_rate(&s, s.sample_rate_hz).unwrap();
+    let looser = p.chosen.worst_ratio / plan::worst_ratio(&s, &full).0 - 1.0;
+    assert!(looser.abs() < 0.03, "the search bound is {looser:.3} off");
+}
