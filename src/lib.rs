@@ -6,6 +6,9 @@
 //! before it (tests/layers.rs reads them from this list and the tree). A blank line
 //! between them keeps rustfmt from sorting them by name.
 
+/// Layer 0: the std layer's tuned constants, one table that every layer reads.
+pub mod tuning;
+
 /// Layer 1, simulation: the set's messages, the scenario, the models and the stages.
 pub mod sim;
 

@@ -77,10 +77,6 @@ pub enum TelemetryError {
     Format { path: PathBuf, what: String },
 }
 
-/// Estimate rows are recorded at most this often [s] (and always the final one): the
-/// joint estimator solves every 60 s, the paper's filter updates every sample.
-pub const ESTIMATE_ROW_EVERY_S: f64 = 10.0;
-
 /// Who wrote the file and what it describes (root attributes).
 #[derive(Debug, Clone)]
 pub struct Meta {
@@ -126,7 +122,7 @@ pub struct Telemetry {
 }
 
 /// Which estimates become estimate rows: the final estimate, and a new solve at least
-/// [`ESTIMATE_ROW_EVERY_S`] after the last row. Fed every estimate of a run in tick
+/// [`crate::tuning::ESTIMATE_ROW_EVERY_S`] after the last row. Fed every estimate of a run in tick
 /// order, live or replayed, it keeps the same rows.
 #[derive(Debug, Clone, Default)]
 pub struct RowGate {
@@ -137,7 +133,7 @@ pub struct RowGate {
 impl RowGate {
     /// Is `e` a row (at sample rate `fs` [Hz])? If so it is taken as the last row.
     pub fn due(&mut self, e: &EstimateMsg, fs: f64) -> bool {
-        let spacing = (ESTIMATE_ROW_EVERY_S * fs).round() as u64;
+        let spacing = (crate::tuning::ESTIMATE_ROW_EVERY_S * fs).round() as u64;
         let due = e.flags & EST_FINAL != 0
             || match self.last {
                 Some((tick, solved)) => e.solved_tick != solved && e.header.tick >= tick + spacing,

@@ -266,9 +266,6 @@ pub(super) fn guarded<T>(
     })?
 }
 
-/// Tries of a metadata read whose checksum fails, in SWMR mode (see [`load`]).
-const SWMR_READ_ATTEMPTS: u32 = 27;
-
 /// Open the file with libhdf5, which checks its superblock and length (data is read
 /// on demand). A file still open for writing, or whose writer died, opens as an SWMR
 /// reader sees it: every row flushed so far.
@@ -281,8 +278,8 @@ pub(super) fn load(path: &Path) -> Result<Reader, TelemetryError> {
         let mut b = File::with_options();
         // An SWMR reader retries metadata whose checksum fails, backing off twice as
         // long each time from 1 ns (100 tries by default: hours on a corrupt file).
-        // 27 tries wait 0.13 s in all: a live writer's flush is not torn longer.
-        b.fapl().metadata_read_attempts(SWMR_READ_ATTEMPTS);
+        b.fapl()
+            .metadata_read_attempts(crate::tuning::SWMR_READ_ATTEMPTS);
         std::panic::catch_unwind(|| b.open_as(path, mode)).map_err(|_| TelemetryError::Corrupt {
             path: path.to_path_buf(),
         })

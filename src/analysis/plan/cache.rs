@@ -31,6 +31,7 @@ const SOURCES: &[&[u8]] = &[
     include_bytes!("../../sim/model/plant.rs"),
     include_bytes!("../../sim/model/thruster.rs"),
     include_bytes!("../../sim/model/noise.rs"),
+    include_bytes!("../../tuning.rs"),
     // Every source of the flight core (the estimator, its models), hashed by build.rs.
     env!("TAIJI_CORE_SOURCE_HASH").as_bytes(),
 ];

@@ -23,21 +23,8 @@ use std::time::Instant;
 use taiji_core::estimate::joint::rocking;
 use taiji_core::model::noise::white_sigma;
 
-/// Samples per candidate in the search: its sample rate is this over the window.
-const SEARCH_SAMPLES: f64 = 10_000.0;
-/// Least samples per period of the fastest axis in the search.
-const SEARCH_SAMPLES_PER_PERIOD: f64 = 32.0;
-/// Highest maneuver frequency searched [Hz]: above it the angles are too small to
-/// calibrate β, and the IS noise rises.
-const MAX_FREQUENCY_HZ: f64 = 0.02;
-/// Most samples of the final bound (a longer campaign's is computed at a lower rate).
-const FINAL_SAMPLES: f64 = 2.0e6;
-/// Largest attitude excursion [rad] of a planned maneuver at the default SRP noise
-/// (scaled by 1.1×10⁻¹¹ over `srp.asd_at_3mhz`): the estimator models the turn of the
-/// DC SRP with the attitude but not that of its fluctuation, whose product with the
-/// angle biases r beyond the bound at larger angles (Monte Carlo, RMS/CRLB of rz:
-/// 1.19 at 5.5×10⁻⁴ rad, 1.24 at 6×10⁻⁴, 1.9 at 1.4×10⁻³, 9 at 5×10⁻³; docs/planning.md).
-pub const MODEL_ATTITUDE_RAD: f64 = 5.5e-4;
+pub use crate::tuning::MODEL_ATTITUDE_RAD;
+use crate::tuning::{FINAL_SAMPLES, QUIET_ROCKING, SEARCH_SAMPLES, SEARCH_SAMPLES_PER_PERIOD};
 
 /// The attitude limit of the plan: the scenario's, within the estimator's model.
 pub fn attitude_limit(s: &Scenario) -> (f64, &'static str) {
@@ -49,11 +36,6 @@ pub fn attitude_limit(s: &Scenario) -> (f64, &'static str) {
         (model, "estimator model (attitude limit)")
     }
 }
-
-/// Periods per axis (sequential) or of the slow axis (simultaneous) of the coarse
-/// grid; the best of each schedule is then refined with the counts between its
-/// neighbours.
-const PERIODS: [u64; 9] = [1, 2, 4, 8, 16, 32, 64, 128, 256];
 
 /// What to plan.
 #[derive(Debug, Clone, Copy)]
@@ -260,11 +242,6 @@ pub fn torque_noise_rocking(s: &Scenario) -> f64 {
         r
     }
 }
-
-/// Below this `torque_noise_rocking` the thrusters count as quiet (ten times the
-/// estimator's own threshold: room for its sample covariance's scatter; a torque noise
-/// under ~1/20 of the default's).
-pub(crate) const QUIET_ROCKING: f64 = 10.0;
 
 /// The schedules the planner weighs for `s`: both, unless the thrusters are too quiet
 /// to rock every axis on their own (`torque_noise_rocking`). The estimator then fixes

@@ -90,7 +90,7 @@ pub fn summary(s: &Scenario, p: &Plan, top: usize, margin: Option<f64>) -> Strin
         } else {
             format!(
                 "rock the spacecraft {rocking:.1e}× the estimator's test for motion on every axis (under {})",
-                super::QUIET_ROCKING
+                crate::tuning::QUIET_ROCKING
             )
         };
         let _ = writeln!(

@@ -7,6 +7,7 @@ use crate::sim::scenario::maneuver::{
     axis_frequencies, rocking_seconds, torque_boost, Envelope, Timeline,
 };
 use crate::sim::scenario::{Maneuver, Scenario, Schedule};
+use crate::tuning::{MAX_FREQUENCY_HZ, PERIODS, REFINEMENT_GAIN};
 
 /// The scenario with `m` as its maneuver.
 pub(super) fn with_maneuver(base: &Scenario, m: &Maneuver) -> Scenario {
@@ -202,12 +203,6 @@ pub(super) fn set_bound(base: &Scenario, c: &mut Candidate, b: Option<Crlb>, rat
     c.crlb = b;
     c.rate_hz = rate;
 }
-
-/// A refinement (another start phase than the cosine, another axis order than xyz)
-/// must beat the plain maneuver by more than the search bound's own
-/// uncertainty to be chosen: the plain one is simpler to fly and keeps the attitude
-/// closest to the start.
-pub(super) const REFINEMENT_GAIN: f64 = 1.05;
 
 pub(super) fn rank(c: &Candidate) -> f64 {
     let m = &c.maneuver;

@@ -8,8 +8,7 @@ use crate::sim::msg::EstimateMsg;
 pub use crate::sim::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
 use crate::sim::scenario::{Scenario, Schedule};
 
-/// A data share below this: the parameter is named prior-dominated.
-pub const PRIOR_DOMINATED_SHARE: f64 = 0.5;
+pub use crate::tuning::PRIOR_DOMINATED_SHARE;
 
 /// A bound `c` with a prior of 1σ `p`: their informations add.
 pub(super) fn bound_with_prior(c: f64, p: f64) -> f64 {

@@ -8,10 +8,6 @@ use super::{Exit, Link, ProcessError};
 use crate::sim::msg::STATE_DONE;
 use std::time::Duration;
 
-/// A heartbeat every this many ticks of progress (the credit upstream moves with it;
-/// `wiring::WINDOW` is 8× as wide, so the upstream never waits for a beat).
-pub const BEAT_TICKS: u64 = 32;
-
 /// What one pass of a process did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Turn {
@@ -46,7 +42,7 @@ pub trait Service {
 /// Run `service` on `link` until the supervisor says stop or the process is signalled.
 pub fn drive(link: &mut Link, service: &mut impl Service) -> Result<Exit, ProcessError> {
     link.beat()?;
-    let mut beat_block = link.progress.next_tick / BEAT_TICKS;
+    let mut beat_block = link.progress.next_tick / crate::tuning::BEAT_TICKS;
     let exit = loop {
         if let Some(e) = link.poll()? {
             break e;
@@ -60,7 +56,7 @@ pub fn drive(link: &mut Link, service: &mut impl Service) -> Result<Exit, Proces
             }
         }
         let turn = service.turn(link)?;
-        let block = link.progress.next_tick / BEAT_TICKS;
+        let block = link.progress.next_tick / crate::tuning::BEAT_TICKS;
         if block != beat_block {
             beat_block = block;
             link.beat()?;

@@ -13,16 +13,12 @@ use crate::sim::msg::{EstimateMsg, SensorSample, STATE_DONE, STATE_RUNNING};
 use crate::sim::stage::Stage;
 use std::time::Duration;
 
-/// Checkpoint every this long [s] of samples: at most this much is replayed after a
-/// restart.
-pub const CHECKPOINT_EVERY_S: f64 = 100.0;
-
 /// The checkpoint interval in ticks at sample rate `fs` [Hz]: `CHECKPOINT_EVERY_S` of
 /// samples (1000 ticks at 10 Hz), at most what the front end's ring keeps beyond the
 /// flow-control window (`fee::RING − 2 wiring::WINDOW`: 102 s at 75 Hz, less above).
 pub fn checkpoint_every(fs: f64) -> u64 {
     let most = super::fee::RING - 2 * crate::bus::wiring::WINDOW;
-    ((CHECKPOINT_EVERY_S * fs).round() as u64).clamp(1, most)
+    ((crate::tuning::CHECKPOINT_EVERY_S * fs).round() as u64).clamp(1, most)
 }
 
 /// File name of the checkpoint in the run directory.
@@ -276,7 +272,7 @@ impl Service for EstimatorService {
         if advanced && self.next % self.checkpoint_every == 0 {
             self.ckpt.save(&self.est, self.next)?;
         }
-        if self.next % driver::BEAT_TICKS == 0 {
+        if self.next % crate::tuning::BEAT_TICKS == 0 {
             self.count_allocations(link);
         }
         if self.next == self.n && self.final_msg.is_none() {

@@ -264,8 +264,6 @@ pub struct Link {
     pub node: Node<ipc::Service>,
 }
 
-/// Heartbeat period when idle [ns].
-const BEAT_NS: u64 = 50_000_000;
 /// Longest sleep when there is nothing to do; a neighbour's wake-up ends it sooner.
 pub const IDLE: Duration = Duration::from_millis(20);
 
@@ -432,7 +430,9 @@ impl Link {
             return Ok(Some(Exit::Stopped));
         }
         // Tell the upstream at once when the chain below became ready.
-        if self.primed() != was_primed || monotonic_ns() > self.last_beat_ns + BEAT_NS {
+        if self.primed() != was_primed
+            || monotonic_ns() > self.last_beat_ns + crate::tuning::BEAT_NS
+        {
             // SAFETY: getppid has no preconditions.
             if unsafe { libc::getppid() } != self.parent {
                 return Ok(Some(Exit::Terminated));

@@ -75,11 +75,12 @@ pub fn band_asd(asd: &[(f64, f64)], f0: f64, f1: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::sim::rng::{stream, Stream};
+    use taiji_core::tuning::{SRP_PSD_EXPONENT, SRP_REF_HZ};
 
     #[test]
     fn power_law_welch_asd_within_25_percent_from_0_1_mhz_to_0_1_fs() {
         let fs = 10.0;
-        let mut b = PowerLawBank::new(1.1e-11, 3e-3, 2.0 / 3.0, fs);
+        let mut b = PowerLawBank::new(1.1e-11, SRP_REF_HZ, SRP_PSD_EXPONENT, fs);
         let mut rng = stream(7, Stream::Srp);
         b.init_stationary(&mut rng);
         let x: Vec<f64> = (0..1usize << 22).map(|_| b.next(&mut rng)).collect();

@@ -7,6 +7,7 @@ use crate::sim::msg::{Header, TruthState};
 use crate::sim::rng::{gauss, stream, Rng, Stream};
 use crate::sim::scenario::Scenario;
 use nalgebra::{Matrix3, Vector3};
+use taiji_core::tuning::{SRP_PSD_EXPONENT, SRP_REF_HZ};
 
 /// Integration sub-steps per output sample (100 Hz internal for 10 Hz output).
 pub const SUBSTEPS: usize = 10;
@@ -86,7 +87,7 @@ impl Plant {
             thr_params.edge_jitter_s = 0.0;
             thr_params.amplitude_jitter_rel = 0.0;
         }
-        let mut srp_bank = PowerLawBank::new(s.srp.asd_at_3mhz, 3e-3, 2.0 / 3.0, fs);
+        let mut srp_bank = PowerLawBank::new(s.srp.asd_at_3mhz, SRP_REF_HZ, SRP_PSD_EXPONENT, fs);
         let mut rng_srp = stream(seed, Stream::Srp);
         srp_bank.init_stationary(&mut rng_srp);
         let mut r_tm_b = [Vector3::zeros(); 2];

@@ -62,9 +62,6 @@ impl Outcome {
 /// maneuver planned when it had none.
 pub const PLANNED_SCENARIO_FILE: &str = "scenario.toml";
 
-/// Points of the bound's curve the status interpolates between (`crlb::bound_at`).
-const BOUND_POINTS: usize = 64;
-
 /// Run the campaign through the process set.
 pub fn run(args: &SupervisorArgs) -> Outcome {
     let s = match Scenario::load_or_default(args.scenario.as_deref()) {
@@ -112,7 +109,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
         let m = sc.spawn(|| crate::analysis::plan::maneuver_bound(&s));
         let curve = crate::analysis::crlb::crlb_curve(
             &s,
-            BOUND_POINTS,
+            crate::tuning::BOUND_POINTS,
             crate::analysis::campaign::Threads::available(),
         );
         (
