@@ -450,3 +450,29 @@ fn spacepackets_parses_our_telemetry_crc_checked() {
         "a corrupted packet is refused for its CRC: {refused}"
     );
 }
+
+/// docs/ground.md's generated tables equal the code's (`TAIJI_BLESS=1` rewrites them).
+#[test]
+fn the_docs_tables_are_the_dictionarys() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/ground.md");
+    let page = std::fs::read_to_string(&path).unwrap();
+    let mut fresh = page.clone();
+    for (name, table) in taiji::ground::tables::all() {
+        let open = format!("<!--g:{name}-->\n");
+        let (Some(a), Some(len)) = (
+            fresh.find(&open),
+            fresh.find(&open).and_then(|a| fresh[a..].find("<!--/g-->")),
+        ) else {
+            panic!("docs/ground.md has no <!--g:{name}--> … <!--/g--> block");
+        };
+        fresh.replace_range(a + open.len()..a + len, &table);
+    }
+    if std::env::var_os("TAIJI_BLESS").is_some() {
+        std::fs::write(&path, &fresh).unwrap();
+    } else {
+        assert!(
+            page == fresh,
+            "docs/ground.md's tables differ from the dictionary's: TAIJI_BLESS=1 cargo test --release --test ground_packets"
+        );
+    }
+}

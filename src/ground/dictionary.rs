@@ -488,16 +488,6 @@ impl From<&ReplayError> for Failure {
     }
 }
 
-/// The failure codes as a Markdown table (docs/ground.md prints it).
-pub fn failures_markdown() -> String {
-    let mut s = String::from("| code | name | refused because |\n|---|---|---|\n");
-    for f in Failure::ALL {
-        let (name, meaning) = f.describe();
-        s += &format!("| {} | `{name}` | {meaning} |\n", f.code());
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

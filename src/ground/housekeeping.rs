@@ -245,30 +245,6 @@ pub fn decode_estimate(
     Ok(())
 }
 
-/// Structure 1's layout as a Markdown table (docs/ground.md prints it).
-pub fn estimate_markdown() -> String {
-    let mut s = format!(
-        "| offset | parameter | type | unit | meaning |\n|---|---|---|---|---|\n| 0 | structure ID = {STRUCTURE_ESTIMATE} | u16 | | |\n"
-    );
-    let mut at = 2;
-    for f in ESTIMATE {
-        let n = f.elements.count();
-        let name = match f.elements {
-            Elements::One => f.name.to_string(),
-            e => format!("{}{} … {}{}", f.name, e.suffix(0), f.name, e.suffix(n - 1)),
-        };
-        let ty = if n == 1 {
-            f.kind.name().to_string()
-        } else {
-            format!("{n} × {}", f.kind.name())
-        };
-        s += &format!("| {at} | `{name}` | {ty} | {} | {} |\n", f.unit, f.meaning);
-        at += n * f.kind.size();
-    }
-    s += &format!("| {at} | (end) | | | |\n");
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -346,13 +322,10 @@ mod tests {
     }
 
     #[test]
-    fn the_layout_table_names_every_element() {
-        let t = estimate_markdown();
-        assert!(
-            t.contains("| 2 | `beta_is1_x … beta_is2_z` | 6 × f64 |"),
-            "{t}"
-        );
-        assert!(t.contains(&format!("| {ESTIMATE_LEN} | (end) |")));
+    fn elements_are_named_by_is_and_axis_or_by_group() {
+        assert_eq!(Elements::IsAxis.suffix(0), "_is1_x");
+        assert_eq!(Elements::IsAxis.suffix(5), "_is2_z");
         assert_eq!(Elements::Group.suffix(1), "_common_mode");
+        assert_eq!(Elements::One.suffix(0), "");
     }
 }

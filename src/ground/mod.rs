@@ -10,3 +10,4 @@ pub mod dictionary;
 pub mod housekeeping;
 pub mod packet;
 pub mod replay;
+pub mod tables;
