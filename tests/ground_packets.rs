@@ -2,8 +2,9 @@
 //! panic (10⁵ seeded random and mutated datagrams), encode and decode allocation-free,
 //! and a round trip through an outside ground tool: Python `spacepackets` builds
 //! authenticated telecommands that we accept, and parses our telemetry with its CRC
-//! checked (tools/ground_packets.py). Under `CI=true` a missing python3 or spacepackets
-//! fails the test; elsewhere it is skipped with a note.
+//! checked, and `space-packet-parser` decodes it from the XTCE dictionary alone
+//! (tools/ground_packets.py). Under `CI=true` a missing python3 or package fails the
+//! test; elsewhere it is skipped with a note.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -298,15 +299,15 @@ fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/ground_packets.py")
 }
 
-/// Whether python3 with spacepackets is here: under `CI=true` it must be.
-fn spacepackets_here() -> bool {
+/// Whether python3 with spacepackets and space-packet-parser is here: under `CI=true` it must be.
+fn outside_tools_here() -> bool {
     let ok = Command::new("python3")
         .arg(script())
         .arg("check")
         .output()
         .is_ok_and(|o| o.status.success());
     if !ok {
-        let why = "python3 with the spacepackets package is missing (pip install spacepackets; tools/test installs it)";
+        let why = "python3 with spacepackets and space-packet-parser is missing (tools/test installs them)";
         assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
         eprintln!("skipped: {why}");
     }
@@ -340,7 +341,7 @@ fn unhex(s: &str) -> Vec<u8> {
 
 #[test]
 fn spacepackets_builds_telecommands_we_accept() {
-    if !spacepackets_here() {
+    if !outside_tools_here() {
         return;
     }
     let dir = scratch("python-tc");
@@ -399,7 +400,7 @@ fn spacepackets_builds_telecommands_we_accept() {
 
 #[test]
 fn spacepackets_parses_our_telemetry_crc_checked() {
-    if !spacepackets_here() {
+    if !outside_tools_here() {
         return;
     }
     let e = estimate();
@@ -475,4 +476,92 @@ fn the_docs_tables_are_the_dictionarys() {
             "docs/ground.md's tables differ from the dictionary's: TAIJI_BLESS=1 cargo test --release --test ground_packets"
         );
     }
+}
+
+/// The XTCE dictionary alone decodes our telemetry in `space-packet-parser`: the
+/// estimate bit for bit, the headers, a failure report's code.
+#[test]
+fn space_packet_parser_decodes_our_telemetry_from_the_xtce_alone() {
+    if !outside_tools_here() {
+        return;
+    }
+    let dir = scratch("xtce");
+    let xtce = dir.join("dictionary.xtce");
+    let out = Command::new(env!("CARGO_BIN_EXE_taiji-calib"))
+        .args(["ground", "dictionary", "--format", "xtce"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::write(&xtce, &out.stdout).unwrap();
+    let e = estimate();
+    let src = Source {
+        estimate: &e,
+        mode: Mode::Running,
+    };
+    let mut hk = [0u8; ESTIMATE_LEN];
+    housekeeping::encode_estimate(&src, &mut hk).unwrap();
+    let failure = [
+        0x19,
+        0x20,
+        0xC0,
+        0x09,
+        0,
+        dictionary::Failure::BadMac.code() as u8,
+    ];
+    let mut buf = vec![0u8; 1024];
+    let mut hexes = vec!["xtce".to_string(), xtce.display().to_string()];
+    for (s, t, data) in [
+        (3u8, 25u8, &hk[..]),
+        (17, 2, &[][..]),
+        (1, 2, &failure[..]),
+        (1, 7, &failure[..4]),
+    ] {
+        let n = packet::encode_tm(&mut buf, &tm_header(s, t, 3), data).unwrap();
+        hexes.push(hex(&buf[..n]));
+    }
+    let lines: Vec<serde_json::Value> = python(&hexes)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 4);
+    let mut checked = 0;
+    for f in housekeeping::ESTIMATE {
+        for i in 0..f.elements.count() {
+            let name = format!("{}{}", f.name, f.elements.suffix(i));
+            let bits = (f.read)(&src, i);
+            let want = match f.kind {
+                dictionary::Kind::F64 => serde_json::json!(hex(&bits.to_be_bytes())),
+                _ => serde_json::json!(bits),
+            };
+            assert_eq!(lines[0][&name], want, "{name}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 47);
+    for l in &lines {
+        assert_eq!(
+            (
+                &l["PKT_APID"],
+                &l["PUS_VERSION"],
+                &l["TIME_DAY"],
+                &l["TIME_MS"]
+            ),
+            (
+                &serde_json::json!(0x120),
+                &serde_json::json!(2),
+                &serde_json::json!(1),
+                &serde_json::json!(3_661_250)
+            )
+        );
+    }
+    assert_eq!(lines[0]["HK_STRUCTURE_ID"], 1);
+    assert_eq!(lines[1]["SERVICE"], 17);
+    assert_eq!(lines[2]["FAILURE_CODE"], 11);
+    assert_eq!(lines[2]["REQ_PACKET_ID"], 0x1920);
+    assert_eq!(lines[3]["REQ_SEQ_CTRL"], 0xC009);
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -11,6 +11,10 @@ package builds authenticated telecommands and parses the set's telemetry, CRC ch
     ground_packets.py tm HEX [HEX...]
         parses each telemetry packet (CDS short time, 7 bytes) and prints one JSON line
         per packet: its fields, or {"error": ...} when spacepackets refuses it.
+    ground_packets.py xtce FILE HEX [HEX...]
+        decodes each telemetry packet with space-packet-parser from the XTCE dictionary
+        FILE alone, and prints one JSON line per packet: every parameter's value (a float
+        as the hex of its binary64 bits).
 """
 import hashlib
 import hmac
@@ -82,9 +86,28 @@ def tm(packets):
         )
 
 
+def xtce(path, packets):
+    import struct
+
+    import space_packet_parser
+
+    definition = space_packet_parser.load_xtce(path)
+    for h in packets:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a packet longer than its container fails
+            p = definition.parse_bytes(bytes.fromhex(h))
+        values = {}
+        for name, v in p.items():
+            values[name] = struct.pack(">d", v).hex() if isinstance(v, float) else int(v)
+        print(json.dumps(values))
+
+
 def main(argv):
     if argv[:1] == ["check"]:
+        import space_packet_parser  # noqa: F401
         import spacepackets  # noqa: F401
+    elif argv[:1] == ["xtce"] and len(argv) >= 2:
+        xtce(argv[1], argv[2:])
     elif argv[:1] == ["tc"] and len(argv) == 8:
         tc(*argv[1:])
     elif argv[:1] == ["tm"]:

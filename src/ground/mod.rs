@@ -9,5 +9,6 @@ pub mod crc;
 pub mod dictionary;
 pub mod housekeeping;
 pub mod packet;
+pub mod publish;
 pub mod replay;
 pub mod tables;
