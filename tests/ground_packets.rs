@@ -243,9 +243,9 @@ fn every_class_of_a_well_formed_but_refused_telecommand() {
 }
 
 #[test]
-fn encoding_and_decoding_allocate_nothing() {
+fn encoding_decoding_and_accepting_allocate_nothing() {
     let dir = scratch("alloc");
-    let guard = ReplayGuard::open(&dir.join("replay.state")).unwrap();
+    let mut guard = ReplayGuard::open(&dir.join("replay.state")).unwrap();
     let (key, e, start) = (key(), estimate(), start_args());
     let mut tc = [0u8; 256];
     let mut tm = [0u8; 512];
@@ -262,7 +262,12 @@ fn encoding_and_decoding_allocate_nothing() {
         .unwrap();
         let t = packet::decode_tc(&tc[..n], APID).unwrap();
         let a = auth::verify(&key, &t).unwrap();
-        guard.check(a.seq).unwrap();
+        // The first 200 accepted (each kept on disk), the rest only checked.
+        if i < 200 {
+            guard.accept(a.seq).unwrap();
+        } else {
+            guard.check(a.seq).unwrap();
+        }
         dictionary::route(t.header.service, t.header.subtype).unwrap();
         let f = dictionary::parse_function(a.app_data).unwrap();
         assert!(matches!(f, Function::Start { seed: 42, .. }));
@@ -284,6 +289,7 @@ fn encoding_and_decoding_allocate_nothing() {
     }
     let after = thread_allocations().unwrap();
     assert_eq!(after - before, 0, "allocations in 10⁴ encode/decode rounds");
+    assert_eq!(guard.last(), Some(200));
     assert_ne!(checksum, 0);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -5,9 +5,13 @@
 //!
 //! The file: `TJAR`, format version 1 (u8), 1 when a number was accepted (u8), the last
 //! accepted number (u32, big-endian), then SHA-256 of those 10 bytes: 42 bytes.
+//!
+//! Accepting a number touches no heap (the paths are made ready when the file is
+//! opened), so a TMTC loop that accepts telecommands stays allocation-free.
 
 use sha2::{Digest, Sha256};
-use std::io::Write;
+use std::ffi::CString;
+use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 4] = b"TJAR";
@@ -34,8 +38,49 @@ pub enum ReplayError {
 #[derive(Debug)]
 pub struct ReplayGuard {
     path: PathBuf,
-    tmp: PathBuf,
+    /// The file, its temporary sibling and its folder, ready for the system calls.
+    c_path: CString,
+    c_tmp: CString,
+    c_dir: CString,
     last: Option<u32>,
+}
+
+/// `path` for a system call (a path with a NUL byte cannot name a file).
+fn c_string(path: &Path) -> Result<CString, ReplayError> {
+    CString::new(path.as_os_str().as_bytes()).map_err(|_| ReplayError::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::from(std::io::ErrorKind::InvalidInput),
+    })
+}
+
+/// The result of a system call that returns −1 on failure.
+fn check(r: libc::c_int) -> std::io::Result<libc::c_int> {
+    if r < 0 {
+        Err(std::io::Error::last_os_error())
+    } else {
+        Ok(r)
+    }
+}
+
+/// Opens `path` with `flags` (and mode 0600 when it creates it), runs `f` on the
+/// descriptor, closes it.
+fn with_fd(
+    path: &CString,
+    flags: libc::c_int,
+    f: impl FnOnce(libc::c_int) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    // SAFETY: `path` is a NUL-terminated string that outlives the call.
+    let fd = check(unsafe {
+        libc::open(
+            path.as_ptr(),
+            flags | libc::O_CLOEXEC,
+            0o600 as libc::c_uint,
+        )
+    })?;
+    let r = f(fd);
+    // SAFETY: `fd` was opened above and is closed once, here.
+    let closed = check(unsafe { libc::close(fd) });
+    r.and(closed.map(|_| ()))
 }
 
 /// The state file's bytes for `last`.
@@ -70,9 +115,15 @@ impl ReplayGuard {
     pub fn open(path: &Path) -> Result<ReplayGuard, ReplayError> {
         let mut name = path.file_name().unwrap_or_default().to_os_string();
         name.push(".tmp");
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
         let mut g = ReplayGuard {
             path: path.to_path_buf(),
-            tmp: path.with_file_name(name),
+            c_path: c_string(path)?,
+            c_tmp: c_string(&path.with_file_name(name))?,
+            c_dir: c_string(dir)?,
             last: None,
         };
         match std::fs::read(path) {
@@ -115,16 +166,33 @@ impl ReplayGuard {
         Ok(())
     }
 
+    /// Writes the state to the temporary file, syncs it, renames it over the file and
+    /// syncs the folder: the file holds the old state or the new, whole.
     fn persist(&self, last: Option<u32>) -> Result<(), ReplayError> {
+        let bytes = encode(last);
         let write = || -> std::io::Result<()> {
-            let mut f = std::fs::File::create(&self.tmp)?;
-            f.write_all(&encode(last))?;
-            f.sync_all()?;
-            std::fs::rename(&self.tmp, &self.path)?;
-            if let Some(dir) = self.path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::File::open(dir)?.sync_all()?;
-            }
-            Ok(())
+            with_fd(
+                &self.c_tmp,
+                libc::O_WRONLY | libc::O_CREAT | libc::O_TRUNC,
+                |fd| {
+                    // SAFETY: `bytes` is valid for its length for the duration of the call.
+                    let n = check(
+                        unsafe { libc::write(fd, bytes.as_ptr().cast(), bytes.len()) }
+                            as libc::c_int,
+                    )?;
+                    if n as usize != bytes.len() {
+                        return Err(std::io::Error::from(std::io::ErrorKind::WriteZero));
+                    }
+                    // SAFETY: a plain fsync of a descriptor this function owns.
+                    check(unsafe { libc::fsync(fd) }).map(|_| ())
+                },
+            )?;
+            // SAFETY: both are NUL-terminated strings that outlive the call.
+            check(unsafe { libc::rename(self.c_tmp.as_ptr(), self.c_path.as_ptr()) })?;
+            with_fd(&self.c_dir, libc::O_RDONLY | libc::O_DIRECTORY, |fd| {
+                // SAFETY: a plain fsync of a descriptor this function owns.
+                check(unsafe { libc::fsync(fd) }).map(|_| ())
+            })
         };
         write().map_err(|source| ReplayError::Io {
             path: self.path.clone(),
