@@ -510,14 +510,8 @@ fn space_packet_parser_decodes_our_telemetry_from_the_xtce_alone() {
     };
     let mut hk = [0u8; ESTIMATE_LEN];
     housekeeping::encode_estimate(&src, &mut hk).unwrap();
-    let failure = [
-        0x19,
-        0x20,
-        0xC0,
-        0x09,
-        0,
-        dictionary::Failure::BadMac.code() as u8,
-    ];
+    let tc = [0x19, 0x20, 0xC0, 0x09, 0, 30];
+    let (failure, _) = dictionary::verification_data(&tc, Some(dictionary::Failure::BadMac));
     let mut buf = vec![0u8; 1024];
     let mut hexes = vec!["xtce".to_string(), xtce.display().to_string()];
     for (s, t, data) in [

@@ -268,6 +268,26 @@ impl<'a> IdList<'a> {
     }
 }
 
+/// Bytes of a verification report's request ID: the telecommand's packet ID and
+/// packet sequence control, its first 4 bytes.
+pub const REQUEST_ID_LEN: usize = 4;
+
+/// The source data of a verification report (service 1) on the datagram `tc`: the
+/// request ID (the datagram's first 4 bytes, zero-padded when it is shorter), then, in a
+/// failure report, the failure code (u16). Returns the bytes and how many are used.
+pub fn verification_data(tc: &[u8], failure: Option<Failure>) -> ([u8; REQUEST_ID_LEN + 2], usize) {
+    let mut d = [0u8; REQUEST_ID_LEN + 2];
+    let n = tc.len().min(REQUEST_ID_LEN);
+    d[..n].copy_from_slice(&tc[..n]);
+    match failure {
+        Some(f) => {
+            d[REQUEST_ID_LEN..].copy_from_slice(&f.code().to_be_bytes());
+            (d, REQUEST_ID_LEN + 2)
+        }
+        None => (d, REQUEST_ID_LEN),
+    }
+}
+
 /// The set's mode, as housekeeping reports it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
@@ -559,6 +579,23 @@ mod tests {
         assert_eq!(parse_function(&[0]), Err(Failure::BadLength));
         assert_eq!(parse_function(&[]), Err(Failure::BadLength));
         assert!(FUNCTIONS.iter().all(|f| f.args.len() <= MAX_ARGS));
+    }
+
+    #[test]
+    fn verification_reports_name_the_request_and_the_failure() {
+        let tc = [0x19, 0x20, 0xC0, 0x07, 0, 9];
+        assert_eq!(
+            verification_data(&tc, None),
+            ([0x19, 0x20, 0xC0, 0x07, 0, 0], 4)
+        );
+        assert_eq!(
+            verification_data(&tc, Some(Failure::BadMac)),
+            ([0x19, 0x20, 0xC0, 0x07, 0, 11], 6)
+        );
+        assert_eq!(
+            verification_data(&[0x19], Some(Failure::Truncated)),
+            ([0x19, 0, 0, 0, 0, 2], 6)
+        );
     }
 
     #[test]

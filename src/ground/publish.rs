@@ -371,6 +371,7 @@ pub fn json() -> Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ground::dictionary::REQUEST_ID_LEN;
     use crate::ground::housekeeping::ESTIMATE_LEN;
 
     #[test]
@@ -379,6 +380,10 @@ mod tests {
         let cs = containers();
         assert_eq!(bits(&cs[0].entries), 48);
         assert_eq!(bits(&cs[1].entries), 8 * 14);
+        assert_eq!(
+            (cs[2].name, bits(&cs[2].entries)),
+            ("TM_1", 8 * REQUEST_ID_LEN)
+        );
         assert_eq!(bits(&estimate_params()), 8 * (ESTIMATE_LEN - 2));
         let x = xtce();
         assert!(x.contains("<xtce:SequenceContainer name=\"CCSDSPacket\" abstract=\"true\""));
