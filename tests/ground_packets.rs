@@ -484,8 +484,8 @@ fn the_docs_tables_are_the_dictionarys() {
     }
 }
 
-/// The XTCE dictionary alone decodes our telemetry in `space-packet-parser`: the
-/// estimate bit for bit, the headers, a failure report's code.
+/// The XTCE dictionary is valid XTCE (the schema `space-packet-parser` ships) and alone
+/// decodes our telemetry there: the estimate bit for bit, the headers, a failure report's code.
 #[test]
 fn space_packet_parser_decodes_our_telemetry_from_the_xtce_alone() {
     if !outside_tools_here() {

@@ -12,9 +12,10 @@ package builds authenticated telecommands and parses the set's telemetry, CRC ch
         parses each telemetry packet (CDS short time, 7 bytes) and prints one JSON line
         per packet: its fields, or {"error": ...} when spacepackets refuses it.
     ground_packets.py xtce FILE HEX [HEX...]
-        decodes each telemetry packet with space-packet-parser from the XTCE dictionary
-        FILE alone, and prints one JSON line per packet: every parameter's value (a float
-        as the hex of its binary64 bits).
+        validates the XTCE dictionary FILE against the XTCE schema that space-packet-parser
+        ships (no download), decodes each telemetry packet with it alone, and prints one
+        JSON line per packet: every parameter's value (a float as the hex of its binary64
+        bits).
 """
 import hashlib
 import hmac
@@ -89,8 +90,16 @@ def tm(packets):
 def xtce(path, packets):
     import struct
 
+    from pathlib import Path
+
     import space_packet_parser
 
+    xsd = Path(space_packet_parser.__file__).parent / "xtce" / "schemas" / "SpaceSystem.xsd"
+    result = space_packet_parser.validate_xtce(
+        path, level="all", local_xsd=xsd, allow_schema_download=False, print_results=False, raise_on_error=False
+    )
+    if not result:
+        sys.exit(f"{path} is not valid XTCE: {[str(e) for e in result.errors]}")
     definition = space_packet_parser.load_xtce(path)
     for h in packets:
         with warnings.catch_warnings():

@@ -277,6 +277,15 @@ pub fn xtce() -> String {
             c.abstract_,
             esc(c.meaning)
         );
+        x += "        <xtce:EntryList>\n";
+        for p in &c.entries {
+            let _ = writeln!(
+                x,
+                "          <xtce:ParameterRefEntry parameterRef=\"{}\"/>",
+                p.name
+            );
+        }
+        x += "        </xtce:EntryList>\n";
         if let Some((base, criteria)) = &c.base {
             let _ = writeln!(x, "        <xtce:BaseContainer containerRef=\"{base}\">\n          <xtce:RestrictionCriteria>");
             x += "            <xtce:ComparisonList>\n";
@@ -288,15 +297,7 @@ pub fn xtce() -> String {
             }
             x += "            </xtce:ComparisonList>\n          </xtce:RestrictionCriteria>\n        </xtce:BaseContainer>\n";
         }
-        x += "        <xtce:EntryList>\n";
-        for p in &c.entries {
-            let _ = writeln!(
-                x,
-                "          <xtce:ParameterRefEntry parameterRef=\"{}\"/>",
-                p.name
-            );
-        }
-        x += "        </xtce:EntryList>\n      </xtce:SequenceContainer>\n";
+        x += "      </xtce:SequenceContainer>\n";
     }
     x += "    </xtce:ContainerSet>\n  </xtce:TelemetryMetaData>\n</xtce:SpaceSystem>\n";
     x
