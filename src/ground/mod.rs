@@ -2,7 +2,8 @@
 //! (`packet`, `crc`), the telecommands' authentication trailer and anti-replay state
 //! (`auth`, `replay`), and the dictionary: the IDs, failure codes and housekeeping
 //! layouts that the code and the published dictionary share (`dictionary`,
-//! `housekeeping`). docs/ground.md describes them.
+//! `housekeeping`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
+//! (`tables`). docs/ground.md describes them.
 
 pub mod auth;
 pub mod crc;

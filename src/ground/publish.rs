@@ -299,7 +299,222 @@ pub fn xtce() -> String {
         }
         x += "      </xtce:SequenceContainer>\n";
     }
-    x += "    </xtce:ContainerSet>\n  </xtce:TelemetryMetaData>\n</xtce:SpaceSystem>\n";
+    x += "    </xtce:ContainerSet>\n  </xtce:TelemetryMetaData>\n";
+    x += &commands();
+    x += "</xtce:SpaceSystem>\n";
+    x
+}
+
+/// A telecommand of fixed layout: its name, service, subtype, function ID (8,1) and
+/// arguments; every one ends in the authentication trailer and the CRC.
+struct Command {
+    name: String,
+    meaning: String,
+    service: u8,
+    subtype: u8,
+    function: Option<u16>,
+    args: Vec<Param>,
+}
+
+/// The telecommands whose layout is fixed: 17,1 and the functions of 8,1.
+fn fixed_commands() -> Vec<Command> {
+    let mut v = vec![Command {
+        name: "TC_17_1".into(),
+        meaning: "are-you-alive connection test".into(),
+        service: 17,
+        subtype: 1,
+        function: None,
+        args: vec![],
+    }];
+    for f in FUNCTIONS {
+        let args = f
+            .args
+            .iter()
+            .map(|a| {
+                let range = a
+                    .range
+                    .map(|(lo, _)| format!("; finite, at least {lo}"))
+                    .unwrap_or_default();
+                let meaning = format!("{}{range}", a.meaning);
+                Param {
+                    name: a.name.into(),
+                    bits: 8 * a.kind.size(),
+                    float: a.kind == Kind::F64,
+                    unit: a.unit,
+                    meaning,
+                }
+            })
+            .collect();
+        v.push(Command {
+            name: format!("FN_{}", f.name.to_uppercase()),
+            meaning: format!("8,1 function {}: {}", f.id, f.meaning),
+            service: 8,
+            subtype: 1,
+            function: Some(f.id),
+            args,
+        });
+    }
+    v
+}
+
+/// The telecommand header's arguments (the ground tool sets them per packet).
+fn tc_header_args() -> Vec<Param> {
+    vec![
+        int("SRC_SEQ_CTR", 14, "", "sequence count"),
+        int("PKT_LEN", 16, "", "packet data length − 1"),
+        int(
+            "ACK_FLAGS",
+            4,
+            "",
+            "acknowledgement flags: acceptance, start, progress, completion (bits 0 to 3)",
+        ),
+        int("SERVICE", 8, "", "service type"),
+        int("SUBTYPE", 8, "", "message subtype"),
+        int("SOURCE_ID", 16, "", "source ID"),
+    ]
+}
+
+/// The trailer's and CRC's arguments, which close every telecommand.
+fn tc_trailer_args() -> Vec<Param> {
+    vec![
+        int(
+            "AUTH_SEQ",
+            32,
+            "",
+            "anti-replay sequence number: larger than the last accepted",
+        ),
+        int("PEC", 16, "", "packet error control (CRC-16/CCITT-FALSE)"),
+    ]
+}
+
+fn refs(x: &mut String, names: &[&str]) {
+    for n in names {
+        let _ = writeln!(
+            x,
+            "            <xtce:ArgumentRefEntry argumentRef=\"{n}\"/>"
+        );
+    }
+}
+
+/// The entries of the primary and PUS-C secondary headers of a telecommand.
+fn tc_header_entries() -> String {
+    let mut x = fixed("VERSION", 0, 3);
+    x += &fixed("TYPE", 1, 1);
+    x += &fixed("SEC_HDR_FLG", 1, 1);
+    x += &fixed("PKT_APID", u32::from(APID), 11);
+    x += &fixed("SEQ_FLGS", 3, 2);
+    refs(&mut x, &["SRC_SEQ_CTR", "PKT_LEN"]);
+    x += &fixed("PUS_VERSION", 2, 4);
+    refs(&mut x, &["ACK_FLAGS", "SERVICE", "SUBTYPE", "SOURCE_ID"]);
+    x
+}
+
+fn fixed(name: &str, value: u32, bits: usize) -> String {
+    format!("            <xtce:FixedValueEntry name=\"{name}\" binaryValue=\"{value:04X}\" sizeInBits=\"{bits}\"/>\n")
+}
+
+fn argument_list(ps: &[Param], mac: bool) -> String {
+    let mut x = String::from("        <xtce:ArgumentList>\n");
+    for p in ps {
+        let (n, t, d) = (&p.name, type_name(p), esc(&p.meaning));
+        let _ = writeln!(x, "          <xtce:Argument name=\"{n}\" argumentTypeRef=\"{t}\" shortDescription=\"{d}\"/>");
+    }
+    if mac {
+        x += "          <xtce:Argument name=\"AUTH_MAC\" argumentTypeRef=\"bytes16\" shortDescription=\"HMAC-SHA-256 truncated to 16 bytes, over the packet from its first byte through AUTH_SEQ\"/>\n";
+    }
+    x + "        </xtce:ArgumentList>\n"
+}
+
+/// The telecommands as XTCE `CommandMetaData`: an abstract `PUS_TC` with the headers'
+/// arguments, from which each command inherits them, setting its service and subtype;
+/// each command's container lays out the whole packet.
+fn commands() -> String {
+    let cmds = fixed_commands();
+    let header = tc_header_args();
+    let trailer = tc_trailer_args();
+    let mut types = std::collections::BTreeMap::new();
+    for p in header
+        .iter()
+        .chain(&trailer)
+        .chain(cmds.iter().flat_map(|c| &c.args))
+    {
+        types.entry(type_name(p)).or_insert(p);
+    }
+    let mut x = String::from("  <xtce:CommandMetaData>\n    <xtce:ArgumentTypeSet>\n");
+    for (name, p) in &types {
+        let (tag, enc, signed) = if p.float {
+            (
+                "FloatArgumentType",
+                format!(
+                    "<xtce:FloatDataEncoding sizeInBits=\"{}\" encoding=\"IEEE754\"/>",
+                    p.bits
+                ),
+                "",
+            )
+        } else {
+            let enc = format!(
+                "<xtce:IntegerDataEncoding sizeInBits=\"{}\" encoding=\"unsigned\"/>",
+                p.bits
+            );
+            ("IntegerArgumentType", enc, " signed=\"false\"")
+        };
+        let _ = writeln!(x, "      <xtce:{tag} name=\"{name}\"{signed}>");
+        if !p.unit.is_empty() {
+            let _ = writeln!(
+                x,
+                "        <xtce:UnitSet><xtce:Unit>{}</xtce:Unit></xtce:UnitSet>",
+                esc(p.unit)
+            );
+        }
+        let _ = writeln!(x, "        {enc}\n      </xtce:{tag}>");
+    }
+    x += "      <xtce:BinaryArgumentType name=\"bytes16\">\n        <xtce:BinaryDataEncoding><xtce:SizeInBits><xtce:FixedValue>128</xtce:FixedValue></xtce:SizeInBits></xtce:BinaryDataEncoding>\n      </xtce:BinaryArgumentType>\n";
+    x += "    </xtce:ArgumentTypeSet>\n    <xtce:MetaCommandSet>\n";
+    x += "      <xtce:MetaCommand name=\"PUS_TC\" abstract=\"true\" shortDescription=\"PUS-C telecommand of the calibration application\">\n";
+    x += &argument_list(&header, false);
+    x += "      </xtce:MetaCommand>\n";
+    for c in &cmds {
+        let _ = writeln!(
+            x,
+            "      <xtce:MetaCommand name=\"{}\" shortDescription=\"{}\">",
+            c.name,
+            esc(&c.meaning)
+        );
+        x += "        <xtce:BaseMetaCommand metaCommandRef=\"PUS_TC\">\n          <xtce:ArgumentAssignmentList>\n";
+        for (n, v) in [("SERVICE", c.service), ("SUBTYPE", c.subtype)] {
+            let _ = writeln!(
+                x,
+                "            <xtce:ArgumentAssignment argumentName=\"{n}\" argumentValue=\"{v}\"/>"
+            );
+        }
+        x += "          </xtce:ArgumentAssignmentList>\n        </xtce:BaseMetaCommand>\n";
+        let mut args: Vec<Param> = c
+            .args
+            .iter()
+            .map(|p| Param {
+                name: p.name.clone(),
+                meaning: p.meaning.clone(),
+                ..*p
+            })
+            .collect();
+        args.extend(tc_trailer_args());
+        x += &argument_list(&args, true);
+        let _ = writeln!(
+            x,
+            "        <xtce:CommandContainer name=\"{}\">\n          <xtce:EntryList>",
+            c.name
+        );
+        x += &tc_header_entries();
+        if let Some(id) = c.function {
+            x += &fixed("FUNCTION_ID", u32::from(id), 16);
+        }
+        let names: Vec<&str> = c.args.iter().map(|p| p.name.as_str()).collect();
+        refs(&mut x, &names);
+        refs(&mut x, &["AUTH_SEQ", "AUTH_MAC", "PEC"]);
+        x += "          </xtce:EntryList>\n";
+        x += "        </xtce:CommandContainer>\n      </xtce:MetaCommand>\n";
+    }
+    x += "    </xtce:MetaCommandSet>\n  </xtce:CommandMetaData>\n";
     x
 }
 
@@ -389,6 +604,15 @@ mod tests {
         let x = xtce();
         assert!(x.contains("<xtce:SequenceContainer name=\"CCSDSPacket\" abstract=\"true\""));
         assert!(x.contains("parameterRef=\"PKT_APID\" value=\"288\""));
+        // Each command's layout adds up to the packet the encoder writes.
+        for c in fixed_commands() {
+            let header = 3 + 1 + 1 + 11 + 2 + 4 + bits(&tc_header_args());
+            let function = if c.function.is_some() { 16 } else { 0 };
+            let total = header + function + bits(&c.args) + bits(&tc_trailer_args()) + 128;
+            let app = function / 8 + bits(&c.args) / 8;
+            assert_eq!(total, 8 * (6 + 5 + app + 20 + 2), "{}", c.name);
+        }
+        assert!(x.contains("<xtce:MetaCommand name=\"FN_START_CAMPAIGN\""));
         assert_eq!(json()["functions"][0]["arguments"][1]["unit"], "s");
         assert_eq!(
             json()["failure_codes"].as_array().map(Vec::len),
