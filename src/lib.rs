@@ -18,11 +18,14 @@ pub mod bus;
 /// Layer 3: the `telemetry.h5` recording, written and read.
 pub mod telemetry;
 
-/// Layer 4: in-process runs, the bound, the planner, reports, figures, fuzz and upsets.
+/// Layer 4: the ground link's packets: CCSDS space packets, PUS-C, authentication, the dictionary.
+pub mod ground;
+
+/// Layer 5: in-process runs, the bound, the planner, reports, figures, fuzz and upsets.
 pub mod analysis;
 
-/// Layer 5: the process set, its hosts and the live monitor.
+/// Layer 6: the process set, its hosts and the live monitor.
 pub mod runtime;
 
-/// Layer 6: the `taiji-calib` command line.
+/// Layer 7: the `taiji-calib` command line.
 pub mod cli;

@@ -1,12 +1,13 @@
 //! `taiji-calib`: run the calibration campaign in one process, replay or export a
 //! recording, a Monte Carlo over seeds, the Cramér–Rao bound of a scenario, the
-//! maneuver planner, or the live monitor of a running set. One file per subcommand
-//! group; `src/bin/taiji-calib.rs` only calls [`main`].
+//! maneuver planner, the live monitor of a running set, or the ground link's
+//! dictionary. One file per subcommand group; `src/bin/taiji-calib.rs` only calls [`main`].
 
 mod analysis;
 mod args;
 mod campaign;
 mod error;
+mod ground;
 mod output;
 mod replay;
 
@@ -92,5 +93,6 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode, CliError> {
             &out,
         ),
         Cmd::Monitor(args) => Ok(ExitCode::from(crate::runtime::monitor::run(&args)?)),
+        Cmd::Ground { cmd } => ground::run(cmd),
     }
 }

@@ -1,0 +1,15 @@
+//! The ground link's packet layer: CCSDS space packets with PUS-C secondary headers
+//! (`packet`, `crc`), the telecommands' authentication trailer and anti-replay state
+//! (`auth`, `replay`), and the dictionary: the IDs, failure codes and housekeeping
+//! layouts that the code and the published dictionary share (`dictionary`,
+//! `housekeeping`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
+//! (`tables`). docs/ground.md describes them.
+
+pub mod auth;
+pub mod crc;
+pub mod dictionary;
+pub mod housekeeping;
+pub mod packet;
+pub mod publish;
+pub mod replay;
+pub mod tables;
