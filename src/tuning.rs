@@ -15,8 +15,8 @@
 pub const SEARCH_SAMPLES: f64 = 10_000.0;
 
 /// Least samples per period of the fastest axis in the search: a long window's search bound is then a few per cent loose.
-/// That test holds the search rate it sets on a 10⁵ s window; no test yet fails when the value
-/// changes (the default plan is the same at 8, 16 and 32: there `SEARCH_SAMPLES` sets the rate).
+/// It sets the search rate of windows over ~10⁴ s (shorter ones: `SEARCH_SAMPLES`); half of it
+/// leaves a 10⁵ s window's search bound about 6 % loose.
 /// Unit: samples per period. Guarded by: `tests/tuning.rs::the_search_bound_of_a_long_window_is_within_three_percent_of_the_full_rate_bound`.
 pub const SEARCH_SAMPLES_PER_PERIOD: f64 = 32.0;
 

@@ -238,4 +238,12 @@ fn the_search_bound_of_a_long_window_is_within_three_percent_of_the_full_rate_bo
     let full = taiji::analysis::crlb::crlb_at_rate(&s, s.sample_rate_hz).unwrap();
     let looser = p.chosen.worst_ratio / plan::worst_ratio(&s, &full).0 - 1.0;
     assert!(looser.abs() < 0.03, "the search bound is {looser:.3} off");
+    // The search judged the chosen maneuver at its own rate: that bound, against the
+    // full rate's, is what the samples per period buy.
+    let at_search = taiji::analysis::crlb::crlb_at_rate(&s, p.search_rate_hz).unwrap();
+    let search_looser = plan::worst_ratio(&s, &at_search).0 / plan::worst_ratio(&s, &full).0 - 1.0;
+    assert!(
+        search_looser.abs() < 0.03,
+        "the search rate's bound of the chosen maneuver is {search_looser:.3} off the full rate's"
+    );
 }
