@@ -6,8 +6,9 @@
 
 use crate::bus::wiring::{self, Payload};
 use crate::sim::msg::{
-    Control, EstimateMsg, Progress, Request, SensorSample, SetStatus, TorqueCommand, TruthState,
-    PROC_COMMANDER, PROC_ESTIMATOR, PROC_FEE, PROC_PLANT, PROC_RECORDER,
+    Control, EstimateMsg, GroundNote, GroundRequest, GroundState, Progress, Request, SensorSample,
+    SetStatus, TorqueCommand, TruthState, PROC_COMMANDER, PROC_ESTIMATOR, PROC_FEE, PROC_PLANT,
+    PROC_RECORDER, PROC_TMTC,
 };
 
 /// One process of the set.
@@ -31,7 +32,7 @@ pub struct Stage {
 pub const SUPERVISOR: &str = "supervisor";
 
 /// The stages, upstream first.
-pub const STAGES: [Stage; 5] = [
+pub const STAGES: [Stage; 6] = [
     Stage {
         process: "taiji-commander",
         id: PROC_COMMANDER,
@@ -73,6 +74,16 @@ pub const STAGES: [Stage; 5] = [
         downstream: None,
         required: false,
     },
+    // The ground link (`--ground` only): outside the credit chain, it lives across
+    // campaigns and speaks UDP to the ground (docs/ground.md).
+    Stage {
+        process: "taiji-tmtc",
+        id: PROC_TMTC,
+        name: "tmtc",
+        upstream: None,
+        downstream: None,
+        required: false,
+    },
 ];
 
 /// Who publishes or subscribes: named processes, or every stage.
@@ -105,7 +116,7 @@ pub struct Service {
 /// thread, `process::outbox`) and the supervisor's status, and asks the supervisor
 /// for control actions: it never opens a port where a stage's loop would have to
 /// connect to it.
-pub const SERVICES: [Service; 8] = [
+pub const SERVICES: [Service; 11] = [
     Service {
         name: wiring::SVC_TORQUE,
         payload: TorqueCommand::TYPE_NAME,
@@ -137,7 +148,7 @@ pub const SERVICES: [Service; 8] = [
         name: wiring::SVC_ESTIMATE,
         payload: EstimateMsg::TYPE_NAME,
         publishers: Users::Some(&["taiji-estimator"]),
-        subscribers: Users::Some(&["taiji-recorder"]),
+        subscribers: Users::Some(&["taiji-recorder", "taiji-tmtc"]),
         supervisor_subscribes: true,
         supervisor_publishes: false,
         outside: true,
@@ -164,7 +175,7 @@ pub const SERVICES: [Service; 8] = [
         name: wiring::SVC_STATUS,
         payload: SetStatus::TYPE_NAME,
         publishers: Users::Some(&[]),
-        subscribers: Users::Some(&[]),
+        subscribers: Users::Some(&["taiji-tmtc"]),
         supervisor_subscribes: false,
         supervisor_publishes: true,
         outside: true,
@@ -177,6 +188,33 @@ pub const SERVICES: [Service; 8] = [
         supervisor_subscribes: true,
         supervisor_publishes: false,
         outside: true,
+    },
+    Service {
+        name: wiring::SVC_GROUND_REQUEST,
+        payload: GroundRequest::TYPE_NAME,
+        publishers: Users::Some(&["taiji-tmtc"]),
+        subscribers: Users::Some(&[]),
+        supervisor_subscribes: true,
+        supervisor_publishes: false,
+        outside: false,
+    },
+    Service {
+        name: wiring::SVC_GROUND_NOTE,
+        payload: GroundNote::TYPE_NAME,
+        publishers: Users::Some(&[]),
+        subscribers: Users::Some(&["taiji-tmtc"]),
+        supervisor_subscribes: false,
+        supervisor_publishes: true,
+        outside: false,
+    },
+    Service {
+        name: wiring::SVC_GROUND_STATE,
+        payload: GroundState::TYPE_NAME,
+        publishers: Users::Some(&[]),
+        subscribers: Users::Some(&["taiji-tmtc"]),
+        supervisor_subscribes: false,
+        supervisor_publishes: true,
+        outside: false,
     },
 ];
 
@@ -340,7 +378,7 @@ mod tests {
             }
         }
         let ids: Vec<u32> = STAGES.iter().map(|s| s.id).collect();
-        assert_eq!(ids.len(), 5);
+        assert_eq!(ids.len(), 6);
         assert!(ids.windows(2).all(|w| w[0] != w[1]));
     }
 
@@ -356,7 +394,7 @@ mod tests {
         );
         assert_eq!(
             users(wiring::SVC_ESTIMATE),
-            ["supervisor", "taiji-estimator", "taiji-recorder"]
+            ["supervisor", "taiji-estimator", "taiji-recorder", "taiji-tmtc"]
         );
         assert_eq!(
             users(&wiring::wake_service("commander")),
@@ -366,7 +404,7 @@ mod tests {
             users(&wiring::wake_service("estimator")),
             ["taiji-estimator", "taiji-fee"]
         );
-        assert_eq!(users(wiring::SVC_PROGRESS).len(), 6);
+        assert_eq!(users(wiring::SVC_PROGRESS).len(), 7);
         // Truth never reaches the estimator.
         assert!(!users(wiring::SVC_TRUTH).contains(&"taiji-estimator"));
     }

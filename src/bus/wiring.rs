@@ -7,7 +7,8 @@
 //! `Payload::TYPE_NAME`.
 
 use crate::sim::msg::{
-    Control, EstimateMsg, Progress, Request, SensorSample, SetStatus, TorqueCommand, TruthState,
+    Control, EstimateMsg, GroundNote, GroundRequest, GroundState, Progress, Request, SensorSample,
+    SetStatus, TorqueCommand, TruthState,
 };
 use iceoryx2::node::NodeView;
 use iceoryx2::node::{NodeCreationFailure, NodeListFailure};
@@ -39,6 +40,12 @@ pub const SVC_STATUS: &str = "taiji/status";
 /// Operators' requests to the supervisor in charge (`Request`): the monitor's way to
 /// act on a run without publishing where a stage listens.
 pub const SVC_REQUEST: &str = "taiji/request";
+/// The TMTC process's accepted functions, to the supervisor (`GroundRequest`).
+pub const SVC_GROUND_REQUEST: &str = "taiji/ground_request";
+/// The supervisor's answers and events, to the TMTC process (`GroundNote`).
+pub const SVC_GROUND_NOTE: &str = "taiji/ground_note";
+/// The supervisor's mode, campaigns and table, to the TMTC process (`GroundState`).
+pub const SVC_GROUND_STATE: &str = "taiji/ground_state";
 
 /// Node name of outside monitors (`taiji-calib monitor`): a live one is no stage of a
 /// crashed run, so a new supervisor does not refuse the prefix for it.
@@ -104,7 +111,10 @@ payloads!(
     Progress,
     Control,
     SetStatus,
-    Request
+    Request,
+    GroundRequest,
+    GroundNote,
+    GroundState
 );
 
 /// What went wrong on the bus. The variants met on every tick (`Loan`, `Send`,
@@ -275,7 +285,16 @@ fn service_name(name: &str) -> Result<ServiceName, BusError> {
 }
 
 fn is_small(name: &str) -> bool {
-    [SVC_PROGRESS, SVC_CONTROL, SVC_STATUS, SVC_REQUEST].contains(&name)
+    [
+        SVC_PROGRESS,
+        SVC_CONTROL,
+        SVC_STATUS,
+        SVC_REQUEST,
+        SVC_GROUND_REQUEST,
+        SVC_GROUND_NOTE,
+        SVC_GROUND_STATE,
+    ]
+    .contains(&name)
 }
 
 /// Default subscriber queue depth of a service.
@@ -788,6 +807,9 @@ mod tests {
             Control::TYPE_NAME,
             SetStatus::TYPE_NAME,
             Request::TYPE_NAME,
+            GroundRequest::TYPE_NAME,
+            GroundNote::TYPE_NAME,
+            GroundState::TYPE_NAME,
         ] {
             assert!(name.starts_with(&v), "{name} lacks {v}");
         }

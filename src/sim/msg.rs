@@ -265,3 +265,86 @@ pub struct Request {
     /// Process id of the requesting monitor (on its host).
     pub requester_pid: u32,
 }
+
+/// `Progress::process` of the TMTC process (`taiji-tmtc`, started with `--ground` only).
+pub const PROC_TMTC: u32 = 6;
+
+/// The onboard calibration table's values: β, k and r per IS and axis, with their 1σ
+/// (the units of `EstimateMsg`'s).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct TableValues {
+    pub beta: [[f64; 3]; 2],
+    pub beta_sigma: [[f64; 3]; 2],
+    pub k: [[f64; 3]; 2],
+    pub k_sigma: [[f64; 3]; 2],
+    pub r: [[f64; 3]; 2],
+    pub r_sigma: [[f64; 3]; 2],
+}
+
+/// TMTC process → supervisor (`wiring::SVC_GROUND_REQUEST`): a function of service 8
+/// that the TMTC process accepted (authenticated, fresh, in range). The supervisor
+/// executes it and answers with `GroundNote`s carrying the same token.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct GroundRequest {
+    pub header: Header,
+    /// The TMTC process's tag for the telecommand (echoed in the answers).
+    pub token: u64,
+    /// Function ID (`ground::dictionary::FUNCTIONS`).
+    pub function: u32,
+    pub _pad: u32,
+    /// Function 1: the campaign's seed.
+    pub seed: u64,
+    /// Function 1: its duration [s] (0: the scenario's).
+    pub duration_s: f64,
+}
+
+/// `GroundNote::kind`: execution of request `token` started (a 1,3 report).
+pub const NOTE_STARTED: u32 = 1;
+/// Request `token` completed: `code` 0 (a 1,7 report) or its failure code (1,8).
+pub const NOTE_DONE: u32 = 2;
+/// An event of the set: `code` is its event ID, `args` its auxiliary data.
+pub const NOTE_EVENT: u32 = 3;
+
+/// Supervisor → TMTC process (`wiring::SVC_GROUND_NOTE`): what happened to a request,
+/// or an event only the supervisor sees.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct GroundNote {
+    pub header: Header,
+    /// `NOTE_*`.
+    pub kind: u32,
+    /// `NOTE_DONE`: 0 or a failure code; `NOTE_EVENT`: the event ID.
+    pub code: u32,
+    /// The request's token (`NOTE_STARTED`, `NOTE_DONE`).
+    pub token: u64,
+    /// `NOTE_EVENT`: the event's auxiliary data, as its dictionary entry types them
+    /// (an f64 as its bits).
+    pub args: [u64; 4],
+}
+
+/// Supervisor → TMTC process (`wiring::SVC_GROUND_STATE`), every 100 ms: the set's mode,
+/// its campaigns and the onboard calibration table.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
+pub struct GroundState {
+    pub header: Header,
+    /// Process id of the supervisor.
+    pub supervisor_pid: u32,
+    /// `ground::dictionary::Mode` as its number.
+    pub mode: u32,
+    /// The running campaign's number, or the last one's (0: none yet).
+    pub campaign: u32,
+    /// Times the supervisor restarted the TMTC process.
+    pub tmtc_restarts: u32,
+    /// Restarts of the stages over every campaign so far.
+    pub stage_restarts: u32,
+    /// 1 when the table holds values (applied from a campaign, or loaded).
+    pub table_valid: u32,
+    /// The campaign whose result the table holds (0: none).
+    pub table_campaign: u32,
+    /// 1 when a previous table can be restored (function 4).
+    pub table_previous: u32,
+    pub table: TableValues,
+}
