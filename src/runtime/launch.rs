@@ -31,6 +31,10 @@ pub struct ProcessSpec {
     /// Started only when the run records telemetry (`--record`).
     #[serde(default)]
     pub record_only: bool,
+    /// Started only when the set is operated from the ground (`--ground`): it lives
+    /// across campaigns and is never one of a campaign's processes.
+    #[serde(default)]
+    pub ground_only: bool,
     /// SCHED_FIFO priority in real-time runs (1–99; 0 = normal scheduling).
     #[serde(default)]
     pub rt_priority: u8,
@@ -239,7 +243,12 @@ impl LaunchDescription {
     pub fn processes(&self, record: bool) -> impl Iterator<Item = &ProcessSpec> {
         self.process
             .iter()
-            .filter(move |p| record || !p.record_only)
+            .filter(move |p| (record || !p.record_only) && !p.ground_only)
+    }
+
+    /// The TMTC process of a set operated from the ground, when listed.
+    pub fn ground_process(&self) -> Option<&ProcessSpec> {
+        self.process.iter().find(|p| p.ground_only)
     }
 
     /// The host a process runs on ("" when the set has a single host).
