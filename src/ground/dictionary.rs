@@ -199,6 +199,30 @@ pub fn read_bits(kind: Kind, bytes: &[u8]) -> u64 {
         .fold(0u64, |v, &b| v << 8 | u64::from(b))
 }
 
+/// Writes `bits` (as `read_bits` gives them) as a big-endian field of `kind` into the
+/// start of `out` (which has its size).
+pub fn write_bits(kind: Kind, bits: u64, out: &mut [u8]) {
+    let n = kind.size();
+    out[..n].copy_from_slice(&bits.to_be_bytes()[8 - n..]);
+}
+
+/// A field's value as a number: an integer's value, binary64 from its bits.
+pub fn value_f64(kind: Kind, bits: u64) -> f64 {
+    match kind {
+        Kind::F64 => f64::from_bits(bits),
+        _ => bits as f64,
+    }
+}
+
+/// A field's value as text: an integer in decimal, binary64 as Rust prints it (the
+/// shortest text that reads back to the same bits).
+pub fn format_value(kind: Kind, bits: u64) -> String {
+    match kind {
+        Kind::F64 => format!("{:?}", f64::from_bits(bits)),
+        _ => bits.to_string(),
+    }
+}
+
 /// Decodes 8,1's application data (before the trailer): the function ID and its
 /// arguments, each checked against its range.
 pub fn parse_function(app_data: &[u8]) -> Result<Function, Failure> {
@@ -312,6 +336,9 @@ impl Mode {
     }
 }
 
+/// How many failure codes there are (`Failure::ALL`).
+pub const N_FAILURES: usize = 28;
+
 /// Failure codes of a failed verification report (1,2 / 1,4 / 1,8): one per class of
 /// refused telecommand.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -344,11 +371,12 @@ pub enum Failure {
     PriorDominated = 25,
     NothingToRestore = 26,
     StateNotSaved = 27,
+    ReadOnly = 28,
 }
 
 impl Failure {
     /// Every failure code, in order.
-    pub const ALL: [Failure; 27] = [
+    pub const ALL: [Failure; N_FAILURES] = [
         Failure::BadCrc,
         Failure::Truncated,
         Failure::LengthMismatch,
@@ -376,6 +404,7 @@ impl Failure {
         Failure::PriorDominated,
         Failure::NothingToRestore,
         Failure::StateNotSaved,
+        Failure::ReadOnly,
     ];
 
     /// The code on the wire.
@@ -466,6 +495,7 @@ impl Failure {
                 "state_not_saved",
                 "the anti-replay state could not be written: not executed",
             ),
+            Failure::ReadOnly => ("read_only", "20,3 on a parameter that cannot be set"),
         }
     }
 

@@ -1,9 +1,15 @@
-//! Housekeeping structure 1, the latest estimate, as data: its fields in wire order,
-//! each read from the estimator's `EstimateMsg` (or the set's mode) by the same entry
-//! that names it in the dictionary. A 3,25 report's source data are the structure ID
-//! (u16), then these fields, big-endian. Encoding writes into the caller's buffer.
+//! The housekeeping structures as data: structure 1, the latest estimate, its fields in
+//! wire order, each read from the estimator's `EstimateMsg` (or the set's mode) by the
+//! same entry that names it in the dictionary; structure 2, the set's health
+//! (`health`). A 3,25 report's source data are the structure ID (u16), then the
+//! structure's fields, big-endian. Encoding writes into the caller's buffer.
+//! `columns` lists either structure's values, one per element, as decoders and the
+//! dictionary read them.
 
-use super::dictionary::{read_bits, Kind, Mode};
+use super::dictionary::{read_bits, Failure, Kind, Mode, N_FAILURES};
+pub use super::health::{
+    encode_health, Health, HealthField, HEALTH, HEALTH_LEN, STAGES, STAGE_NAMES, STRUCTURE_HEALTH,
+};
 use super::packet::EncodeError;
 use crate::sim::msg::{EstimateMsg, GROUP_NAMES, N_GROUPS};
 
@@ -26,6 +32,12 @@ pub enum Elements {
     IsAxis,
     /// Per residual group (`GROUP_NAMES`).
     Group,
+    /// Per stage process (`STAGE_NAMES`: commander, plant, fee, estimator, recorder).
+    Stage,
+    /// Latency statistics: p50, p99, max.
+    Percentile,
+    /// Per failure code, in code order (`Failure::ALL`), by its name.
+    FailureCode,
 }
 
 impl Elements {
@@ -34,6 +46,9 @@ impl Elements {
             Elements::One => 1,
             Elements::IsAxis => 6,
             Elements::Group => N_GROUPS,
+            Elements::Stage => STAGES,
+            Elements::Percentile => 3,
+            Elements::FailureCode => N_FAILURES,
         }
     }
 
@@ -43,6 +58,9 @@ impl Elements {
             Elements::One => String::new(),
             Elements::IsAxis => format!("_is{}_{}", i / 3 + 1, ["x", "y", "z"][i % 3]),
             Elements::Group => format!("_{}", GROUP_NAMES[i]),
+            Elements::Stage => format!("_{}", STAGE_NAMES[i]),
+            Elements::Percentile => format!("_{}", ["p50", "p99", "max"][i]),
+            Elements::FailureCode => format!("_{}", Failure::ALL[i].name()),
         }
     }
 }
@@ -179,12 +197,17 @@ pub const ESTIMATE: &[Field] = &[
     },
 ];
 
+/// Bytes of a field of `kind` with `elements`.
+pub const fn data_len_of(kind: Kind, elements: Elements) -> usize {
+    kind.size() * elements.count()
+}
+
 /// Bytes of a structure's source data: its ID and its fields.
 pub const fn data_len(fields: &[Field]) -> usize {
     let mut n = 2;
     let mut i = 0;
     while i < fields.len() {
-        n += fields[i].kind.size() * fields[i].elements.count();
+        n += data_len_of(fields[i].kind, fields[i].elements);
         i += 1;
     }
     n
@@ -214,13 +237,111 @@ pub fn encode_estimate(src: &Source, out: &mut [u8]) -> Result<usize, EncodeErro
     Ok(at)
 }
 
-/// Why source data are not a report of structure 1.
+/// Why source data are not a report of structure 1 (or of any structure).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum HkError {
     #[error("structure {0}, not 1")]
     WrongStructure(u16),
     #[error("{len} bytes, where structure 1 has {ESTIMATE_LEN}")]
     WrongLength { len: usize },
+    #[error("housekeeping structure {0} is not in the dictionary")]
+    UnknownStructure(u16),
+    #[error("{len} bytes of source data, where structure {id} has {want}")]
+    Length { id: u16, len: usize, want: usize },
+    #[error("{len} bytes cannot hold a structure ID")]
+    NoId { len: usize },
+}
+
+/// A value of a housekeeping structure: one element of a field.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Column {
+    /// The field's name with its element's suffix (`beta_is1_x`, `restarts_plant`).
+    pub name: String,
+    pub kind: Kind,
+    pub unit: &'static str,
+    pub meaning: String,
+}
+
+fn column(
+    name: &str,
+    kind: Kind,
+    elements: Elements,
+    i: usize,
+    unit: &'static str,
+    meaning: &str,
+) -> Column {
+    let meaning = match elements {
+        Elements::One => meaning.to_string(),
+        e => format!("{meaning} ({})", e.suffix(i).trim_start_matches('_')),
+    };
+    Column {
+        name: format!("{name}{}", elements.suffix(i)),
+        kind,
+        unit,
+        meaning,
+    }
+}
+
+/// The values of structure `structure_id` after its ID, in wire order (`None`: no such
+/// structure).
+pub fn columns(structure_id: u16) -> Option<Vec<Column>> {
+    let mut v = Vec::new();
+    match structure_id {
+        STRUCTURE_ESTIMATE => {
+            for f in ESTIMATE {
+                for i in 0..f.elements.count() {
+                    v.push(column(f.name, f.kind, f.elements, i, f.unit, f.meaning));
+                }
+            }
+        }
+        STRUCTURE_HEALTH => {
+            for f in HEALTH {
+                for i in 0..f.elements.count() {
+                    v.push(column(f.name, f.kind, f.elements, i, f.unit, f.meaning));
+                }
+            }
+        }
+        _ => return None,
+    }
+    Some(v)
+}
+
+/// The structure IDs, in order.
+pub const STRUCTURES: [u16; 2] = [STRUCTURE_ESTIMATE, STRUCTURE_HEALTH];
+
+/// A structure's name.
+pub fn structure_name(structure_id: u16) -> Option<&'static str> {
+    match structure_id {
+        STRUCTURE_ESTIMATE => Some("estimate"),
+        STRUCTURE_HEALTH => Some("health"),
+        _ => None,
+    }
+}
+
+/// Reads a 3,25 report's source data of any structure: its ID and each value with its
+/// wire bits (for ground tools: it allocates).
+pub fn decode_structure(data: &[u8]) -> Result<(u16, Vec<(Column, u64)>), HkError> {
+    let Some(id) = data.first_chunk::<2>() else {
+        return Err(HkError::NoId { len: data.len() });
+    };
+    let id = u16::from_be_bytes(*id);
+    let cols = columns(id).ok_or(HkError::UnknownStructure(id))?;
+    let want = 2 + cols.iter().map(|c| c.kind.size()).sum::<usize>();
+    if data.len() != want {
+        return Err(HkError::Length {
+            id,
+            len: data.len(),
+            want,
+        });
+    }
+    let mut at = 2;
+    let mut out = Vec::with_capacity(cols.len());
+    for c in cols {
+        let bits = read_bits(c.kind, &data[at..]);
+        at += c.kind.size();
+        out.push((c, bits));
+    }
+    Ok((id, out))
 }
 
 /// Reads structure 1's source data: calls `each(field, element, wire bits)` in order.

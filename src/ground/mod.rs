@@ -8,8 +8,12 @@
 pub mod auth;
 pub mod crc;
 pub mod dictionary;
+pub mod events;
+pub mod health;
 pub mod housekeeping;
 pub mod packet;
+pub mod parameters;
 pub mod publish;
 pub mod replay;
+pub mod requests;
 pub mod tables;
