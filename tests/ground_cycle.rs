@@ -359,3 +359,106 @@ fn signal(pid: i32, sig: i32) {
     // SAFETY: sending a signal has no memory-safety preconditions.
     unsafe { libc::kill(pid, sig) };
 }
+
+/// The TMTC process's last heartbeat, read from the set's bus as the supervisor reads it.
+fn tmtc_progress(pfx: &str) -> Option<taiji::sim::msg::Progress> {
+    use taiji::bus::wiring;
+    let node = wiring::node("ground-cycle-test", pfx).ok()?;
+    let sub = wiring::subscriber::<taiji::sim::msg::Progress>(&node, wiring::SVC_PROGRESS).ok()?;
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(5) {
+        while let Ok(Some(p)) = wiring::receive(&sub) {
+            if p.process == taiji::sim::msg::PROC_TMTC {
+                return Some(p);
+            }
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    None
+}
+
+#[test]
+fn a_flood_and_a_killed_tmtc_process_change_nothing() {
+    use rand::{Rng, SeedableRng};
+    let _serial = serial();
+    let dir = support::tmp("flood");
+    let sc = support::write_scenario(&dir, SHORT);
+    let out = dir.join("out");
+    let pfx = prefix("gflood");
+    let port = free_port();
+    let mut child = launch(&sc, &out, &pfx, port);
+    let key = wait_key(&out);
+    let to = format!("127.0.0.1:{port}");
+    let mut g = Ground::new(&to, &key, 1000);
+    ping_until_up(&mut g);
+    let seed = 9;
+    let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(120));
+    assert_eq!(r.failure(), None);
+    // kill -9 of the TMTC process mid-campaign: the supervisor restarts it.
+    let victims = pids_with(&pfx, "taiji-tmtc");
+    assert_eq!(victims.len(), 1, "{victims:?}");
+    signal(victims[0], libc::SIGKILL);
+    // The new one has no destination until a telecommand is accepted again.
+    ping_until_up(&mut g);
+    g.wait("the restart event", Duration::from_secs(30), |h| {
+        h.iter().any(|t| t.service == 5 && t.u16_at(0) == 3)
+    });
+    // 10⁵ garbage datagrams in 10 s from another socket: random bytes, and mutated
+    // copies of a valid telecommand (good CRC, bad MAC; truncated; lying lengths).
+    let flood = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
+    let mut valid = vec![0u8; MAX_PACKET_LEN];
+    let h = TcHeader {
+        apid: APID,
+        sequence_count: 1,
+        ack_flags: 0xF,
+        service: 8,
+        subtype: 1,
+        source_id: 9,
+    };
+    let wrong = Key::from_bytes([7; 32]);
+    let n = encode_signed_tc(&mut valid, &h, &start_args(1, 0.0), 1 << 30, &wrong).unwrap();
+    valid.truncate(n);
+    let t0 = Instant::now();
+    for i in 0..100_000u32 {
+        let d: Vec<u8> = match i % 3 {
+            0 => (0..rng.gen_range(0..200)).map(|_| rng.gen()).collect(),
+            1 => valid.clone(),
+            _ => {
+                let mut v = valid.clone();
+                let at = rng.gen_range(0..v.len());
+                v[at] ^= 1 << rng.gen_range(0..8);
+                v.truncate(rng.gen_range(1..=v.len()));
+                v
+            }
+        };
+        let _ = flood.send_to(&d, &to);
+        // Spread over 10 s.
+        let due = Duration::from_micros(100 * u64::from(i));
+        if let Some(w) = due.checked_sub(t0.elapsed()) {
+            std::thread::sleep(w);
+        }
+    }
+    g.wait("the campaign's end", Duration::from_secs(600), |h| {
+        h.iter()
+            .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
+    });
+    let p = tmtc_progress(&pfx).expect("the TMTC process's heartbeat");
+    assert_eq!(p.loop_allocations, 0, "the TMTC loop allocated");
+    let r = report(&out.join("campaign-1"));
+    assert_eq!(estimates(&r), in_process(&sc, seed));
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(r["estimator_loop_allocations"], 0);
+    // Refused datagrams are counted in housekeeping structure 2.
+    let mut sid = vec![1u8];
+    sid.extend_from_slice(&2u16.to_be_bytes());
+    g.heard.clear();
+    g.send(3, 27, &sid);
+    g.wait("the health report", Duration::from_secs(10), |h| {
+        h.iter().any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 2)
+    });
+    let r = g.command(8, 1, &function(5, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), None);
+    let st = child.wait().unwrap();
+    assert_eq!(st.code(), Some(0));
+}

@@ -20,15 +20,17 @@ use std::collections::VecDeque;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-/// Event IDs the supervisor raises (docs/ground.md lists them all).
+/// The events the supervisor raises (`ground::events`; the others are the TMTC
+/// process's own).
 pub(super) mod event {
-    pub const MODE_CHANGED: u32 = 1;
-    pub const REQUIREMENT_MET: u32 = 4;
-    pub const REQUIREMENT_MISSED: u32 = 5;
-    pub const TABLE_APPLIED: u32 = 6;
-    pub const TABLE_RESTORED: u32 = 7;
-    pub const TABLE_FILE_REFUSED: u32 = 9;
-    pub const CAMPAIGN_ENDED_EARLY: u32 = 10;
+    use crate::ground::events as e;
+    pub const MODE_CHANGED: u32 = e::EV_MODE_CHANGED as u32;
+    pub const REQUIREMENT_MET: u32 = e::EV_REQUIREMENT_MET as u32;
+    pub const REQUIREMENT_MISSED: u32 = e::EV_REQUIREMENT_MISSED as u32;
+    pub const TABLE_APPLIED: u32 = e::EV_TABLE_APPLIED as u32;
+    pub const TABLE_RESTORED: u32 = e::EV_TABLE_RESTORED as u32;
+    pub const TABLE_FILE_REFUSED: u32 = e::EV_TABLE_FILE_REFUSED as u32;
+    pub const CAMPAIGN_ENDED_EARLY: u32 = e::EV_CAMPAIGN_ENDED_EARLY as u32;
 }
 
 /// Function IDs of service 8 (TMTC.md).
