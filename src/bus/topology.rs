@@ -394,7 +394,12 @@ mod tests {
         );
         assert_eq!(
             users(wiring::SVC_ESTIMATE),
-            ["supervisor", "taiji-estimator", "taiji-recorder", "taiji-tmtc"]
+            [
+                "supervisor",
+                "taiji-estimator",
+                "taiji-recorder",
+                "taiji-tmtc"
+            ]
         );
         assert_eq!(
             users(&wiring::wake_service("commander")),

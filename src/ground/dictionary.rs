@@ -344,11 +344,13 @@ pub enum Failure {
     PriorDominated = 25,
     NothingToRestore = 26,
     StateNotSaved = 27,
+    ReadOnly = 28,
+    TableNotSaved = 29,
 }
 
 impl Failure {
     /// Every failure code, in order.
-    pub const ALL: [Failure; 27] = [
+    pub const ALL: [Failure; 29] = [
         Failure::BadCrc,
         Failure::Truncated,
         Failure::LengthMismatch,
@@ -376,6 +378,8 @@ impl Failure {
         Failure::PriorDominated,
         Failure::NothingToRestore,
         Failure::StateNotSaved,
+        Failure::ReadOnly,
+        Failure::TableNotSaved,
     ];
 
     /// The code on the wire.
@@ -465,6 +469,11 @@ impl Failure {
             Failure::StateNotSaved => (
                 "state_not_saved",
                 "the anti-replay state could not be written: not executed",
+            ),
+            Failure::ReadOnly => ("read_only", "20,3 on a read-only parameter"),
+            Failure::TableNotSaved => (
+                "table_not_saved",
+                "the table could not be written: not applied",
             ),
         }
     }

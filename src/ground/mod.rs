@@ -3,7 +3,8 @@
 //! (`auth`, `replay`), and the dictionary: the IDs, failure codes and housekeeping
 //! layouts that the code and the published dictionary share (`dictionary`,
 //! `housekeeping`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
-//! (`tables`). docs/ground.md describes them.
+//! (`tables`); and the onboard calibration table, kept across restarts (`table`).
+//! docs/ground.md describes them.
 
 pub mod auth;
 pub mod crc;
@@ -12,4 +13,5 @@ pub mod housekeeping;
 pub mod packet;
 pub mod publish;
 pub mod replay;
+pub mod table;
 pub mod tables;
