@@ -134,3 +134,54 @@ fn a_campaign_from_the_onboard_table_starts_from_its_values_with_an_honest_sigma
     }
     assert!((0.5..=1.6).contains(&all_table), "all: {all_table:.2}");
 }
+
+#[test]
+fn priors_from_the_table_are_checked_finite_not_against_the_truth() {
+    let s = Scenario::default();
+    let mut t = TableValues::default();
+    for (i, is) in s.inertial_sensor.iter().enumerate() {
+        t.beta[i] = is.beta.map(|b| b * 1.3);
+        t.r[i] = is.com_offset_m.map(|r| r + 0.2);
+    }
+    // As a file's priors, 30 % and 20 cm off the truth are refused …
+    let mut file = s.clone();
+    for (i, is) in file.inertial_sensor.iter_mut().enumerate() {
+        is.com_offset_prior_m = Some(t.r[i]);
+    }
+    let e = file.validated().unwrap_err().to_string();
+    assert!(
+        e.contains("com_offset_prior_m") && e.contains("5 cm"),
+        "{e}"
+    );
+    // … from the table they are taken: onboard nothing knows the truth.
+    let s2 = s.with_onboard_priors(&t).validated().unwrap();
+    let back = Scenario::from_toml_str(&toml::to_string(&s2).unwrap()).unwrap();
+    for s in [&s2, &back] {
+        assert_eq!(s.priors()[1].beta, t.beta[1]);
+        assert_eq!(s.priors()[0].com_offset_m, t.r[0]);
+    }
+    // Not finite, or β not positive: refused, naming the key.
+    let mut bad = t;
+    bad.r[0][2] = f64::NAN;
+    let e = s
+        .with_onboard_priors(&bad)
+        .validated()
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("inertial_sensor[0].com_offset_prior_m"), "{e}");
+    let mut bad = t;
+    bad.beta[1][0] = 0.0;
+    let e = s
+        .with_onboard_priors(&bad)
+        .validated()
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("inertial_sensor[1].beta_prior"), "{e}");
+    // The table's source without the table's values.
+    let e = Scenario::from_toml_str("priors_source = \"onboard_table\"\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("priors_source"), "{e}");
+    // A file's scenario says nothing of it.
+    assert!(!toml::to_string(&s).unwrap().contains("priors_source"));
+}

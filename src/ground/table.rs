@@ -593,11 +593,13 @@ mod tests {
     #[test]
     fn a_file_with_a_right_checksum_but_wrong_content_is_refused() {
         let reseal = |edit: &dyn Fn(&mut serde_json::Value)| {
-            let mut s = State::default();
-            s.current = Some(Entry {
-                campaign: 1,
-                values: values(1.0),
-            });
+            let s = State {
+                current: Some(Entry {
+                    campaign: 1,
+                    values: values(1.0),
+                }),
+                previous: None,
+            };
             let mut f: File = serde_json::from_slice(&encode(&s)).unwrap();
             edit(&mut f.table);
             f.sha256 = sha256_hex(&serde_json::to_vec(&f.table).unwrap());
@@ -630,12 +632,13 @@ mod tests {
     fn no_bytes_make_it_panic() {
         use rand::{Rng as _, SeedableRng as _};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
-        let mut s = State::default();
-        s.current = Some(Entry {
-            campaign: 9,
-            values: values(2.0),
-        });
-        s.previous = Some(None);
+        let s = State {
+            current: Some(Entry {
+                campaign: 9,
+                values: values(2.0),
+            }),
+            previous: Some(None),
+        };
         let good = encode(&s);
         assert_eq!(decode(&good), Ok(s));
         for n in 0..20_000 {
