@@ -337,7 +337,7 @@ impl Mode {
 }
 
 /// How many failure codes there are (`Failure::ALL`).
-pub const N_FAILURES: usize = 29;
+pub const N_FAILURES: usize = 30;
 
 /// Failure codes of a failed verification report (1,2 / 1,4 / 1,8): one per class of
 /// refused telecommand.
@@ -372,6 +372,7 @@ pub enum Failure {
     NothingToRestore = 26,
     StateNotSaved = 27,
     ReadOnly = 28,
+    TableNotSaved = 29,
     CampaignFailed = 30,
 }
 
@@ -406,6 +407,7 @@ impl Failure {
         Failure::NothingToRestore,
         Failure::StateNotSaved,
         Failure::ReadOnly,
+        Failure::TableNotSaved,
         Failure::CampaignFailed,
     ];
 
@@ -498,6 +500,10 @@ impl Failure {
                 "the anti-replay state could not be written: not executed",
             ),
             Failure::ReadOnly => ("read_only", "20,3 on a parameter that cannot be set"),
+            Failure::TableNotSaved => (
+                "table_not_saved",
+                "the table could not be written: not applied",
+            ),
             Failure::CampaignFailed => (
                 "campaign_failed",
                 "the campaign was refused or its process set failed (the supervisor's log says why)",

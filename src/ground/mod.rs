@@ -3,7 +3,8 @@
 //! (`auth`, `replay`), and the dictionary: the IDs, failure codes and housekeeping
 //! layouts that the code and the published dictionary share (`dictionary`,
 //! `housekeeping`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
-//! (`tables`). docs/ground.md describes them.
+//! (`tables`); and the onboard calibration table, kept across restarts (`table`).
+//! docs/ground.md describes them.
 
 pub mod auth;
 pub mod crc;
@@ -16,4 +17,5 @@ pub mod parameters;
 pub mod publish;
 pub mod replay;
 pub mod requests;
+pub mod table;
 pub mod tables;

@@ -8,7 +8,7 @@ use crate::analysis::report::Report;
 use crate::bus::timing::monotonic_ns;
 use crate::bus::wiring::{self, BusError, Pub, Sub};
 use crate::ground::dictionary::{Failure, Mode};
-use crate::ground::table::{LoadProblem, TableStore};
+use crate::ground::table::TableStore;
 use crate::runtime::process::set::SupervisorArgs;
 use crate::runtime::process::supervisor::locks::{claim, Janitor};
 use crate::runtime::process::supervisor::{campaign, write_reports, Hold, Outcome, Prepared};
@@ -55,7 +55,7 @@ const LAST_WORDS: Duration = Duration::from_millis(500);
 /// The running campaign.
 struct Running {
     n: u32,
-    thread: JoinHandle<(Outcome, bool)>,
+    thread: JoinHandle<Outcome>,
     /// The start request, answered once the set runs.
     start: Option<u64>,
     /// A stop request, answered when the campaign ended.
@@ -151,10 +151,9 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
         pending: VecDeque::new(),
         seq: 0,
     };
-    match problem {
-        Some(LoadProblem::MainBad) => desk.event(event::TABLE_FILE_REFUSED, [1, 0, 0, 0]),
-        Some(LoadProblem::BothBad) => desk.event(event::TABLE_FILE_REFUSED, [2, 0, 0, 0]),
-        None => {}
+    if let Some(p) = problem {
+        eprintln!("taiji-supervisor: {p}");
+        desk.event(event::TABLE_FILE_REFUSED, [u64::from(p.copy()), 0, 0, 0]);
     }
     println!(
         "Ground link: TMTC on {} (APID 0x120, key {}); standby. Output: {}/campaign-N",
@@ -199,7 +198,7 @@ impl Desk<'_> {
             }
             self.hear(ports);
             match self.tmtc.watch() {
-                Health::Up | Health::Restarted(_) => {}
+                Health::Up | Health::Restarted => {}
                 Health::Interrupted => {
                     if shutdown.is_none() {
                         self.set_mode(Mode::ShuttingDown);
@@ -267,14 +266,15 @@ impl Desk<'_> {
                     self.start(t, r.seed, r.duration_s);
                 }
             }
-            function::STOP => match self.running.as_mut() {
-                None => self.done(t, Some(Failure::NotRunning)),
-                Some(run) => {
-                    self.note(NOTE_STARTED, 0, t, [0; 4]);
+            function::STOP => {
+                if let Some(run) = self.running.as_mut() {
                     run.stop = Some(t);
+                    self.note(NOTE_STARTED, 0, t, [0; 4]);
                     self.stop_campaign(ports);
+                } else {
+                    self.done(t, Some(Failure::NotRunning));
                 }
-            },
+            }
             function::APPLY => {
                 self.note(NOTE_STARTED, 0, t, [0; 4]);
                 let r = self.apply();
@@ -305,7 +305,7 @@ impl Desk<'_> {
     fn apply(&mut self) -> Result<(), Failure> {
         let (n, report) = self.result.as_ref().ok_or(Failure::NoResult)?;
         let n = *n;
-        let values = crate::analysis::table::table_values(report)?;
+        let values = crate::analysis::report::table_values(report)?;
         self.table.apply(values, n).map_err(|e| e.failure())?;
         self.event(event::TABLE_APPLIED, [u64::from(n), 0, 0, 0]);
         Ok(())
@@ -325,10 +325,9 @@ impl Desk<'_> {
         let thread = std::thread::Builder::new()
             .name(format!("campaign-{n}"))
             .spawn(move || {
-                let from_table = table.is_some();
                 match prepare_campaign(&mut prepared, seed, duration_s, table) {
-                    Ok(()) => (campaign(&run_args, &prepared, Hold::Held), from_table),
-                    Err(e) => (Outcome::UserError(e), from_table),
+                    Ok(()) => campaign(&run_args, &prepared, Hold::Held),
+                    Err(e) => Outcome::UserError(e),
                 }
             });
         match thread {
@@ -377,7 +376,7 @@ impl Desk<'_> {
         };
         let n = run.n;
         let mut failed = None;
-        let Ok((outcome, from_table)) = run.thread.join() else {
+        let Ok(outcome) = run.thread.join() else {
             eprintln!("taiji-supervisor: campaign {n}: its supervision thread panicked");
             if let Some(t) = run.start.or(run.stop) {
                 self.done(t, Some(Failure::CampaignFailed));
@@ -387,10 +386,7 @@ impl Desk<'_> {
             return;
         };
         match outcome {
-            Outcome::Completed { mut report, met } => {
-                if from_table {
-                    report.priors_source = "onboard_table".into();
-                }
+            Outcome::Completed { report, met } => {
                 if let Some(r) = &report.restarts {
                     self.stage_restarts += r
                         .as_object()

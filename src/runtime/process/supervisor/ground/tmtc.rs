@@ -16,8 +16,8 @@ pub const PROCESS: &str = "taiji-tmtc";
 /// What the watch of the TMTC process found.
 pub(super) enum Health {
     Up,
-    /// It was restarted (its count so far).
-    Restarted(u32),
+    /// It was restarted.
+    Restarted,
     /// SIGINT / SIGTERM: the operator is stopping the set.
     Interrupted,
     /// Dead and out of restarts (why).
@@ -149,7 +149,7 @@ impl Tmtc {
         match self.spawn() {
             Ok(()) => {
                 self.restarts += 1;
-                Health::Restarted(self.restarts)
+                Health::Restarted
             }
             Err(e) => Health::Lost(format!("{PROCESS} {why}; cannot restart it: {e}")),
         }
