@@ -254,7 +254,7 @@ mod tests {
         h.samples_lost[4] = 7;
         h.e2e_latency_us = [80.0, 120.0, 300.0];
         h.tc_refused[0] = 99_990;
-        h.tc_refused[N_FAILURES - 1] = 1;
+        h.tc_refused[usize::from(crate::ground::dictionary::Failure::ReadOnly.code()) - 1] = 1;
         let mut out = [0u8; HEALTH_LEN];
         let n = encode_health(&h, &mut out).unwrap();
         assert_eq!(n, HEALTH_LEN);
