@@ -162,9 +162,8 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
         args.out.display()
     );
     let code = desk.run(&node, &ports);
-    desk.tmtc.stop(Duration::from_secs_f64(
-        desk.prepared.launch.stop_timeout_s,
-    ));
+    desk.tmtc
+        .stop(Duration::from_secs_f64(desk.prepared.launch.stop_timeout_s));
     Ok(code)
 }
 
@@ -186,7 +185,11 @@ fn last_campaign(out: &std::path::Path) -> u32 {
 }
 
 impl Desk<'_> {
-    fn run(&mut self, node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>, ports: &Ports) -> u8 {
+    fn run(
+        &mut self,
+        node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+        ports: &Ports,
+    ) -> u8 {
         let mut last_state: Option<Instant> = None;
         let mut shutdown: Option<(Instant, u8)> = None;
         loop {
@@ -222,7 +225,11 @@ impl Desk<'_> {
             if let Ok(Some(st)) = latest(&ports.status) {
                 self.status(&st);
             }
-            if self.running.as_ref().is_some_and(|r| r.thread.is_finished()) {
+            if self
+                .running
+                .as_ref()
+                .is_some_and(|r| r.thread.is_finished())
+            {
                 self.join_campaign(false);
             }
             if last_state.is_none_or(|t| t.elapsed() >= STATE_EVERY) {
@@ -233,7 +240,11 @@ impl Desk<'_> {
             if let Some((t, code)) = shutdown {
                 if self.running.is_some() {
                     self.stop_campaign(ports);
-                    if self.running.as_ref().is_some_and(|r| r.thread.is_finished()) {
+                    if self
+                        .running
+                        .as_ref()
+                        .is_some_and(|r| r.thread.is_finished())
+                    {
                         self.join_campaign(code == 130);
                     }
                     continue;
@@ -324,12 +335,12 @@ impl Desk<'_> {
         let run_args = args.clone();
         let thread = std::thread::Builder::new()
             .name(format!("campaign-{n}"))
-            .spawn(move || {
-                match prepare_campaign(&mut prepared, seed, duration_s, table) {
+            .spawn(
+                move || match prepare_campaign(&mut prepared, seed, duration_s, table) {
                     Ok(()) => campaign(&run_args, &prepared, Hold::Held),
                     Err(e) => Outcome::UserError(e),
-                }
-            });
+                },
+            );
         match thread {
             Ok(thread) => {
                 self.result = None;
@@ -381,7 +392,10 @@ impl Desk<'_> {
             if let Some(t) = run.start.or(run.stop) {
                 self.done(t, Some(Failure::CampaignFailed));
             }
-            self.event(event::CAMPAIGN_ENDED_EARLY, [u64::from(n), ENDED_FAILED, 0, 0]);
+            self.event(
+                event::CAMPAIGN_ENDED_EARLY,
+                [u64::from(n), ENDED_FAILED, 0, 0],
+            );
             self.set_mode(Mode::Standby);
             return;
         };
@@ -422,12 +436,18 @@ impl Desk<'_> {
             Outcome::UserError(e) => {
                 eprintln!("taiji-supervisor: campaign {n} refused: {e}");
                 failed = Some(Failure::CampaignFailed);
-                self.event(event::CAMPAIGN_ENDED_EARLY, [u64::from(n), ENDED_FAILED, 0, 0]);
+                self.event(
+                    event::CAMPAIGN_ENDED_EARLY,
+                    [u64::from(n), ENDED_FAILED, 0, 0],
+                );
             }
             Outcome::SetFailed(e) => {
                 eprintln!("taiji-supervisor: campaign {n}: the process set failed: {e}");
                 failed = Some(Failure::CampaignFailed);
-                self.event(event::CAMPAIGN_ENDED_EARLY, [u64::from(n), ENDED_FAILED, 0, 0]);
+                self.event(
+                    event::CAMPAIGN_ENDED_EARLY,
+                    [u64::from(n), ENDED_FAILED, 0, 0],
+                );
             }
             Outcome::HostStopped(m) => println!("taiji-supervisor: {m}"),
         }
