@@ -2,7 +2,7 @@
 //! the telecommands' authentication trailer and anti-replay state (`auth`, `replay`),
 //! the dictionary: the IDs, failure codes, events, parameters and housekeeping layouts
 //! that the code and the published dictionary share (`dictionary`, `events`,
-//! `parameters`, `housekeeping`, `health`), the telecommands' application data
+//! `parameters`, `housekeeping`, `health`, `layout`), the telecommands' application data
 //! (`requests`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
 //! (`tables`); and the onboard side's logic (`onboard`, writing into `downlink`), which
 //! the TMTC process (`runtime::process::tmtc`) runs. docs/ground.md describes them.
@@ -14,6 +14,7 @@ pub mod downlink;
 pub mod events;
 pub mod health;
 pub mod housekeeping;
+pub mod layout;
 pub mod onboard;
 pub mod packet;
 pub mod parameters;
