@@ -4,8 +4,9 @@
 //! that the code and the published dictionary share (`dictionary`, `events`,
 //! `parameters`, `housekeeping`, `health`, `layout`), the telecommands' application data
 //! (`requests`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
-//! (`tables`); and the onboard side's logic (`onboard`, writing into `downlink`), which
-//! the TMTC process (`runtime::process::tmtc`) runs. docs/ground.md describes them.
+//! (`tables`); the onboard side's logic (`onboard`, writing into `downlink`), which the
+//! TMTC process (`runtime::process::tmtc`) runs; and the onboard calibration table, kept
+//! across restarts (`table`). docs/ground.md describes them.
 
 pub mod auth;
 pub mod crc;
@@ -21,4 +22,5 @@ pub mod parameters;
 pub mod publish;
 pub mod replay;
 pub mod requests;
+pub mod table;
 pub mod tables;
