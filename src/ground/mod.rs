@@ -1,17 +1,22 @@
-//! The ground link's packet layer: CCSDS space packets with PUS-C secondary headers
-//! (`packet`, `crc`), the telecommands' authentication trailer and anti-replay state
-//! (`auth`, `replay`), and the dictionary: the IDs, failure codes and housekeeping
-//! layouts that the code and the published dictionary share (`dictionary`,
-//! `housekeeping`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
-//! (`tables`); and the onboard calibration table, kept across restarts (`table`).
-//! docs/ground.md describes them.
+//! The ground link: CCSDS space packets with PUS-C secondary headers (`packet`, `crc`),
+//! the telecommands' authentication trailer and anti-replay state (`auth`, `replay`),
+//! the dictionary: the IDs, failure codes, events, parameters and housekeeping layouts
+//! that the code and the published dictionary share (`dictionary`, `events`,
+//! `parameters`, `housekeeping`, `health`, `layout`), the telecommands' application data
+//! (`requests`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
+//! (`tables`); the onboard side's logic (`onboard`, writing into `downlink`), which the
+//! TMTC process (`runtime::process::tmtc`) runs; and the onboard calibration table, kept
+//! across restarts (`table`). docs/ground.md describes them.
 
 pub mod auth;
 pub mod crc;
 pub mod dictionary;
+pub mod downlink;
 pub mod events;
 pub mod health;
 pub mod housekeeping;
+pub mod layout;
+pub mod onboard;
 pub mod packet;
 pub mod parameters;
 pub mod publish;

@@ -297,6 +297,22 @@ mod tests {
     }
 
     #[test]
+    fn the_ground_process_is_in_no_campaign() {
+        let d = LaunchDescription::load_or_default(None).unwrap();
+        let g = d.ground_process().unwrap();
+        assert_eq!(
+            (g.name.as_str(), g.restart, g.max_restarts),
+            ("taiji-tmtc", Restart::OnFailure, 5)
+        );
+        for record in [false, true] {
+            assert!(d
+                .processes(record)
+                .all(|p| !p.ground_only && p.name != "taiji-tmtc"));
+        }
+        assert_eq!(d.processes(true).count(), 5);
+    }
+
+    #[test]
     fn bad_descriptions_name_the_problem() {
         let e = LaunchDescription::parse(
             "heartbeat_timeout_s = 1.0\nready_timeout_s = 1.0\nstop_timeout_s = 1.0\nprocess = []",
