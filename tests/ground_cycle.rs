@@ -129,6 +129,14 @@ impl Ground {
             .clone()
     }
 
+    /// What was heard, as (service, subtype, first two bytes) for a failure's message.
+    fn summary(&self) -> Vec<(u8, u8, u16)> {
+        self.heard
+            .iter()
+            .map(|t| (t.service, t.subtype, if t.data.len() >= 2 { t.u16_at(0) } else { 0 }))
+            .collect()
+    }
+
     fn events(&self, id: u16) -> usize {
         self.heard
             .iter()
@@ -259,7 +267,7 @@ fn a_whole_cycle_from_the_ground() {
         h.iter()
             .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
     });
-    assert!(g.events(1) >= 2, "mode changes");
+    assert!(g.events(1) >= 2, "mode changes: {:?}", g.summary());
     assert!(g.heard.iter().any(|t| (t.service, t.subtype) == (3, 25)));
     let c1 = out.join("campaign-1");
     let r1 = report(&c1);

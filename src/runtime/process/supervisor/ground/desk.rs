@@ -13,7 +13,7 @@ use crate::runtime::process::set::SupervisorArgs;
 use crate::runtime::process::supervisor::locks::{claim, Janitor};
 use crate::runtime::process::supervisor::{campaign, write_reports, Hold, Outcome, Prepared};
 use crate::sim::msg::{
-    GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus, NOTE_DONE,
+    EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus, NOTE_DONE,
     NOTE_EVENT, NOTE_STARTED, PROC_TMTC, REQ_STOP, SET_RUNNING,
 };
 use std::collections::VecDeque;
@@ -67,8 +67,9 @@ struct Running {
 /// The ports of the ground supervisor's node.
 struct Ports {
     requests: Sub<GroundRequest>,
-    progress: Sub<Progress>,
+    beats: Sub<Progress>,
     status: Sub<SetStatus>,
+    estimates: Sub<EstimateMsg>,
     notes: Pub<GroundNote>,
     state: Pub<GroundState>,
     stop: Pub<Request>,
@@ -89,6 +90,9 @@ struct Desk<'a> {
     /// Notes waiting for the TMTC process to be heard.
     pending: VecDeque<GroundNote>,
     seq: u64,
+    /// The campaign's latest estimate and status, relayed in `GroundState`.
+    estimate: EstimateMsg,
+    set: SetStatus,
 }
 
 /// Serve the link until function 5 or a signal; returns the exit code.
@@ -124,8 +128,9 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
     let node = wiring::node("taiji-supervisor", &args.bus_prefix)?;
     let ports = Ports {
         requests: wiring::subscriber(&node, wiring::SVC_GROUND_REQUEST)?,
-        progress: wiring::subscriber(&node, wiring::SVC_PROGRESS)?,
+        beats: wiring::subscriber(&node, wiring::SVC_GROUND_BEAT)?,
         status: wiring::subscriber(&node, wiring::SVC_STATUS)?,
+        estimates: wiring::subscriber(&node, wiring::SVC_ESTIMATE)?,
         notes: wiring::publisher(&node, wiring::SVC_GROUND_NOTE)?,
         state: wiring::publisher(&node, wiring::SVC_GROUND_STATE)?,
         stop: wiring::publisher(&node, wiring::SVC_REQUEST)?,
@@ -150,6 +155,11 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
         stage_restarts: 0,
         pending: VecDeque::new(),
         seq: 0,
+        estimate: EstimateMsg::default(),
+        set: SetStatus {
+            state: 0,
+            ..Default::default()
+        },
     };
     if let Some(p) = problem {
         eprintln!("taiji-supervisor: {p}");
@@ -225,6 +235,16 @@ impl Desk<'_> {
             if let Ok(Some(st)) = latest(&ports.status) {
                 self.status(&st);
             }
+            // Every estimate: a status word that changed is said at once.
+            let mut changed = false;
+            while let Ok(Some(e)) = wiring::receive(&ports.estimates) {
+                changed |= e.status != self.estimate.status;
+                self.estimate = e;
+                if changed {
+                    self.say_state(ports);
+                    changed = false;
+                }
+            }
             if self
                 .running
                 .as_ref()
@@ -258,7 +278,7 @@ impl Desk<'_> {
 
     /// Take in the TMTC process's heartbeats.
     fn hear(&mut self, ports: &Ports) {
-        while let Ok(Some(p)) = wiring::receive(&ports.progress) {
+        while let Ok(Some(p)) = wiring::receive(&ports.beats) {
             if p.process == PROC_TMTC {
                 self.tmtc.heard(&p);
             }
@@ -457,6 +477,7 @@ impl Desk<'_> {
         if let Some(t) = run.stop {
             self.done(t, None);
         }
+        self.set.state = 0;
         if self.mode == Mode::Running {
             self.set_mode(Mode::Standby);
         }
@@ -464,6 +485,7 @@ impl Desk<'_> {
 
     /// The set's status while a campaign runs: its start is answered once it runs.
     fn status(&mut self, st: &SetStatus) {
+        self.set = *st;
         if st.state != SET_RUNNING {
             return;
         }
@@ -543,6 +565,8 @@ impl Desk<'_> {
             table_campaign,
             table_previous: u32::from(self.table.can_restore()),
             table,
+            estimate: self.estimate,
+            set: self.set,
         };
         if let Err(e) = wiring::publish(&ports.state, st) {
             log::warn!("ground state not sent: {e}");
