@@ -12,7 +12,6 @@ mod support;
 mod tmpdir;
 
 use common::{estimates, in_process, pids_with, prefix, report, serial};
-use serde_json::Value;
 use std::collections::BTreeMap;
 use std::net::UdpSocket;
 use std::path::Path;
@@ -94,11 +93,8 @@ impl Ground {
         while !until(&self.heard) {
             assert!(
                 t0.elapsed() < timeout,
-                "no {what} within {timeout:?}; heard {:?}",
-                self.heard
-                    .iter()
-                    .map(|t| (t.service, t.subtype))
-                    .collect::<Vec<_>>()
+                "no {what} within {timeout:?}; heard (service, subtype, first u16) {:?}",
+                self.summary()
             );
             if let Ok((n, _)) = self.sock.recv_from(&mut buf) {
                 let tm = decode_tm(&buf[..n], APID).expect("telemetry decodes, CRC checked");
@@ -133,7 +129,13 @@ impl Ground {
     fn summary(&self) -> Vec<(u8, u8, u16)> {
         self.heard
             .iter()
-            .map(|t| (t.service, t.subtype, if t.data.len() >= 2 { t.u16_at(0) } else { 0 }))
+            .map(|t| {
+                (
+                    t.service,
+                    t.subtype,
+                    if t.data.len() >= 2 { t.u16_at(0) } else { 0 },
+                )
+            })
             .collect()
     }
 
@@ -157,19 +159,60 @@ fn start_args(seed: u64, duration_s: f64) -> Vec<u8> {
     function(1, &a)
 }
 
-fn launch(sc: &Path, out: &Path, pfx: &str, port: u16) -> Child {
-    Command::new(SUPERVISOR)
+/// The set under test: stopped (SIGTERM, then SIGKILL) if the test fails first.
+struct Set(Option<Child>);
+
+impl Set {
+    fn id(&self) -> u32 {
+        self.0.as_ref().unwrap().id()
+    }
+    /// Wait for the supervisor's exit; its status and output.
+    fn wait(mut self, timeout: Duration) -> (std::process::ExitStatus, String, String) {
+        let mut c = self.0.take().unwrap();
+        let t0 = Instant::now();
+        while c.try_wait().unwrap().is_none() {
+            if t0.elapsed() > timeout {
+                let _ = c.kill();
+                panic!("the set did not end within {timeout:?}");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let o = c.wait_with_output().unwrap();
+        let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+        (o.status, text(&o.stdout), text(&o.stderr))
+    }
+}
+
+impl Drop for Set {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            signal(c.id() as i32, libc::SIGTERM);
+            let t0 = Instant::now();
+            while matches!(c.try_wait(), Ok(None)) && t0.elapsed() < Duration::from_secs(10) {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn launch(sc: &Path, out: &Path, pfx: &str, port: u16) -> Set {
+    let c = Command::new(SUPERVISOR)
         .arg("--scenario")
         .arg(sc)
         .arg("--out")
         .arg(out)
         .args(["--bus-prefix", pfx])
         .args(["--ground", &format!("127.0.0.1:{port}")])
+        // Paced, so a campaign runs long enough to be commanded while it runs.
+        .args(["--realtime", "--time-scale", "1000"])
         .env("TAIJI_ALLOC_TRACE", common::alloc_trace_file(out))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap()
+        .unwrap();
+    Set(Some(c))
 }
 
 /// A free UDP port on loopback.
@@ -246,7 +289,7 @@ fn a_whole_cycle_from_the_ground() {
     let out = dir.join("out");
     let pfx = prefix("gcycle");
     let port = free_port();
-    let mut child = launch(&sc, &out, &pfx, port);
+    let child = launch(&sc, &out, &pfx, port);
     let key = wait_key(&out);
     let to = format!("127.0.0.1:{port}");
     let mut g = Ground::new(&to, &key, 100);
@@ -263,29 +306,35 @@ fn a_whole_cycle_from_the_ground() {
     assert_eq!((r.subtype, r.failure()), (7, None));
     let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(10));
     assert_eq!(r.failure(), Some(Failure::StartWhileRunning));
-    g.wait("campaign 1's end", Duration::from_secs(600), |h| {
-        h.iter()
-            .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
-    });
-    assert!(g.events(1) >= 2, "mode changes: {:?}", g.summary());
+    g.wait(
+        "campaign 1's end and standby",
+        Duration::from_secs(600),
+        |h| {
+            let ev = |id| {
+                h.iter()
+                    .filter(|t| t.service == 5 && t.u16_at(0) == id)
+                    .count()
+            };
+            ev(4) + ev(5) == 1 && ev(1) == 2
+        },
+    );
     assert!(g.heard.iter().any(|t| (t.service, t.subtype) == (3, 25)));
     let c1 = out.join("campaign-1");
     let r1 = report(&c1);
     assert_eq!(r1["priors_source"], "scenario");
     assert_eq!(estimates(&r1), in_process(&sc, seed));
     // The estimate in housekeeping is report.json's, bit for bit.
-    g.heard.clear();
+    let mark = g.heard.len();
     let mut sid = vec![1u8];
     sid.extend_from_slice(&1u16.to_be_bytes());
     g.send(3, 27, &sid);
+    let one_shot = |t: &Tm| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 1;
     g.wait("a one-shot report", Duration::from_secs(10), |h| {
-        h.iter()
-            .any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 1)
+        h[mark..].iter().any(one_shot)
     });
-    let tm = g
-        .heard
+    let tm = g.heard[mark..]
         .iter()
-        .find(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 1)
+        .find(|t| one_shot(t))
         .unwrap()
         .clone();
     let hk = hk1(&tm);
@@ -313,10 +362,18 @@ fn a_whole_cycle_from_the_ground() {
     assert_eq!(g.events(6), 1);
     let r = g.command(8, 1, &start_args(seed + 1, 0.0), Duration::from_secs(120));
     assert_eq!(r.failure(), None);
-    g.wait("campaign 2's end", Duration::from_secs(600), |h| {
-        h.iter()
-            .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
-    });
+    g.wait(
+        "campaign 2's end and standby",
+        Duration::from_secs(600),
+        |h| {
+            let ev = |id| {
+                h.iter()
+                    .filter(|t| t.service == 5 && t.u16_at(0) == id)
+                    .count()
+            };
+            ev(4) + ev(5) == 2 && ev(1) == 4
+        },
+    );
     let r2 = report(&out.join("campaign-2"));
     assert_eq!(r2["priors_source"], "onboard_table");
     for (is1, is2) in r1["inertial_sensors"]
@@ -328,66 +385,92 @@ fn a_whole_cycle_from_the_ground() {
         assert_eq!(is2["beta"]["prior"], is1["beta"]["estimate"]);
         assert_eq!(is2["com_offset"]["prior"], is1["com_offset"]["estimate"]);
     }
-    // Restore, then shut down.
+    // Apply campaign 2's result, restore campaign 1's, and no further back.
+    let r = g.command(8, 1, &function(3, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), None, "{}", r2["requirements"]);
+    let r = g.command(8, 1, &function(4, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), None);
+    let restored = g
+        .heard
+        .iter()
+        .rev()
+        .find(|t| t.service == 5 && t.u16_at(0) == 7)
+        .expect("the table_restored event");
+    assert_eq!(
+        restored.data[2..6],
+        1u32.to_be_bytes(),
+        "campaign 1's table again"
+    );
     let r = g.command(8, 1, &function(4, &[]), Duration::from_secs(10));
     assert_eq!(r.failure(), Some(Failure::NothingToRestore));
     let r = g.command(8, 1, &function(5, &[]), Duration::from_secs(10));
     assert_eq!(r.failure(), None);
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            break st;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(30),
-            "the set did not end"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let o = child.wait_with_output().unwrap();
-    assert_eq!(
-        status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let stdout = String::from_utf8_lossy(&o.stdout);
+    let (status, stdout, stderr) = child.wait(Duration::from_secs(30));
+    assert_eq!(status.code(), Some(0), "{stderr}");
     assert!(stdout.contains("campaign-2"), "{stdout}");
     assert!(pids_with(&pfx, "taiji-").is_empty());
-    // The set again on the same folder: the table and the anti-replay state survived.
-    let mut child = launch(&sc, &out, &pfx, port);
-    let mut g2 = Ground::new(&to, &key, g.seq - 1);
-    g2.count = 500;
-    let id = g2.send(17, 1, &[]);
-    let replayed = |h: &[Tm]| {
-        h.iter()
-            .any(|t| (t.service, t.subtype) == (1, 2) && t.data[..4] == id)
-    };
-    // Its refusal goes to the last accepted sender: nobody yet after a restart, so ask
-    // from the old socket with a fresh number first.
-    g2.seq = g.seq + 10;
-    ping_until_up(&mut g2);
-    let _ = replayed;
-    g2.seq = g.seq; // the last accepted before the restart: a replay
-    let r = g2.command(17, 1, &[], Duration::from_secs(10));
-    assert_eq!(r.failure(), Some(Failure::Replayed));
-    let mut ids = vec![1u8];
+    // The set again on the same folder. The anti-replay state survived: the last
+    // sequence number accepted before is refused, and its refusal goes to the sender of
+    // the last accepted telecommand, kept on disk too.
+    let child = launch(&sc, &out, &pfx, port);
+    let last = g.seq;
+    let t0 = Instant::now();
+    loop {
+        g.seq = last - 1;
+        let id = g.send(17, 1, &[]);
+        let refused = |h: &[Tm]| {
+            h.iter()
+                .any(|t| (t.service, t.subtype) == (1, 2) && t.data[..4] == id)
+        };
+        let mut buf = vec![0u8; MAX_PACKET_LEN];
+        let t1 = Instant::now();
+        while t1.elapsed() < Duration::from_millis(500) && !refused(&g.heard) {
+            if let Ok((n, _)) = g.sock.recv_from(&mut buf) {
+                let tm = decode_tm(&buf[..n], APID).unwrap();
+                g.heard.push(Tm {
+                    service: tm.header.service,
+                    subtype: tm.header.subtype,
+                    data: tm.source_data.to_vec(),
+                });
+            }
+        }
+        if refused(&g.heard) {
+            let t = g
+                .heard
+                .iter()
+                .rev()
+                .find(|t| (t.service, t.subtype) == (1, 2))
+                .unwrap();
+            assert_eq!(t.failure(), Some(Failure::Replayed));
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "no refusal of the replay"
+        );
+    }
+    // The table survived too.
+    g.seq = last + 100;
+    let mark = g.heard.len();
+    let mut ids = vec![2u8];
+    ids.extend_from_slice(&46u16.to_be_bytes());
     ids.extend_from_slice(&47u16.to_be_bytes());
-    g2.seq = g.seq + 100;
-    g2.send(20, 1, &ids);
-    g2.wait("the table's state", Duration::from_secs(10), |h| {
-        h.iter().any(|t| (t.service, t.subtype) == (20, 2))
+    g.send(20, 1, &ids);
+    g.wait("the table's state", Duration::from_secs(10), |h| {
+        h[mark..].iter().any(|t| (t.service, t.subtype) == (20, 2))
     });
-    let p = g2
-        .heard
+    let p = g.heard[mark..]
         .iter()
         .find(|t| (t.service, t.subtype) == (20, 2))
         .unwrap();
-    assert_eq!(p.data, [1, 0, 47, 1], "table_valid after a restart");
+    assert_eq!(
+        p.data,
+        [2, 0, 46, 0, 0, 0, 1, 0, 47, 1],
+        "campaign 1's table, valid, after a restart"
+    );
     signal(child.id() as i32, libc::SIGTERM);
-    let st = child.wait().unwrap();
-    assert_eq!(st.code(), Some(130));
-    let _: Option<Value> = None;
+    let (st, _, stderr) = child.wait(Duration::from_secs(30));
+    assert_eq!(st.code(), Some(130), "{stderr}");
 }
 
 fn signal(pid: i32, sig: i32) {
@@ -421,7 +504,7 @@ fn a_flood_and_a_killed_tmtc_process_change_nothing() {
     let out = dir.join("out");
     let pfx = prefix("gflood");
     let port = free_port();
-    let mut child = launch(&sc, &out, &pfx, port);
+    let child = launch(&sc, &out, &pfx, port);
     let key = wait_key(&out);
     let to = format!("127.0.0.1:{port}");
     let mut g = Ground::new(&to, &key, 1000);
@@ -500,6 +583,6 @@ fn a_flood_and_a_killed_tmtc_process_change_nothing() {
     });
     let r = g.command(8, 1, &function(5, &[]), Duration::from_secs(10));
     assert_eq!(r.failure(), None);
-    let st = child.wait().unwrap();
-    assert_eq!(st.code(), Some(0));
+    let (st, _, stderr) = child.wait(Duration::from_secs(30));
+    assert_eq!(st.code(), Some(0), "{stderr}");
 }

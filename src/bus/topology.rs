@@ -433,7 +433,10 @@ mod tests {
         );
         assert_eq!(users(wiring::SVC_PROGRESS).len(), 6);
         // The TMTC process meets no campaign's port.
-        for svc in SERVICES.iter().filter(|s| users(s.name).contains(&"taiji-tmtc")) {
+        for svc in SERVICES
+            .iter()
+            .filter(|s| users(s.name).contains(&"taiji-tmtc"))
+        {
             assert!(svc.name.starts_with("taiji/ground_"), "{}", svc.name);
         }
         // Truth never reaches the estimator.

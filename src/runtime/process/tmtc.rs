@@ -29,8 +29,8 @@ use crate::ground::onboard::Onboard;
 use crate::ground::packet::MAX_PACKET_LEN;
 use crate::ground::replay::{ReplayError, ReplayGuard};
 use crate::sim::msg::{
-    EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, SetStatus, PROC_TMTC,
-    STATE_READY, STATE_RUNNING,
+    EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, PROC_TMTC, STATE_READY,
+    STATE_RUNNING,
 };
 use iceoryx2::prelude::*;
 use std::ffi::CString;
@@ -152,8 +152,6 @@ impl DestinationFile {
 
 /// The process's ports.
 struct Ports {
-    estimate: Sub<EstimateMsg>,
-    status: Sub<SetStatus>,
     note: Sub<GroundNote>,
     state: Sub<GroundState>,
     request: Pub<GroundRequest>,
@@ -166,12 +164,10 @@ impl Ports {
     fn open(prefix: &str) -> Result<Ports, ProcessError> {
         let node = wiring::node("taiji-tmtc", prefix)?;
         Ok(Ports {
-            estimate: wiring::subscriber(&node, wiring::SVC_ESTIMATE)?,
-            status: wiring::subscriber(&node, wiring::SVC_STATUS)?,
             note: wiring::subscriber(&node, wiring::SVC_GROUND_NOTE)?,
             state: wiring::subscriber(&node, wiring::SVC_GROUND_STATE)?,
             request: wiring::publisher(&node, wiring::SVC_GROUND_REQUEST)?,
-            progress: wiring::publisher(&node, wiring::SVC_PROGRESS)?,
+            progress: wiring::publisher(&node, wiring::SVC_GROUND_BEAT)?,
             node,
         })
     }
@@ -227,6 +223,7 @@ pub fn run(args: &TmtcArgs) -> Result<Exit, ProcessError> {
         state_heard_ns: None,
         allocs_before: None,
         turns_heard: 0,
+        last_estimate: EstimateMsg::default(),
     };
     l.run()
 }
@@ -247,6 +244,8 @@ struct Loop {
     /// The thread's allocations when the warm-up ended.
     allocs_before: Option<u64>,
     turns_heard: u32,
+    /// The last estimate relayed (a repeat is not taken again).
+    last_estimate: EstimateMsg,
 }
 
 impl Loop {
@@ -350,20 +349,23 @@ impl Loop {
     /// Reads what the set published since the last turn.
     fn bus(&mut self) -> Result<(), ProcessError> {
         let now = monotonic_ns();
+        // The campaign's estimate and status come relayed in the supervisor's state:
+        // this process connects to no port of a campaign's processes.
         while let Some(g) = wiring::receive(&self.ports.state)? {
+            if g.estimate != self.last_estimate {
+                self.onboard.on_estimate(&g.estimate);
+                self.progress.next_tick = g.estimate.header.tick + 1;
+                self.last_estimate = g.estimate;
+            }
+            if g.set.state != 0 {
+                self.onboard.on_set_status(&g.set, now);
+            }
             self.onboard.on_ground_state(&g);
             self.state_heard_ns = Some(now);
             self.progress.state = STATE_RUNNING;
         }
         while let Some(n) = wiring::receive(&self.ports.note)? {
             self.onboard.on_note(&n);
-        }
-        while let Some(s) = wiring::receive(&self.ports.status)? {
-            self.onboard.on_set_status(&s, now);
-        }
-        while let Some(e) = wiring::receive(&self.ports.estimate)? {
-            self.onboard.on_estimate(&e);
-            self.progress.next_tick = e.header.tick + 1;
         }
         Ok(())
     }

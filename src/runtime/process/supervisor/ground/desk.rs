@@ -13,8 +13,8 @@ use crate::runtime::process::set::SupervisorArgs;
 use crate::runtime::process::supervisor::locks::{claim, Janitor};
 use crate::runtime::process::supervisor::{campaign, write_reports, Hold, Outcome, Prepared};
 use crate::sim::msg::{
-    EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus, NOTE_DONE,
-    NOTE_EVENT, NOTE_STARTED, PROC_TMTC, REQ_STOP, SET_RUNNING,
+    EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus,
+    NOTE_DONE, NOTE_EVENT, NOTE_STARTED, PROC_TMTC, REQ_STOP, SET_RUNNING,
 };
 use std::collections::VecDeque;
 use std::thread::JoinHandle;
@@ -315,8 +315,8 @@ impl Desk<'_> {
                 self.note(NOTE_STARTED, 0, t, [0; 4]);
                 match self.table.restore() {
                     Ok(n) => {
-                        self.done(t, None);
                         self.event(event::TABLE_RESTORED, [u64::from(n), 0, 0, 0]);
+                        self.done(t, None);
                     }
                     Err(e) => self.done(t, Some(e.failure())),
                 }
