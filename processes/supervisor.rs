@@ -1,6 +1,8 @@
 //! `taiji-supervisor`: wiring only — see `taiji::runtime::process::supervisor`.
 use clap::Parser;
-use taiji::runtime::process::supervisor::{report_dir, run, write_reports, Outcome, SupervisorArgs};
+use taiji::runtime::process::supervisor::{
+    report_dir, run, write_reports, Outcome, SupervisorArgs,
+};
 
 fn main() -> std::process::ExitCode {
     taiji::runtime::process::init_logging();
@@ -11,7 +13,9 @@ fn main() -> std::process::ExitCode {
     }
     args.record |= args.plots;
     if args.ground.is_some() {
-        return std::process::ExitCode::from(taiji::runtime::process::supervisor::ground::run(&args));
+        return std::process::ExitCode::from(taiji::runtime::process::supervisor::ground::run(
+            &args,
+        ));
     }
     let outcome = run(&args);
     match &outcome {
@@ -41,4 +45,3 @@ fn main() -> std::process::ExitCode {
     }
     std::process::ExitCode::from(outcome.exit_code())
 }
-

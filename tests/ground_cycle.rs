@@ -129,6 +129,14 @@ impl Ground {
             .clone()
     }
 
+    /// What was heard, as (service, subtype, first two bytes) for a failure's message.
+    fn summary(&self) -> Vec<(u8, u8, u16)> {
+        self.heard
+            .iter()
+            .map(|t| (t.service, t.subtype, if t.data.len() >= 2 { t.u16_at(0) } else { 0 }))
+            .collect()
+    }
+
     fn events(&self, id: u16) -> usize {
         self.heard
             .iter()
@@ -157,6 +165,7 @@ fn launch(sc: &Path, out: &Path, pfx: &str, port: u16) -> Child {
         .arg(out)
         .args(["--bus-prefix", pfx])
         .args(["--ground", &format!("127.0.0.1:{port}")])
+        .env("TAIJI_ALLOC_TRACE", common::alloc_trace_file(out))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -211,7 +220,10 @@ fn ping_until_up(g: &mut Ground) {
         if got(&g.heard) {
             return;
         }
-        assert!(t0.elapsed() < Duration::from_secs(60), "the set never answered a ping");
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the set never answered a ping"
+        );
     }
 }
 
@@ -255,7 +267,7 @@ fn a_whole_cycle_from_the_ground() {
         h.iter()
             .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
     });
-    assert!(g.events(1) >= 2, "mode changes");
+    assert!(g.events(1) >= 2, "mode changes: {:?}", g.summary());
     assert!(g.heard.iter().any(|t| (t.service, t.subtype) == (3, 25)));
     let c1 = out.join("campaign-1");
     let r1 = report(&c1);
@@ -267,7 +279,8 @@ fn a_whole_cycle_from_the_ground() {
     sid.extend_from_slice(&1u16.to_be_bytes());
     g.send(3, 27, &sid);
     g.wait("a one-shot report", Duration::from_secs(10), |h| {
-        h.iter().any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 1)
+        h.iter()
+            .any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 1)
     });
     let tm = g
         .heard
@@ -276,7 +289,12 @@ fn a_whole_cycle_from_the_ground() {
         .unwrap()
         .clone();
     let hk = hk1(&tm);
-    for (i, is) in r1["inertial_sensors"].as_array().unwrap().iter().enumerate() {
+    for (i, is) in r1["inertial_sensors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+    {
         for (a, axis) in ["x", "y", "z"].iter().enumerate() {
             let f = |name: &str| f64::from_bits(hk[&format!("{name}_is{}_{axis}", i + 1)]);
             assert_eq!(f("beta"), is["beta"]["estimate"][a].as_f64().unwrap());
@@ -286,7 +304,12 @@ fn a_whole_cycle_from_the_ground() {
     }
     // Apply, then campaign 2 from the table.
     let r = g.command(8, 1, &function(3, &[]), Duration::from_secs(10));
-    assert_eq!((r.subtype, r.failure()), (7, None), "{}", r1["requirements"]);
+    assert_eq!(
+        (r.subtype, r.failure()),
+        (7, None),
+        "{}",
+        r1["requirements"]
+    );
     assert_eq!(g.events(6), 1);
     let r = g.command(8, 1, &start_args(seed + 1, 0.0), Duration::from_secs(120));
     assert_eq!(r.failure(), None);
@@ -315,11 +338,19 @@ fn a_whole_cycle_from_the_ground() {
         if let Some(st) = child.try_wait().unwrap() {
             break st;
         }
-        assert!(t0.elapsed() < Duration::from_secs(30), "the set did not end");
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "the set did not end"
+        );
         std::thread::sleep(Duration::from_millis(20));
     };
     let o = child.wait_with_output().unwrap();
-    assert_eq!(status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("campaign-2"), "{stdout}");
     assert!(pids_with(&pfx, "taiji-").is_empty());
@@ -347,7 +378,11 @@ fn a_whole_cycle_from_the_ground() {
     g2.wait("the table's state", Duration::from_secs(10), |h| {
         h.iter().any(|t| (t.service, t.subtype) == (20, 2))
     });
-    let p = g2.heard.iter().find(|t| (t.service, t.subtype) == (20, 2)).unwrap();
+    let p = g2
+        .heard
+        .iter()
+        .find(|t| (t.service, t.subtype) == (20, 2))
+        .unwrap();
     assert_eq!(p.data, [1, 0, 47, 1], "table_valid after a restart");
     signal(child.id() as i32, libc::SIGTERM);
     let st = child.wait().unwrap();
@@ -448,14 +483,20 @@ fn a_flood_and_a_killed_tmtc_process_change_nothing() {
     let r = report(&out.join("campaign-1"));
     assert_eq!(estimates(&r), in_process(&sc, seed));
     assert_eq!(r["timing"]["samples_lost"], 0);
-    assert_eq!(r["estimator_loop_allocations"], 0);
+    assert_eq!(
+        r["estimator_loop_allocations"],
+        0,
+        "{}",
+        common::alloc_trace(&out)
+    );
     // Refused datagrams are counted in housekeeping structure 2.
     let mut sid = vec![1u8];
     sid.extend_from_slice(&2u16.to_be_bytes());
     g.heard.clear();
     g.send(3, 27, &sid);
     g.wait("the health report", Duration::from_secs(10), |h| {
-        h.iter().any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 2)
+        h.iter()
+            .any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 2)
     });
     let r = g.command(8, 1, &function(5, &[]), Duration::from_secs(10));
     assert_eq!(r.failure(), None);

@@ -26,6 +26,9 @@ pub struct Stage {
     pub downstream: Option<&'static str>,
     /// Every campaign needs it (the recorder runs only with `--record`).
     pub required: bool,
+    /// One of a campaign's processes (the TMTC process lives across campaigns, outside
+    /// the services every stage uses).
+    pub in_campaign: bool,
 }
 
 /// The supervisor's node name (it is no stage: it starts, watches and stops them).
@@ -40,6 +43,7 @@ pub const STAGES: [Stage; 6] = [
         upstream: None,
         downstream: Some("plant"),
         required: true,
+        in_campaign: true,
     },
     Stage {
         process: "taiji-plant",
@@ -48,6 +52,7 @@ pub const STAGES: [Stage; 6] = [
         upstream: Some("commander"),
         downstream: Some("fee"),
         required: true,
+        in_campaign: true,
     },
     Stage {
         process: "taiji-fee",
@@ -56,6 +61,7 @@ pub const STAGES: [Stage; 6] = [
         upstream: Some("plant"),
         downstream: Some("estimator"),
         required: true,
+        in_campaign: true,
     },
     Stage {
         process: "taiji-estimator",
@@ -64,6 +70,7 @@ pub const STAGES: [Stage; 6] = [
         upstream: Some("fee"),
         downstream: None,
         required: true,
+        in_campaign: true,
     },
     // The recorder's credit paces the commander when recording.
     Stage {
@@ -73,6 +80,7 @@ pub const STAGES: [Stage; 6] = [
         upstream: Some("commander"),
         downstream: None,
         required: false,
+        in_campaign: true,
     },
     // The ground link (`--ground` only): outside the credit chain, it lives across
     // campaigns and speaks UDP to the ground (docs/ground.md).
@@ -83,6 +91,7 @@ pub const STAGES: [Stage; 6] = [
         upstream: None,
         downstream: None,
         required: false,
+        in_campaign: false,
     },
 ];
 
@@ -116,7 +125,7 @@ pub struct Service {
 /// thread, `process::outbox`) and the supervisor's status, and asks the supervisor
 /// for control actions: it never opens a port where a stage's loop would have to
 /// connect to it.
-pub const SERVICES: [Service; 11] = [
+pub const SERVICES: [Service; 12] = [
     Service {
         name: wiring::SVC_TORQUE,
         payload: TorqueCommand::TYPE_NAME,
@@ -148,7 +157,7 @@ pub const SERVICES: [Service; 11] = [
         name: wiring::SVC_ESTIMATE,
         payload: EstimateMsg::TYPE_NAME,
         publishers: Users::Some(&["taiji-estimator"]),
-        subscribers: Users::Some(&["taiji-recorder", "taiji-tmtc"]),
+        subscribers: Users::Some(&["taiji-recorder"]),
         supervisor_subscribes: true,
         supervisor_publishes: false,
         outside: true,
@@ -175,7 +184,7 @@ pub const SERVICES: [Service; 11] = [
         name: wiring::SVC_STATUS,
         payload: SetStatus::TYPE_NAME,
         publishers: Users::Some(&[]),
-        subscribers: Users::Some(&["taiji-tmtc"]),
+        subscribers: Users::Some(&[]),
         supervisor_subscribes: false,
         supervisor_publishes: true,
         outside: true,
@@ -205,6 +214,15 @@ pub const SERVICES: [Service; 11] = [
         subscribers: Users::Some(&["taiji-tmtc"]),
         supervisor_subscribes: false,
         supervisor_publishes: true,
+        outside: false,
+    },
+    Service {
+        name: wiring::SVC_GROUND_BEAT,
+        payload: Progress::TYPE_NAME,
+        publishers: Users::Some(&["taiji-tmtc"]),
+        subscribers: Users::Some(&[]),
+        supervisor_subscribes: true,
+        supervisor_publishes: false,
         outside: false,
     },
     Service {
@@ -241,7 +259,11 @@ pub fn processes() -> impl Iterator<Item = &'static str> {
 fn expand(u: Users) -> Vec<&'static str> {
     match u {
         Users::Some(list) => list.to_vec(),
-        Users::EveryStage => processes().collect(),
+        Users::EveryStage => STAGES
+            .iter()
+            .filter(|s| s.in_campaign)
+            .map(|s| s.process)
+            .collect(),
     }
 }
 
@@ -409,7 +431,11 @@ mod tests {
             users(&wiring::wake_service("estimator")),
             ["taiji-estimator", "taiji-fee"]
         );
-        assert_eq!(users(wiring::SVC_PROGRESS).len(), 7);
+        assert_eq!(users(wiring::SVC_PROGRESS).len(), 6);
+        // The TMTC process meets no campaign's port.
+        for svc in SERVICES.iter().filter(|s| users(s.name).contains(&"taiji-tmtc")) {
+            assert!(svc.name.starts_with("taiji/ground_"), "{}", svc.name);
+        }
         // Truth never reaches the estimator.
         assert!(!users(wiring::SVC_TRUTH).contains(&"taiji-estimator"));
     }

@@ -46,6 +46,9 @@ pub const SVC_GROUND_REQUEST: &str = "taiji/ground_request";
 pub const SVC_GROUND_NOTE: &str = "taiji/ground_note";
 /// The supervisor's mode, campaigns and table, to the TMTC process (`GroundState`).
 pub const SVC_GROUND_STATE: &str = "taiji/ground_state";
+/// The TMTC process's heartbeats, to the supervisor alone (`Progress`): on
+/// `SVC_PROGRESS` every campaign's stages would connect to it.
+pub const SVC_GROUND_BEAT: &str = "taiji/ground_beat";
 
 /// Node name of outside monitors (`taiji-calib monitor`): a live one is no stage of a
 /// crashed run, so a new supervisor does not refuse the prefix for it.
@@ -293,6 +296,7 @@ fn is_small(name: &str) -> bool {
         SVC_GROUND_REQUEST,
         SVC_GROUND_NOTE,
         SVC_GROUND_STATE,
+        SVC_GROUND_BEAT,
     ]
     .contains(&name)
 }

@@ -486,7 +486,7 @@ impl Failure {
             Failure::NoResult => ("no_result", "function 3 before any campaign has ended"),
             Failure::UnverifiedResult => (
                 "unverified_result",
-                "function 3 on a result whose status word is not 0",
+                "function 3 on a result its report does not call verified (an unverifying status bit, or a non-finite or non-positive value or σ)",
             ),
             Failure::PriorDominated => (
                 "prior_dominated",

@@ -324,8 +324,12 @@ pub struct GroundNote {
     pub args: [u64; 4],
 }
 
-/// Supervisor → TMTC process (`wiring::SVC_GROUND_STATE`), every 100 ms: the set's mode,
-/// its campaigns and the onboard calibration table.
+/// Supervisor → TMTC process (`wiring::SVC_GROUND_STATE`), every 100 ms and when the
+/// estimate's status word changes: the set's mode, its campaigns, the onboard
+/// calibration table, and the campaign's latest estimate and status. Relayed by the
+/// supervisor, so the TMTC process connects to no port of a campaign's processes: a
+/// campaign that starts or ends changes none of its connections (iceoryx2 allocates
+/// when a connection is made).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[repr(C)]
 pub struct GroundState {
@@ -347,4 +351,8 @@ pub struct GroundState {
     /// 1 when a previous table can be restored (function 4).
     pub table_previous: u32,
     pub table: TableValues,
+    /// The latest estimate of the running or last campaign (`header.seq` 0: none yet).
+    pub estimate: EstimateMsg,
+    /// The running campaign's latest `SetStatus` (`state` 0: no campaign runs).
+    pub set: SetStatus,
 }

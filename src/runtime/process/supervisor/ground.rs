@@ -24,11 +24,15 @@ pub enum GroundError {
     Run(#[from] UserError),
     #[error("--ground {addr:?}: not an address (give IP:PORT, e.g. 127.0.0.1:7301)")]
     Addr { addr: String },
-    #[error("--ground {addr}: not a loopback address; binding the link to it needs --ground-remote")]
+    #[error(
+        "--ground {addr}: not a loopback address; binding the link to it needs --ground-remote"
+    )]
     NotLoopback { addr: SocketAddr },
     #[error(transparent)]
     Key(#[from] KeyError),
-    #[error("no taiji-tmtc beside the supervisor ({0}); build it with `cargo build --release --bins`")]
+    #[error(
+        "no taiji-tmtc beside the supervisor ({0}); build it with `cargo build --release --bins`"
+    )]
     NoTmtc(PathBuf),
     #[error("cannot start the TMTC process: {0}")]
     TmtcSpawn(String),
@@ -73,11 +77,9 @@ fn check(args: &SupervisorArgs) -> Result<Up, GroundError> {
             if k.exists() {
                 Key::load(&k)?;
             } else {
-                std::fs::create_dir_all(&args.out).map_err(|source| {
-                    UserError::OutFolder {
-                        path: args.out.clone(),
-                        source,
-                    }
+                std::fs::create_dir_all(&args.out).map_err(|source| UserError::OutFolder {
+                    path: args.out.clone(),
+                    source,
                 })?;
                 Key::create(&k)?;
                 println!("Created the telecommand key {} (mode 0600)", k.display());

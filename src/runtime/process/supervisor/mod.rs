@@ -165,7 +165,7 @@ pub(crate) fn campaign(args: &SupervisorArgs, p: &Prepared, hold: Hold) -> Outco
                 m.search = Some(p.search_json());
             }
             report.wall_time_s = Some(wall);
-            let mut timing = timing_json(args, &s, &members);
+            let mut timing = timing_json(args, s, &members);
             if let (Some(h), Some(t)) = (&hosts, timing.as_object_mut()) {
                 t.insert("tunnel_hop_us".into(), h["tunnel_hop_us"].clone());
                 t.insert("clocks".into(), h["clocks"].clone());

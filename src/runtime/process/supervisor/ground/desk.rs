@@ -13,7 +13,7 @@ use crate::runtime::process::set::SupervisorArgs;
 use crate::runtime::process::supervisor::locks::{claim, Janitor};
 use crate::runtime::process::supervisor::{campaign, write_reports, Hold, Outcome, Prepared};
 use crate::sim::msg::{
-    GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus, NOTE_DONE,
+    EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus, NOTE_DONE,
     NOTE_EVENT, NOTE_STARTED, PROC_TMTC, REQ_STOP, SET_RUNNING,
 };
 use std::collections::VecDeque;
@@ -67,8 +67,9 @@ struct Running {
 /// The ports of the ground supervisor's node.
 struct Ports {
     requests: Sub<GroundRequest>,
-    progress: Sub<Progress>,
+    beats: Sub<Progress>,
     status: Sub<SetStatus>,
+    estimates: Sub<EstimateMsg>,
     notes: Pub<GroundNote>,
     state: Pub<GroundState>,
     stop: Pub<Request>,
@@ -89,6 +90,9 @@ struct Desk<'a> {
     /// Notes waiting for the TMTC process to be heard.
     pending: VecDeque<GroundNote>,
     seq: u64,
+    /// The campaign's latest estimate and status, relayed in `GroundState`.
+    estimate: EstimateMsg,
+    set: SetStatus,
 }
 
 /// Serve the link until function 5 or a signal; returns the exit code.
@@ -124,8 +128,9 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
     let node = wiring::node("taiji-supervisor", &args.bus_prefix)?;
     let ports = Ports {
         requests: wiring::subscriber(&node, wiring::SVC_GROUND_REQUEST)?,
-        progress: wiring::subscriber(&node, wiring::SVC_PROGRESS)?,
+        beats: wiring::subscriber(&node, wiring::SVC_GROUND_BEAT)?,
         status: wiring::subscriber(&node, wiring::SVC_STATUS)?,
+        estimates: wiring::subscriber(&node, wiring::SVC_ESTIMATE)?,
         notes: wiring::publisher(&node, wiring::SVC_GROUND_NOTE)?,
         state: wiring::publisher(&node, wiring::SVC_GROUND_STATE)?,
         stop: wiring::publisher(&node, wiring::SVC_REQUEST)?,
@@ -150,6 +155,11 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
         stage_restarts: 0,
         pending: VecDeque::new(),
         seq: 0,
+        estimate: EstimateMsg::default(),
+        set: SetStatus {
+            state: 0,
+            ..Default::default()
+        },
     };
     if let Some(p) = problem {
         eprintln!("taiji-supervisor: {p}");
@@ -162,9 +172,8 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
         args.out.display()
     );
     let code = desk.run(&node, &ports);
-    desk.tmtc.stop(Duration::from_secs_f64(
-        desk.prepared.launch.stop_timeout_s,
-    ));
+    desk.tmtc
+        .stop(Duration::from_secs_f64(desk.prepared.launch.stop_timeout_s));
     Ok(code)
 }
 
@@ -186,7 +195,11 @@ fn last_campaign(out: &std::path::Path) -> u32 {
 }
 
 impl Desk<'_> {
-    fn run(&mut self, node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>, ports: &Ports) -> u8 {
+    fn run(
+        &mut self,
+        node: &iceoryx2::prelude::Node<iceoryx2::prelude::ipc::Service>,
+        ports: &Ports,
+    ) -> u8 {
         let mut last_state: Option<Instant> = None;
         let mut shutdown: Option<(Instant, u8)> = None;
         loop {
@@ -222,7 +235,21 @@ impl Desk<'_> {
             if let Ok(Some(st)) = latest(&ports.status) {
                 self.status(&st);
             }
-            if self.running.as_ref().is_some_and(|r| r.thread.is_finished()) {
+            // Every estimate: a status word that changed is said at once.
+            let mut changed = false;
+            while let Ok(Some(e)) = wiring::receive(&ports.estimates) {
+                changed |= e.status != self.estimate.status;
+                self.estimate = e;
+                if changed {
+                    self.say_state(ports);
+                    changed = false;
+                }
+            }
+            if self
+                .running
+                .as_ref()
+                .is_some_and(|r| r.thread.is_finished())
+            {
                 self.join_campaign(false);
             }
             if last_state.is_none_or(|t| t.elapsed() >= STATE_EVERY) {
@@ -233,7 +260,11 @@ impl Desk<'_> {
             if let Some((t, code)) = shutdown {
                 if self.running.is_some() {
                     self.stop_campaign(ports);
-                    if self.running.as_ref().is_some_and(|r| r.thread.is_finished()) {
+                    if self
+                        .running
+                        .as_ref()
+                        .is_some_and(|r| r.thread.is_finished())
+                    {
                         self.join_campaign(code == 130);
                     }
                     continue;
@@ -247,7 +278,7 @@ impl Desk<'_> {
 
     /// Take in the TMTC process's heartbeats.
     fn hear(&mut self, ports: &Ports) {
-        while let Ok(Some(p)) = wiring::receive(&ports.progress) {
+        while let Ok(Some(p)) = wiring::receive(&ports.beats) {
             if p.process == PROC_TMTC {
                 self.tmtc.heard(&p);
             }
@@ -324,12 +355,12 @@ impl Desk<'_> {
         let run_args = args.clone();
         let thread = std::thread::Builder::new()
             .name(format!("campaign-{n}"))
-            .spawn(move || {
-                match prepare_campaign(&mut prepared, seed, duration_s, table) {
+            .spawn(
+                move || match prepare_campaign(&mut prepared, seed, duration_s, table) {
                     Ok(()) => campaign(&run_args, &prepared, Hold::Held),
                     Err(e) => Outcome::UserError(e),
-                }
-            });
+                },
+            );
         match thread {
             Ok(thread) => {
                 self.result = None;
@@ -381,7 +412,10 @@ impl Desk<'_> {
             if let Some(t) = run.start.or(run.stop) {
                 self.done(t, Some(Failure::CampaignFailed));
             }
-            self.event(event::CAMPAIGN_ENDED_EARLY, [u64::from(n), ENDED_FAILED, 0, 0]);
+            self.event(
+                event::CAMPAIGN_ENDED_EARLY,
+                [u64::from(n), ENDED_FAILED, 0, 0],
+            );
             self.set_mode(Mode::Standby);
             return;
         };
@@ -422,12 +456,18 @@ impl Desk<'_> {
             Outcome::UserError(e) => {
                 eprintln!("taiji-supervisor: campaign {n} refused: {e}");
                 failed = Some(Failure::CampaignFailed);
-                self.event(event::CAMPAIGN_ENDED_EARLY, [u64::from(n), ENDED_FAILED, 0, 0]);
+                self.event(
+                    event::CAMPAIGN_ENDED_EARLY,
+                    [u64::from(n), ENDED_FAILED, 0, 0],
+                );
             }
             Outcome::SetFailed(e) => {
                 eprintln!("taiji-supervisor: campaign {n}: the process set failed: {e}");
                 failed = Some(Failure::CampaignFailed);
-                self.event(event::CAMPAIGN_ENDED_EARLY, [u64::from(n), ENDED_FAILED, 0, 0]);
+                self.event(
+                    event::CAMPAIGN_ENDED_EARLY,
+                    [u64::from(n), ENDED_FAILED, 0, 0],
+                );
             }
             Outcome::HostStopped(m) => println!("taiji-supervisor: {m}"),
         }
@@ -437,6 +477,7 @@ impl Desk<'_> {
         if let Some(t) = run.stop {
             self.done(t, None);
         }
+        self.set.state = 0;
         if self.mode == Mode::Running {
             self.set_mode(Mode::Standby);
         }
@@ -444,6 +485,7 @@ impl Desk<'_> {
 
     /// The set's status while a campaign runs: its start is answered once it runs.
     fn status(&mut self, st: &SetStatus) {
+        self.set = *st;
         if st.state != SET_RUNNING {
             return;
         }
@@ -523,6 +565,8 @@ impl Desk<'_> {
             table_campaign,
             table_previous: u32::from(self.table.can_restore()),
             table,
+            estimate: self.estimate,
+            set: self.set,
         };
         if let Err(e) = wiring::publish(&ports.state, st) {
             log::warn!("ground state not sent: {e}");
