@@ -64,6 +64,7 @@ struct Station {
     child: Child,
     state: Pub<GroundState>,
     progress: Sub<Progress>,
+    beat_sub: Sub<Progress>,
     ground: UdpSocket,
     target: SocketAddr,
     key: Key,
@@ -81,7 +82,9 @@ impl Station {
     fn start(pfx: &str, dir: &Path, key_path: &Path, g: GroundState) -> Station {
         let node = wiring::node("tmtc-test", pfx).unwrap();
         let state = wiring::publisher::<GroundState>(&node, wiring::SVC_GROUND_STATE).unwrap();
+        // Its heartbeats: on the stages' service or on its own.
         let progress = wiring::subscriber::<Progress>(&node, wiring::SVC_PROGRESS).unwrap();
+        let beat_sub = wiring::subscriber::<Progress>(&node, wiring::SVC_GROUND_BEAT).unwrap();
         let target = free_addr();
         let child = tmtc(pfx, dir, target, key_path).spawn().unwrap();
         let ground = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -92,6 +95,7 @@ impl Station {
             child,
             state,
             progress,
+            beat_sub,
             ground,
             target,
             key: Key::load(key_path).unwrap(),
@@ -110,9 +114,11 @@ impl Station {
             wiring::publish(&self.state, self.ground_state).unwrap();
             self.last_state = Instant::now();
         }
-        while let Some(p) = wiring::receive(&self.progress).unwrap() {
-            if p.process == PROC_TMTC {
-                self.beat = Some(p);
+        for sub in [&self.progress, &self.beat_sub] {
+            while let Some(p) = wiring::receive(sub).unwrap() {
+                if p.process == PROC_TMTC {
+                    self.beat = Some(p);
+                }
             }
         }
     }

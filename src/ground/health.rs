@@ -191,7 +191,8 @@ pub const HEALTH: &[HealthField] = &[
         kind: Kind::U32,
         elements: Elements::One,
         unit: "",
-        meaning: "telemetry packets the socket refused",
+        meaning:
+            "telemetry packets not sent: refused by the socket, or dropped with the outbox full",
         read: |h, _| h.tm_send_errors.into(),
     },
 ];
