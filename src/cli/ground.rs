@@ -1,10 +1,27 @@
-//! `taiji-calib ground`: the ground side of the link (docs/ground.md).
+//! `taiji-calib ground`: the ground side of the link (docs/ground.md). Each
+//! telecommand's subcommand sends it signed, then prints every telemetry packet that
+//! comes back until its exchange is over: exit 0 when it succeeded, 1 on a failure
+//! report, 3 when the set did not answer in time. `listen` prints (and saves) the
+//! telemetry as it comes; `decode` prints a saved stream; `dictionary` the interface.
 
-use super::args::{DictionaryFormat, GroundCmd};
+use super::args::GroundCmd;
 use super::error::CliError;
+use super::ground_args::{DictionaryFormat, ExchangeArgs, LinkArgs};
+use crate::ground::client::{self, saved, Link, Received};
+use crate::ground::describe::{describe, Described};
+use crate::ground::dictionary::Function;
+use crate::ground::exchange::{Exchange, Outcome};
 use crate::ground::publish;
+use crate::ground::tc::{self, Reply, Request};
 use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+/// Exit code of a failure report.
+const FAILED: u8 = 1;
+/// Exit code of an exchange the set did not finish in time.
+const TIMED_OUT: u8 = 3;
 
 pub(crate) fn run(cmd: GroundCmd) -> Result<ExitCode, CliError> {
     match cmd {
@@ -17,5 +34,249 @@ pub(crate) fn run(cmd: GroundCmd) -> Result<ExitCode, CliError> {
             let _ = std::io::stdout().lock().write_all(text.as_bytes());
             Ok(ExitCode::SUCCESS)
         }
+        GroundCmd::Decode { file, json } => decode(&file, json),
+        GroundCmd::Listen {
+            save,
+            keepalive,
+            seconds,
+            link,
+        } => listen(save, keepalive, seconds, &link),
+        tc => match request(tc)? {
+            Some((req, x)) => exchange(&req, &x),
+            None => Ok(ExitCode::from(2)),
+        },
+    }
+}
+
+/// The telecommand of a subcommand, and its exchange's options (None: a subcommand
+/// that sends none).
+fn request(cmd: GroundCmd) -> Result<Option<(Request, ExchangeArgs)>, CliError> {
+    Ok(Some(match cmd {
+        GroundCmd::Ping { x } => (Request::Ping, x),
+        GroundCmd::Start { seed, duration, x } => (
+            Request::Function(Function::Start {
+                seed,
+                duration_s: duration,
+            }),
+            x,
+        ),
+        GroundCmd::Stop { x } => (Request::Function(Function::Stop), x),
+        GroundCmd::Apply { x } => (Request::Function(Function::Apply), x),
+        GroundCmd::Restore { x } => (Request::Function(Function::Restore), x),
+        GroundCmd::Shutdown { x } => (Request::Function(Function::Shutdown), x),
+        GroundCmd::HkEnable { ids, x } => (Request::HkEnable(tc::structure_ids(&ids)?), x),
+        GroundCmd::HkDisable { ids, x } => (Request::HkDisable(tc::structure_ids(&ids)?), x),
+        GroundCmd::HkInterval { id, ms, x } => (Request::HkInterval(vec![(id, ms)]), x),
+        GroundCmd::HkNow { ids, x } => (Request::HkNow(tc::structure_ids(&ids)?), x),
+        GroundCmd::EventEnable { ids, x } => (Request::EventEnable(tc::event_ids(&ids)?), x),
+        GroundCmd::EventDisable { ids, x } => (Request::EventDisable(tc::event_ids(&ids)?), x),
+        GroundCmd::Get { ids, x } => (Request::Get(tc::parameter_ids(&ids)?), x),
+        GroundCmd::Set { values, x } => (Request::Set(tc::assignments(&values)?), x),
+        GroundCmd::Dictionary { .. } | GroundCmd::Decode { .. } | GroundCmd::Listen { .. } => {
+            return Ok(None)
+        }
+    }))
+}
+
+/// Seconds of option `--name`, finite and ≥ 0.
+fn seconds(name: &'static str, value: f64) -> Result<Duration, CliError> {
+    if (0.0..1e9).contains(&value) {
+        Ok(Duration::from_secs_f64(value))
+    } else {
+        Err(CliError::Seconds { name, value })
+    }
+}
+
+/// Prints a packet as a line of text or JSON; false once stdout is closed.
+fn emit(d: &Described, json: bool) -> bool {
+    let mut out = std::io::stdout().lock();
+    let line = if json {
+        d.value.to_string()
+    } else {
+        d.text.clone()
+    };
+    writeln!(out, "{line}").and_then(|_| out.flush()).is_ok()
+}
+
+/// The name of a verification report's stage by its subtype.
+fn stage(subtype: u8) -> &'static str {
+    match subtype {
+        1 | 2 => "acceptance",
+        3 | 4 => "start",
+        5 | 6 => "progress",
+        _ => "completion",
+    }
+}
+
+/// Sends `req`, prints the telemetry until its exchange is over; the exit code.
+fn exchange(req: &Request, x: &ExchangeArgs) -> Result<ExitCode, CliError> {
+    let timeout = seconds("timeout", x.timeout)?;
+    let app_data = req.app_data()?;
+    Exchange::check(x.ack, &req.reply())?;
+    let mut link = Link::open(&x.link.config())?;
+    let (service, subtype) = req.service();
+    let sent = link.send(service, subtype, x.ack, &app_data)?;
+    let mut ex = Exchange::new(&sent, req.reply())?;
+    eprintln!(
+        "sent {service},{subtype} (sequence number {}) to {}",
+        sent.seq,
+        link.to()
+    );
+    let deadline = Instant::now() + timeout;
+    loop {
+        match link.receive_until(deadline)? {
+            Received::Datagram(d) => {
+                let desc = describe(&d);
+                emit(&desc, x.link.json);
+                match ex.take(&desc) {
+                    Some(Outcome::Done) => return Ok(ExitCode::SUCCESS),
+                    Some(Outcome::Failed {
+                        subtype,
+                        code,
+                        name,
+                        meaning,
+                    }) => {
+                        eprintln!(
+                            "error: {service},{subtype} failed at {}: failure {code} {name}: {meaning}",
+                            stage(subtype)
+                        );
+                        return Ok(ExitCode::from(FAILED));
+                    }
+                    None => {}
+                }
+            }
+            Received::Refused => {
+                eprintln!(
+                    "error: nothing listens on {} (the datagram was refused): is the set up with --ground {}?",
+                    link.to(),
+                    link.to()
+                );
+                return Ok(ExitCode::from(TIMED_OUT));
+            }
+            Received::Nothing if ex.heard() => {
+                eprintln!(
+                    "error: no end of the exchange within {} s: still waiting for {}",
+                    x.timeout,
+                    ex.awaited()
+                );
+                return Ok(ExitCode::from(TIMED_OUT));
+            }
+            Received::Nothing => {
+                eprintln!(
+                    "error: nothing heard from {} within {} s (is the set up, on this address?)",
+                    link.to(),
+                    x.timeout
+                );
+                return Ok(ExitCode::from(TIMED_OUT));
+            }
+        }
+    }
+}
+
+/// Receives in slices of this at most (to see a signal or the next keepalive).
+const SLICE: Duration = Duration::from_millis(100);
+
+fn listen(
+    save: Option<PathBuf>,
+    keepalive: f64,
+    end: Option<f64>,
+    args: &LinkArgs,
+) -> Result<ExitCode, CliError> {
+    let keepalive = seconds("keepalive", keepalive)?;
+    let end = end.map(|s| seconds("seconds", s)).transpose()?;
+    let mut file = match &save {
+        Some(p) => Some(
+            std::fs::OpenOptions::new()
+                .append(true)
+                .create(true)
+                .open(p)
+                .map_err(|source| CliError::Save {
+                    path: p.clone(),
+                    source,
+                })?,
+        ),
+        None => None,
+    };
+    let mut link = Link::open(&args.config())?;
+    client::catch_termination();
+    let t0 = Instant::now();
+    let mut next_ping = Some(t0);
+    let mut ping: Option<Exchange> = None;
+    let mut refused_said = false;
+    loop {
+        let now = Instant::now();
+        if client::terminated() || end.is_some_and(|e| now - t0 >= e) {
+            return Ok(ExitCode::SUCCESS);
+        }
+        if next_ping.is_some_and(|at| now >= at) {
+            // No reports asked for: the set answers 17,2 (and a failure, if any).
+            let sent = link.send(17, 1, 0, &[])?;
+            ping = Exchange::new(&sent, Reply::Pong).ok();
+            next_ping = (!keepalive.is_zero()).then(|| now + keepalive);
+        }
+        let mut wait = SLICE;
+        if let Some(at) = next_ping {
+            wait = wait.min(at.saturating_duration_since(now));
+        }
+        if let Some(e) = end {
+            wait = wait.min((t0 + e).saturating_duration_since(now));
+        }
+        match link.receive(wait)? {
+            Received::Datagram(d) => {
+                if let (Some(f), Some(p)) = (file.as_mut(), &save) {
+                    saved::write(f, &d).map_err(|source| CliError::Save {
+                        path: p.clone(),
+                        source,
+                    })?;
+                }
+                let desc = describe(&d);
+                if !emit(&desc, args.json) {
+                    return Ok(ExitCode::SUCCESS);
+                }
+                if let Some(Outcome::Failed {
+                    code,
+                    name,
+                    meaning,
+                    ..
+                }) = ping.as_mut().and_then(|p| p.take(&desc))
+                {
+                    eprintln!(
+                        "error: the keepalive ping was refused: failure {code} {name}: {meaning}"
+                    );
+                    return Ok(ExitCode::from(FAILED));
+                }
+            }
+            Received::Refused if !refused_said => {
+                refused_said = true;
+                let again = if keepalive.is_zero() {
+                    "".to_string()
+                } else {
+                    format!(" yet; pinging again every {} s", keepalive.as_secs_f64())
+                };
+                eprintln!("nothing listens on {}{again}", link.to());
+            }
+            Received::Refused | Received::Nothing => {}
+        }
+    }
+}
+
+/// Prints the packets of a saved stream.
+fn decode(file: &Path, json: bool) -> Result<ExitCode, CliError> {
+    let bytes = std::fs::read(file).map_err(|source| CliError::Save {
+        path: file.to_path_buf(),
+        source,
+    })?;
+    let (packets, err) = saved::read(&bytes);
+    for p in packets {
+        if !emit(&describe(p), json) {
+            break;
+        }
+    }
+    match err {
+        Some(source) => Err(CliError::Saved {
+            path: file.to_path_buf(),
+            source,
+        }),
+        None => Ok(ExitCode::SUCCESS),
     }
 }

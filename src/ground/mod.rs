@@ -4,11 +4,19 @@
 //! layouts that the code and the published dictionary share (`dictionary`,
 //! `housekeeping`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
 //! (`tables`). docs/ground.md describes them.
+//!
+//! The ground side: the link that sends authenticated telecommands and receives the
+//! telemetry (`client`), with its sequence counter (`seq`), the telecommands built from
+//! what an operator types (`tc`), and any telemetry packet decoded for people and
+//! scripts (`describe`), and when a telecommand's exchange is over (`exchange`).
 
 pub mod auth;
+pub mod client;
 pub mod crc;
+pub mod describe;
 pub mod dictionary;
 pub mod events;
+pub mod exchange;
 pub mod health;
 pub mod housekeeping;
 pub mod packet;
@@ -16,4 +24,6 @@ pub mod parameters;
 pub mod publish;
 pub mod replay;
 pub mod requests;
+pub mod seq;
 pub mod tables;
+pub mod tc;
