@@ -10,9 +10,9 @@ use super::ground_args::{DictionaryFormat, ExchangeArgs, LinkArgs};
 use crate::ground::client::{self, saved, Link, Received};
 use crate::ground::describe::{describe, Described};
 use crate::ground::dictionary::Function;
-use crate::ground::exchange::{Exchange, Outcome};
+use crate::ground::exchange::{Exchange, Keepalive, Outcome};
 use crate::ground::publish;
-use crate::ground::tc::{self, Reply, Request};
+use crate::ground::tc::{self, Request};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -200,22 +200,15 @@ fn listen(
     let mut link = Link::open(&args.config())?;
     client::catch_termination();
     let t0 = Instant::now();
-    let mut next_ping = Some(t0);
-    let mut ping: Option<Exchange> = None;
+    let mut keep = Keepalive::new(keepalive);
     let mut refused_said = false;
     loop {
         let now = Instant::now();
         if client::terminated() || end.is_some_and(|e| now - t0 >= e) {
             return Ok(ExitCode::SUCCESS);
         }
-        if next_ping.is_some_and(|at| now >= at) {
-            // No reports asked for: the set answers 17,2 (and a failure, if any).
-            let sent = link.send(17, 1, 0, &[])?;
-            ping = Exchange::new(&sent, Reply::Pong).ok();
-            next_ping = (!keepalive.is_zero()).then(|| now + keepalive);
-        }
         let mut wait = SLICE;
-        if let Some(at) = next_ping {
+        if let Some(at) = keep.tick(&mut link)? {
             wait = wait.min(at.saturating_duration_since(now));
         }
         if let Some(e) = end {
@@ -238,7 +231,7 @@ fn listen(
                     name,
                     meaning,
                     ..
-                }) = ping.as_mut().and_then(|p| p.take(&desc))
+                }) = keep.refusal(&desc)
                 {
                     eprintln!(
                         "error: the keepalive ping was refused: failure {code} {name}: {meaning}"

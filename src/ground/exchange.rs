@@ -172,6 +172,48 @@ impl Exchange {
     }
 }
 
+/// Keeps the telemetry coming to a link's socket: telemetry goes to the sender of the
+/// last accepted telecommand, so a listener pings (17,1, no reports asked for: only the
+/// 17,2 and a failure come back) at start and every `every` (zero: only at start).
+#[derive(Debug)]
+pub struct Keepalive {
+    every: std::time::Duration,
+    next: Option<std::time::Instant>,
+    last: Option<Exchange>,
+}
+
+impl Keepalive {
+    pub fn new(every: std::time::Duration) -> Keepalive {
+        Keepalive {
+            every,
+            next: Some(std::time::Instant::now()),
+            last: None,
+        }
+    }
+
+    /// Pings when it is time; the time of the next ping (None: no more).
+    pub fn tick(
+        &mut self,
+        link: &mut super::client::Link,
+    ) -> Result<Option<std::time::Instant>, super::client::ClientError> {
+        let now = std::time::Instant::now();
+        if self.next.is_some_and(|at| now >= at) {
+            let sent = link.send(17, 1, 0, &[])?;
+            self.last = Exchange::new(&sent, Reply::Pong).ok();
+            self.next = (!self.every.is_zero()).then(|| now + self.every);
+        }
+        Ok(self.next)
+    }
+
+    /// A failure report of the last ping (its key is wrong, say), if this is one.
+    pub fn refusal(&mut self, d: &Described) -> Option<Outcome> {
+        match self.last.as_mut().and_then(|x| x.take(d)) {
+            Some(f @ Outcome::Failed { .. }) => Some(f),
+            _ => None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,8 @@
 //! The ground side: the link that sends authenticated telecommands and receives the
 //! telemetry (`client`), with its sequence counter (`seq`), the telecommands built from
 //! what an operator types (`tc`), and any telemetry packet decoded for people and
-//! scripts (`describe`), and when a telecommand's exchange is over (`exchange`).
+//! scripts (`describe`), when a telecommand's exchange is over (`exchange`), and
+//! housekeeping read back into the messages it was made from (`readback`).
 
 pub mod auth;
 pub mod client;
@@ -22,6 +23,7 @@ pub mod housekeeping;
 pub mod packet;
 pub mod parameters;
 pub mod publish;
+pub mod readback;
 pub mod replay;
 pub mod requests;
 pub mod seq;
