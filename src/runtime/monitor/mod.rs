@@ -55,7 +55,7 @@ pub struct MonitorArgs {
     pub png: Option<PathBuf>,
     /// Draw the screen from the ground link's telemetry alone, no shared memory: the
     /// set's address (`tools/launch --ground ADDR`). Needs --key.
-    #[arg(long, value_name = "ADDR", requires = "key", conflicts_with = "hosts", value_parser = address)]
+    #[arg(long, value_name = "ADDR", requires = "key", conflicts_with_all = ["hosts", "bus_prefix"], value_parser = address)]
     pub ground: Option<SocketAddr>,
     /// With --ground: the link's key file (readable by its owner only).
     #[arg(long, requires = "ground")]
