@@ -1,6 +1,6 @@
 //! `taiji-supervisor`: wiring only — see `taiji::runtime::process::supervisor`.
 use clap::Parser;
-use taiji::runtime::process::supervisor::{run, Outcome, SupervisorArgs};
+use taiji::runtime::process::supervisor::{report_dir, run, write_reports, Outcome, SupervisorArgs};
 
 fn main() -> std::process::ExitCode {
     taiji::runtime::process::init_logging();
@@ -10,6 +10,9 @@ fn main() -> std::process::ExitCode {
         return std::process::ExitCode::SUCCESS;
     }
     args.record |= args.plots;
+    if args.ground.is_some() {
+        return std::process::ExitCode::from(taiji::runtime::process::supervisor::ground::run(&args));
+    }
     let outcome = run(&args);
     match &outcome {
         Outcome::Completed { report, .. } => {
@@ -39,38 +42,3 @@ fn main() -> std::process::ExitCode {
     std::process::ExitCode::from(outcome.exit_code())
 }
 
-/// Why the reports of a completed run could not be written (exit 2).
-#[derive(Debug, thiserror::Error)]
-enum ReportsError {
-    #[error(transparent)]
-    Report(#[from] taiji::analysis::report::ReportError),
-    /// The recording could not be read back for the figures.
-    #[error(transparent)]
-    Telemetry(#[from] taiji::telemetry::TelemetryError),
-    #[error(transparent)]
-    Plot(#[from] taiji::analysis::plots::PlotError),
-}
-
-/// report.json, report.md, report.html, and the figures from the recording.
-fn write_reports(
-    args: &SupervisorArgs,
-    report: &taiji::analysis::report::Report,
-) -> Result<(), ReportsError> {
-    let dir = report_dir(args);
-    taiji::analysis::report::write(dir, report)?;
-    // The figures live beside the recording; report.html links them only from there.
-    let plots = args.plots && dir == args.out;
-    if plots {
-        let path = args
-            .out
-            .join(taiji::runtime::process::recorder::TELEMETRY_FILE);
-        let (tel, s) = taiji::telemetry::truth::full(&path)?;
-        taiji::analysis::plots::write_all(&tel, &s, &args.out)?;
-    }
-    Ok(taiji::analysis::report_doc::write(report, dir, plots)?)
-}
-
-/// Where the reports go: `--report-dir`, else `--out`.
-fn report_dir(args: &SupervisorArgs) -> &std::path::Path {
-    args.report_dir.as_deref().unwrap_or(&args.out)
-}

@@ -337,7 +337,7 @@ impl Mode {
 }
 
 /// How many failure codes there are (`Failure::ALL`).
-pub const N_FAILURES: usize = 28;
+pub const N_FAILURES: usize = 30;
 
 /// Failure codes of a failed verification report (1,2 / 1,4 / 1,8): one per class of
 /// refused telecommand.
@@ -372,6 +372,8 @@ pub enum Failure {
     NothingToRestore = 26,
     StateNotSaved = 27,
     ReadOnly = 28,
+    TableNotSaved = 29,
+    CampaignFailed = 30,
 }
 
 impl Failure {
@@ -405,6 +407,8 @@ impl Failure {
         Failure::NothingToRestore,
         Failure::StateNotSaved,
         Failure::ReadOnly,
+        Failure::TableNotSaved,
+        Failure::CampaignFailed,
     ];
 
     /// The code on the wire.
@@ -496,6 +500,14 @@ impl Failure {
                 "the anti-replay state could not be written: not executed",
             ),
             Failure::ReadOnly => ("read_only", "20,3 on a parameter that cannot be set"),
+            Failure::TableNotSaved => (
+                "table_not_saved",
+                "the table could not be written: not applied",
+            ),
+            Failure::CampaignFailed => (
+                "campaign_failed",
+                "the campaign was refused or its process set failed (the supervisor's log says why)",
+            ),
         }
     }
 

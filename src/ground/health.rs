@@ -4,15 +4,12 @@
 //! dictionary. Re-exported by `housekeeping`.
 
 use super::dictionary::{write_bits, Kind, N_FAILURES};
-use super::housekeeping::{data_len_of, Elements};
+use super::layout::{data_len_of, Elements};
+pub use super::layout::{STAGES, STAGE_NAMES};
 use super::packet::EncodeError;
 
 /// The structure ID of the set's health.
 pub const STRUCTURE_HEALTH: u16 = 2;
-/// The stage processes structure 2 reports on.
-pub const STAGES: usize = 5;
-/// Their names, in order (`PROC_COMMANDER` … `PROC_RECORDER`).
-pub const STAGE_NAMES: [&str; STAGES] = ["commander", "plant", "fee", "estimator", "recorder"];
 
 /// What a report of structure 2 is made from.
 #[derive(Debug, Clone, Copy, PartialEq)]

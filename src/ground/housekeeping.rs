@@ -6,12 +6,11 @@
 //! `columns` lists either structure's values, one per element, as decoders and the
 //! dictionary read them.
 
-use super::dictionary::{read_bits, Failure, Kind, Mode, N_FAILURES};
-pub use super::health::{
-    encode_health, Health, HealthField, HEALTH, HEALTH_LEN, STAGES, STAGE_NAMES, STRUCTURE_HEALTH,
-};
+use super::dictionary::{read_bits, Kind, Mode};
+pub use super::health::{encode_health, Health, HealthField, HEALTH, HEALTH_LEN, STRUCTURE_HEALTH};
+pub use super::layout::{data_len_of, Elements, STAGES, STAGE_NAMES};
 use super::packet::EncodeError;
-use crate::sim::msg::{EstimateMsg, GROUP_NAMES, N_GROUPS};
+use crate::sim::msg::EstimateMsg;
 
 /// The structure ID of the latest estimate.
 pub const STRUCTURE_ESTIMATE: u16 = 1;
@@ -21,48 +20,6 @@ pub const STRUCTURE_ESTIMATE: u16 = 1;
 pub struct Source<'a> {
     pub estimate: &'a EstimateMsg,
     pub mode: Mode,
-}
-
-/// How a field's elements are named.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Elements {
-    /// One value.
-    One,
-    /// Per IS and axis: `is1_x` … `is2_z` (IS 1 first).
-    IsAxis,
-    /// Per residual group (`GROUP_NAMES`).
-    Group,
-    /// Per stage process (`STAGE_NAMES`: commander, plant, fee, estimator, recorder).
-    Stage,
-    /// Latency statistics: p50, p99, max.
-    Percentile,
-    /// Per failure code, in code order (`Failure::ALL`), by its name.
-    FailureCode,
-}
-
-impl Elements {
-    pub const fn count(self) -> usize {
-        match self {
-            Elements::One => 1,
-            Elements::IsAxis => 6,
-            Elements::Group => N_GROUPS,
-            Elements::Stage => STAGES,
-            Elements::Percentile => 3,
-            Elements::FailureCode => N_FAILURES,
-        }
-    }
-
-    /// The suffix of element `i` (empty for `One`).
-    pub fn suffix(self, i: usize) -> String {
-        match self {
-            Elements::One => String::new(),
-            Elements::IsAxis => format!("_is{}_{}", i / 3 + 1, ["x", "y", "z"][i % 3]),
-            Elements::Group => format!("_{}", GROUP_NAMES[i]),
-            Elements::Stage => format!("_{}", STAGE_NAMES[i]),
-            Elements::Percentile => format!("_{}", ["p50", "p99", "max"][i]),
-            Elements::FailureCode => format!("_{}", Failure::ALL[i].name()),
-        }
-    }
 }
 
 /// A field of a housekeeping structure.
@@ -196,11 +153,6 @@ pub const ESTIMATE: &[Field] = &[
         read: |s, _| s.mode as u64,
     },
 ];
-
-/// Bytes of a field of `kind` with `elements`.
-pub const fn data_len_of(kind: Kind, elements: Elements) -> usize {
-    kind.size() * elements.count()
-}
 
 /// Bytes of a structure's source data: its ID and its fields.
 pub const fn data_len(fields: &[Field]) -> usize {

@@ -31,6 +31,10 @@ pub struct ProcessSpec {
     /// Started only when the run records telemetry (`--record`).
     #[serde(default)]
     pub record_only: bool,
+    /// Started only when the set is operated from the ground (`--ground`): it lives
+    /// across campaigns and is never one of a campaign's processes.
+    #[serde(default)]
+    pub ground_only: bool,
     /// SCHED_FIFO priority in real-time runs (1–99; 0 = normal scheduling).
     #[serde(default)]
     pub rt_priority: u8,
@@ -239,7 +243,12 @@ impl LaunchDescription {
     pub fn processes(&self, record: bool) -> impl Iterator<Item = &ProcessSpec> {
         self.process
             .iter()
-            .filter(move |p| record || !p.record_only)
+            .filter(move |p| (record || !p.record_only) && !p.ground_only)
+    }
+
+    /// The TMTC process of a set operated from the ground, when listed.
+    pub fn ground_process(&self) -> Option<&ProcessSpec> {
+        self.process.iter().find(|p| p.ground_only)
     }
 
     /// The host a process runs on ("" when the set has a single host).
@@ -285,6 +294,22 @@ mod tests {
         assert_eq!(est.restart, Restart::OnFailure);
         let plant = d.process.iter().find(|p| p.name == "taiji-plant").unwrap();
         assert_eq!(plant.restart, Restart::Never);
+    }
+
+    #[test]
+    fn the_ground_process_is_in_no_campaign() {
+        let d = LaunchDescription::load_or_default(None).unwrap();
+        let g = d.ground_process().unwrap();
+        assert_eq!(
+            (g.name.as_str(), g.restart, g.max_restarts),
+            ("taiji-tmtc", Restart::OnFailure, 5)
+        );
+        for record in [false, true] {
+            assert!(d
+                .processes(record)
+                .all(|p| !p.ground_only && p.name != "taiji-tmtc"));
+        }
+        assert_eq!(d.processes(true).count(), 5);
     }
 
     #[test]

@@ -67,11 +67,14 @@ impl Report {
                 est.r_sigma[i],
                 crlb.com_offset_m[i],
             );
+            beta.prior = priors[i].beta;
+            k.prior = crate::sim::scenario::k_from_beta(&is.geometry_m, &priors[i].beta);
+            r.prior = priors[i].com_offset_m;
             if method == "joint" {
                 // The joint estimator's prior (the paper's filter has its own).
                 use crate::sim::estimate::joint::{PRIOR_BETA_REL, PRIOR_COM_M};
-                let pk = crate::sim::scenario::k_from_beta(&is.geometry_m, &priors[i].beta);
                 beta = beta.with_prior(priors[i].beta.map(|b| PRIOR_BETA_REL * b.abs()));
+                let pk = k.prior;
                 k = k.with_prior(pk.map(|x| PRIOR_BETA_REL * x.abs()));
                 r = r.with_prior([PRIOR_COM_M; 3]);
             }
@@ -94,6 +97,7 @@ impl Report {
             duration_s: s.duration_s,
             mode: mode.into(),
             method: method.into(),
+            priors_source: s.priors_source,
             inertial_sensors: iss,
             requirements: Requirements {
                 scale_factor_rel: REQ_SCALE_FACTOR_REL,

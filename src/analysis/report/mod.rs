@@ -2,13 +2,16 @@
 //! paper's Tables 2–3.
 
 mod build;
+mod onboard;
 mod table;
 #[cfg(test)]
 mod tests;
 
 use crate::sim::files::FileError;
 pub use crate::sim::requirements::{REQ_COM_M, REQ_SCALE_FACTOR_REL};
+pub use crate::sim::scenario::PriorsSource;
 use build::bound_with_prior;
+pub use onboard::table_values;
 use serde::{Deserialize, Serialize};
 pub use table::{fault_line, prediction_line, scheduling_line, Row};
 
@@ -19,6 +22,10 @@ pub struct Quantity {
     pub sigma: [f64; 3],
     /// The bound of the data alone (the Cramér–Rao bound of the maneuver flown).
     pub crlb: [f64; 3],
+    /// The prior the estimator started from (β and r: the scenario's or the onboard
+    /// table's, `Report::priors_source`; k: from β's through the geometry, k = G β).
+    #[serde(default)]
+    pub prior: [f64; 3],
     /// 1σ of the estimator's own prior (joint: 5 % of β's prior, 5 cm for r).
     #[serde(default)]
     pub prior_sigma: [f64; 3],
@@ -38,6 +45,7 @@ impl Quantity {
             estimate,
             sigma,
             crlb,
+            prior: [f64::NAN; 3],
             prior_sigma: [f64::NAN; 3],
             crlb_with_prior: [f64::NAN; 3],
             data_share: [f64::NAN; 3],
@@ -100,6 +108,10 @@ pub struct Report {
     pub duration_s: f64,
     pub mode: String,
     pub method: String,
+    /// Where the priors came from: "scenario", or "onboard_table" for a campaign that
+    /// started from the onboard calibration table (`Scenario::with_onboard_priors`).
+    #[serde(default)]
+    pub priors_source: PriorsSource,
     pub inertial_sensors: Vec<IsReport>,
     pub requirements: Requirements,
     /// Samples the estimator used and rejected (non-finite, saturated, invalid).

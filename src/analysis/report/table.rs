@@ -87,8 +87,16 @@ impl Report {
     fn write_parameters(&self, o: &mut String) {
         let _ = writeln!(
             o,
-            "Scenario {:?}, seed {}, {} s, {} ({} estimator)",
-            self.scenario, self.seed, self.duration_s, self.mode, self.method
+            "Scenario {:?}, seed {}, {} s, {} ({} estimator){}",
+            self.scenario,
+            self.seed,
+            self.duration_s,
+            self.mode,
+            self.method,
+            match self.priors_source {
+                PriorsSource::Scenario => "",
+                PriorsSource::OnboardTable => ", priors from the onboard calibration table",
+            }
         );
         let _ = writeln!(
             o,

@@ -18,6 +18,7 @@ pub mod set;
 pub mod status;
 pub mod supervisor;
 pub mod timing_report;
+pub mod tmtc;
 
 use crate::bus::timing::{monotonic_ns, LatencyHistogram};
 use crate::bus::wiring::{self, BusError, Pub, Sub};
@@ -46,6 +47,9 @@ pub enum ProcessError {
     Telemetry(#[from] crate::telemetry::TelemetryError),
     #[error(transparent)]
     FaultVar(#[from] FaultVarError),
+    /// The ground link's process (`taiji-tmtc`) could not start.
+    #[error(transparent)]
+    Tmtc(#[from] tmtc::TmtcError),
     /// `Link::new` for a binary that is no stage of `topology::STAGES`.
     #[error("{process} is no stage of the set (topology::STAGES)")]
     NotAStage { process: String },

@@ -71,6 +71,19 @@ pub struct SupervisorArgs {
     /// beside this executable).
     #[arg(long)]
     pub tunnel_bin: Option<PathBuf>,
+    /// Operate the set from the ground (docs/ground.md): come up in standby with the
+    /// TMTC process listening for telecommands on this UDP address (e.g.
+    /// 127.0.0.1:7301); each start runs a campaign into OUT/campaign-N; function 5 or
+    /// SIGTERM ends the set.
+    #[arg(long, value_name = "ADDR")]
+    pub ground: Option<String>,
+    /// With --ground: the telecommand key (64 hex characters, mode 0600). Default:
+    /// OUT/ground.key, created when missing.
+    #[arg(long, value_name = "FILE", requires = "ground")]
+    pub ground_key: Option<PathBuf>,
+    /// With --ground: allow an address that is not loopback.
+    #[arg(long, requires = "ground")]
+    pub ground_remote: bool,
 }
 
 pub(crate) struct Member {

@@ -328,24 +328,37 @@ impl Scenario {
                 pos(&key("beta"), is.beta[a])?;
                 pos(&key("geometry_m"), is.geometry_m[a])?;
             }
+            // Priors from the onboard table: present and finite, wherever the truth is.
+            let table = self.priors_source == PriorsSource::OnboardTable;
+            if table && (is.beta_prior.is_none() || is.com_offset_prior_m.is_none()) {
+                return err(
+                    "priors_source",
+                    &format!("\"onboard_table\" needs inertial_sensor[{i}].beta_prior and com_offset_prior_m (the table's values)"),
+                );
+            }
             if let Some(bp) = is.beta_prior {
                 for (a, v) in bp.iter().enumerate() {
                     pos(&key("beta_prior"), *v)?;
-                    if (v / is.beta[a] - 1.0).abs() > MAX_BETA_PRIOR_REL {
+                    if !table && (v / is.beta[a] - 1.0).abs() > MAX_BETA_PRIOR_REL {
                         return err(&key("beta_prior"), &format!("axis {a} is {:.1} % off the truth {} = {:e}: more than the estimator acquires (at most 10 %; farther, its gates reject the samples that would correct it)", 100.0 * (v / is.beta[a] - 1.0).abs(), key("beta"), is.beta[a]));
                     }
                 }
             }
             if let Some(rp) = is.com_offset_prior_m {
                 for (a, v) in rp.iter().enumerate() {
-                    if !v.is_finite() || (v - is.com_offset_m[a]).abs() > MAX_COM_PRIOR_ERROR_M {
+                    let far = !table && (v - is.com_offset_m[a]).abs() > MAX_COM_PRIOR_ERROR_M;
+                    if !v.is_finite() || far {
                         return err(
                             &key("com_offset_prior_m"),
-                            &format!(
-                                "component {a} must be finite and within 5 cm of the truth {} = {} m",
-                                key("com_offset_m"),
-                                is.com_offset_m[a]
-                            ),
+                            &if table {
+                                format!("component {a} must be finite")
+                            } else {
+                                format!(
+                                    "component {a} must be finite and within 5 cm of the truth {} = {} m",
+                                    key("com_offset_m"),
+                                    is.com_offset_m[a]
+                                )
+                            },
                         );
                     }
                 }

@@ -92,6 +92,31 @@ impl ScenarioError {
     }
 }
 
+/// Where a campaign's priors come from (`priors_source`, also in report.json).
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PriorsSource {
+    /// The scenario: its priors, or drawn from its truths with the
+    /// ground-calibration error.
+    #[default]
+    Scenario,
+    /// The onboard calibration table: a campaign's final estimate, applied.
+    OnboardTable,
+}
+
+impl PriorsSource {
+    pub fn is_scenario(&self) -> bool {
+        *self == PriorsSource::Scenario
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            PriorsSource::Scenario => "scenario",
+            PriorsSource::OnboardTable => "onboard_table",
+        }
+    }
+}
+
 fn default_name() -> String {
     "paper".into()
 }
@@ -106,6 +131,11 @@ pub struct Scenario {
     pub duration_s: f64,
     /// Output rate of plant, sensors and estimator [Hz].
     pub sample_rate_hz: f64,
+    /// Where every IS's priors come from: the file (`beta_prior`, `com_offset_prior_m`,
+    /// or drawn from the truth), or the onboard calibration table
+    /// (`with_onboard_priors`), whose distance from the truth is not checked.
+    #[serde(skip_serializing_if = "PriorsSource::is_scenario")]
+    pub priors_source: PriorsSource,
     pub spacecraft: Spacecraft,
     pub maneuver: Maneuver,
     pub thruster: Thruster,
@@ -286,6 +316,7 @@ impl Default for Scenario {
             seed: 1,
             duration_s: 10_000.0,
             sample_rate_hz: 10.0,
+            priors_source: PriorsSource::Scenario,
             spacecraft: Spacecraft::default(),
             maneuver: Maneuver::default(),
             thruster: Thruster::default(),
@@ -483,6 +514,25 @@ impl Scenario {
 }
 
 impl Scenario {
+    /// The campaign that starts from the onboard calibration table: every IS's
+    /// `beta_prior` and `com_offset_prior_m` are the table's β and r (IS i from the
+    /// table's row i), `priors_source` says so. Nothing else changes: call it on the
+    /// resolved scenario (`plan::resolve`), so that the maneuver stays the one planned
+    /// for the file; `ground_calibration`'s errors stay the planner's margin and the
+    /// yardstick of "not better than the ground calibration". The estimator's prior
+    /// widths are its own (5 % of β, 5 cm of r), not the table's σ. Validation then
+    /// checks the priors are finite (β positive), not how far they are from the truth,
+    /// which onboard nothing knows.
+    pub fn with_onboard_priors(&self, t: &crate::sim::msg::TableValues) -> Scenario {
+        let mut s = self.clone();
+        for (i, is) in s.inertial_sensor.iter_mut().enumerate().take(t.beta.len()) {
+            is.beta_prior = Some(t.beta[i]);
+            is.com_offset_prior_m = Some(t.r[i]);
+        }
+        s.priors_source = PriorsSource::OnboardTable;
+        s
+    }
+
     /// The estimator's table: priors, known geometry and noise specifications only —
     /// never the truths.
     pub fn estimator_config(&self, priors: &[Priors]) -> EstimatorConfig {

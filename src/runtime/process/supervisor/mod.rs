@@ -4,6 +4,7 @@
 //! the report.
 
 mod checkpoint;
+pub mod ground;
 mod locks;
 mod spawn;
 mod watch;
@@ -62,16 +63,22 @@ impl Outcome {
 /// maneuver planned when it had none.
 pub const PLANNED_SCENARIO_FILE: &str = "scenario.toml";
 
-/// Run the campaign through the process set.
-pub fn run(args: &SupervisorArgs) -> Outcome {
-    let s = match Scenario::load_or_default(args.scenario.as_deref()) {
-        Ok(s) => s,
-        Err(e) => return Outcome::UserError(e.into()),
-    };
-    let (s, plan) = match crate::analysis::plan::resolve(s) {
-        Ok(x) => x,
-        Err(e) => return Outcome::UserError(e.into()),
-    };
+/// What a run is made of, checked before anything starts: the scenario (as the user
+/// gave it, and resolved: its maneuver planned, `--seed` applied), the plan's search,
+/// the launch description and, on a set over hosts, this host's name.
+#[derive(Clone)]
+pub struct Prepared {
+    pub given: Scenario,
+    pub s: Scenario,
+    pub plan: Option<crate::analysis::plan::PlanInfo>,
+    pub launch: LaunchDescription,
+    pub me: Option<String>,
+}
+
+/// Check the run's arguments, scenario and launch description; plan the maneuver.
+pub fn prepare(args: &SupervisorArgs) -> Result<Prepared, UserError> {
+    let given = Scenario::load_or_default(args.scenario.as_deref())?;
+    let (s, plan) = crate::analysis::plan::resolve(given.clone())?;
     // `--seed` is the scenario's seed from here on: every noise stream and the priors'
     // ground-calibration draw, as `run` and the Monte Carlo's run of that seed (the
     // maneuver stays the one planned for the file).
@@ -79,36 +86,55 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
         seed: args.seed.unwrap_or(s.seed),
         ..s
     };
-    let launch = match LaunchDescription::load_or_default(args.launch.as_deref()) {
-        Ok(l) => l,
-        Err(e) => return Outcome::UserError(e.into()),
-    };
-    if let Err(e) = crate::runtime::process::parse_method(&args.method) {
-        return Outcome::UserError(e.into());
-    }
+    let launch = LaunchDescription::load_or_default(args.launch.as_deref())?;
+    crate::runtime::process::parse_method(&args.method)?;
     if args.realtime && !(args.time_scale.is_finite() && args.time_scale > 0.0) {
-        return Outcome::UserError(
-            crate::runtime::process::ProcessError::TimeScale {
-                time_scale: args.time_scale,
-            }
-            .into(),
-        );
+        return Err(crate::runtime::process::ProcessError::TimeScale {
+            time_scale: args.time_scale,
+        }
+        .into());
     }
-    let me = match crate::runtime::process::hosts::my_host(args, &launch) {
-        Ok(m) => m,
-        Err(e) => return Outcome::UserError(e.into()),
-    };
+    let me = crate::runtime::process::hosts::my_host(args, &launch)?;
     if me.is_some() && args.record {
-        return Outcome::UserError(UserError::RecordOverHosts);
+        return Err(UserError::RecordOverHosts);
     }
+    Ok(Prepared {
+        given,
+        s,
+        plan,
+        launch,
+        me,
+    })
+}
+
+/// Run the campaign through the process set.
+pub fn run(args: &SupervisorArgs) -> Outcome {
+    match prepare(args) {
+        Ok(p) => campaign(args, &p, Hold::Claim),
+        Err(e) => Outcome::UserError(e),
+    }
+}
+
+/// Who holds the bus prefix and the output folder during a campaign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Hold {
+    /// The campaign claims them, and releases them at its end.
+    Claim,
+    /// A caller holds them across campaigns (the ground link's standby).
+    Held,
+}
+
+/// One campaign of the prepared run through the process set.
+pub(crate) fn campaign(args: &SupervisorArgs, p: &Prepared, hold: Hold) -> Outcome {
+    let (s, plan, launch, me) = (&p.s, &p.plan, &p.launch, p.me.clone());
     // The bound as the campaign goes, for monitors; its last point is the report's.
     // At the run's seed: a campaign that loses data has the bound of its losses. Beside
     // it the maneuver's bound (its motion alone), for the maneuver's line and the
     // prediction before the run.
     let (curve, maneuver) = std::thread::scope(|sc| {
-        let m = sc.spawn(|| crate::analysis::plan::maneuver_bound(&s));
+        let m = sc.spawn(|| crate::analysis::plan::maneuver_bound(s));
         let curve = crate::analysis::crlb::crlb_curve(
-            &s,
+            s,
             crate::tuning::BOUND_POINTS,
             crate::analysis::campaign::Threads::available(),
         );
@@ -120,7 +146,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
     let Some(crlb) = curve.last().and_then(|(_, c)| *c) else {
         return Outcome::UserError(UserError::SingularFisher);
     };
-    match supervise(args, &s, &launch, me.as_deref(), curve) {
+    match supervise(args, s, launch, me.as_deref(), curve, hold) {
         Ok(Supervised::HostStopped(m)) => Outcome::HostStopped(m),
         Ok(Supervised::Done(final_est, members, wall, hosts)) => {
             let bounds = crate::analysis::crlb::Bounds {
@@ -128,7 +154,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
                 maneuver,
             };
             let mut report = Report::with_bounds(
-                &s,
+                s,
                 s.seed,
                 "multi-process",
                 &args.method,
@@ -165,7 +191,7 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
                 match crate::telemetry::truth::fault_log(&path) {
                     Ok((records, detected)) => {
                         report.faults = Some(
-                            crate::sim::faults::FaultScore::from_log(&s, records, detected)
+                            crate::sim::faults::FaultScore::from_log(s, records, detected)
                                 .summary(),
                         );
                     }
@@ -203,12 +229,18 @@ fn supervise(
     launch: &LaunchDescription,
     me: Option<&str>,
     bound: Vec<(u64, Option<crate::analysis::crlb::Crlb>)>,
+    hold: Hold,
 ) -> Result<Supervised, SupervisorError> {
     let set_err = |e: BusError| SupervisorError::Set(e.into());
     let t_start = Instant::now();
     // Declared before every port and node of the run, so dropped after them.
-    let _hold = claim(args)?;
-    let _janitor = Janitor::start(&args.bus_prefix).map_err(SupervisorError::Set)?;
+    let (_hold, _janitor) = match hold {
+        Hold::Claim => (
+            Some(claim(args)?),
+            Some(Janitor::start(&args.bus_prefix).map_err(SupervisorError::Set)?),
+        ),
+        Hold::Held => (None, None),
+    };
     let ckpt = fresh_checkpoint(args)?;
     let node = wiring::node("taiji-supervisor", &args.bus_prefix).map_err(set_err)?;
     let progress = wiring::subscriber::<Progress>(&node, wiring::SVC_PROGRESS).map_err(set_err)?;
@@ -315,4 +347,37 @@ fn supervise(
         Ok(None) => Ok(Supervised::Interrupted),
         Err(e) => Err(e),
     }
+}
+
+/// Why the reports of a completed run could not be written (exit 2).
+#[derive(Debug, thiserror::Error)]
+pub enum ReportsError {
+    #[error(transparent)]
+    Report(#[from] crate::analysis::report::ReportError),
+    /// The recording could not be read back for the figures.
+    #[error(transparent)]
+    Telemetry(#[from] crate::telemetry::TelemetryError),
+    #[error(transparent)]
+    Plot(#[from] crate::analysis::plots::PlotError),
+}
+
+/// report.json, report.md, report.html, and the figures from the recording.
+pub fn write_reports(args: &SupervisorArgs, report: &Report) -> Result<(), ReportsError> {
+    let dir = report_dir(args);
+    crate::analysis::report::write(dir, report)?;
+    // The figures live beside the recording; report.html links them only from there.
+    let plots = args.plots && dir == args.out;
+    if plots {
+        let path = args
+            .out
+            .join(crate::runtime::process::recorder::TELEMETRY_FILE);
+        let (tel, s) = crate::telemetry::truth::full(&path)?;
+        crate::analysis::plots::write_all(&tel, &s, &args.out)?;
+    }
+    Ok(crate::analysis::report_doc::write(report, dir, plots)?)
+}
+
+/// Where the reports go: `--report-dir`, else `--out`.
+pub fn report_dir(args: &SupervisorArgs) -> &std::path::Path {
+    args.report_dir.as_deref().unwrap_or(&args.out)
 }

@@ -1,0 +1,464 @@
+//! The set operated from the ground, a whole cycle over the real UDP link with real
+//! packets: `taiji-supervisor --ground` in standby → ping → start → housekeeping and
+//! events → end-of-campaign event → apply → a second campaign from the onboard table →
+//! shutdown, exit 0. Campaign 1 is bit-identical to the in-process run of the same
+//! scenario and seed; the estimate decoded from housekeeping equals report.json's bit
+//! for bit; campaign 2's priors are campaign 1's estimates. Then: a restart of the set
+//! keeps the table and refuses a replayed telecommand; `kill -9` of the TMTC process
+//! mid-campaign is restarted with nothing lost.
+
+mod common;
+mod support;
+mod tmpdir;
+
+use common::{estimates, in_process, pids_with, prefix, report, serial};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::net::UdpSocket;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use taiji::ground::auth::{encode_signed_tc, Key};
+use taiji::ground::dictionary::{Failure, APID};
+use taiji::ground::packet::{decode_tm, TcHeader, MAX_PACKET_LEN};
+
+const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
+const SHORT: &str = "name = \"short\"\nseed = 11\nduration_s = 3000.0\n";
+
+/// One telemetry packet as the test reads it.
+#[derive(Debug, Clone)]
+struct Tm {
+    service: u8,
+    subtype: u8,
+    data: Vec<u8>,
+}
+
+impl Tm {
+    fn u16_at(&self, i: usize) -> u16 {
+        u16::from_be_bytes([self.data[i], self.data[i + 1]])
+    }
+    /// A verification report's failure code (1,2 / 1,4 / 1,8).
+    fn failure(&self) -> Option<Failure> {
+        (self.data.len() >= 6).then(|| Failure::from_code(self.u16_at(4)).unwrap())
+    }
+}
+
+/// A ground station of the test's own: one socket, the key, a sequence counter.
+struct Ground {
+    sock: UdpSocket,
+    to: String,
+    key: Key,
+    seq: u32,
+    count: u16,
+    /// Everything heard so far.
+    heard: Vec<Tm>,
+}
+
+impl Ground {
+    fn new(to: &str, key: &Path, seq: u32) -> Ground {
+        let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+        sock.set_read_timeout(Some(Duration::from_millis(50)))
+            .unwrap();
+        Ground {
+            sock,
+            to: to.into(),
+            key: Key::load(key).unwrap(),
+            seq,
+            count: 0,
+            heard: Vec::new(),
+        }
+    }
+
+    /// Send telecommand (service, subtype) with `app_data`; its request ID.
+    fn send(&mut self, service: u8, subtype: u8, app_data: &[u8]) -> [u8; 4] {
+        self.seq += 1;
+        self.count += 1;
+        let h = TcHeader {
+            apid: APID,
+            sequence_count: self.count,
+            ack_flags: 0xF,
+            service,
+            subtype,
+            source_id: 7,
+        };
+        let mut buf = vec![0u8; MAX_PACKET_LEN];
+        let n = encode_signed_tc(&mut buf, &h, app_data, self.seq, &self.key).unwrap();
+        self.sock.send_to(&buf[..n], &self.to).unwrap();
+        [buf[0], buf[1], buf[2], buf[3]]
+    }
+
+    /// Listen until `until` holds for what was heard, or fail after `timeout`.
+    fn wait(&mut self, what: &str, timeout: Duration, until: impl Fn(&[Tm]) -> bool) {
+        let t0 = Instant::now();
+        let mut buf = vec![0u8; MAX_PACKET_LEN];
+        while !until(&self.heard) {
+            assert!(
+                t0.elapsed() < timeout,
+                "no {what} within {timeout:?}; heard {:?}",
+                self.heard
+                    .iter()
+                    .map(|t| (t.service, t.subtype))
+                    .collect::<Vec<_>>()
+            );
+            if let Ok((n, _)) = self.sock.recv_from(&mut buf) {
+                let tm = decode_tm(&buf[..n], APID).expect("telemetry decodes, CRC checked");
+                self.heard.push(Tm {
+                    service: tm.header.service,
+                    subtype: tm.header.subtype,
+                    data: tm.source_data.to_vec(),
+                });
+            }
+        }
+    }
+
+    /// Send and wait for the request's completion report; returns it.
+    fn command(&mut self, service: u8, subtype: u8, app_data: &[u8], timeout: Duration) -> Tm {
+        let id = self.send(service, subtype, app_data);
+        let done = |h: &[Tm]| {
+            h.iter().any(|t| {
+                t.service == 1 && matches!(t.subtype, 2 | 8) && t.data[..4] == id
+                    || t.service == 1 && t.subtype == 7 && t.data[..4] == id
+            })
+        };
+        self.wait("completion report", timeout, done);
+        self.heard
+            .iter()
+            .rev()
+            .find(|t| t.service == 1 && matches!(t.subtype, 2 | 7 | 8) && t.data[..4] == id)
+            .unwrap()
+            .clone()
+    }
+
+    fn events(&self, id: u16) -> usize {
+        self.heard
+            .iter()
+            .filter(|t| t.service == 5 && t.u16_at(0) == id)
+            .count()
+    }
+}
+
+fn function(id: u16, args: &[u8]) -> Vec<u8> {
+    let mut v = id.to_be_bytes().to_vec();
+    v.extend_from_slice(args);
+    v
+}
+
+fn start_args(seed: u64, duration_s: f64) -> Vec<u8> {
+    let mut a = seed.to_be_bytes().to_vec();
+    a.extend_from_slice(&duration_s.to_be_bytes());
+    function(1, &a)
+}
+
+fn launch(sc: &Path, out: &Path, pfx: &str, port: u16) -> Child {
+    Command::new(SUPERVISOR)
+        .arg("--scenario")
+        .arg(sc)
+        .arg("--out")
+        .arg(out)
+        .args(["--bus-prefix", pfx])
+        .args(["--ground", &format!("127.0.0.1:{port}")])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// A free UDP port on loopback.
+fn free_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Structure 1 of a 3,25 report, by column name, as wire bits.
+fn hk1(tm: &Tm) -> BTreeMap<String, u64> {
+    let cols = taiji::ground::housekeeping::columns(1).unwrap();
+    let mut at = 2;
+    let mut out = BTreeMap::new();
+    for c in cols {
+        let n = c.kind.size();
+        let mut b = [0u8; 8];
+        b[8 - n..].copy_from_slice(&tm.data[at..at + n]);
+        out.insert(c.name.clone(), u64::from_be_bytes(b));
+        at += n;
+    }
+    assert_eq!(at, tm.data.len());
+    out
+}
+
+fn ping_until_up(g: &mut Ground) {
+    let t0 = Instant::now();
+    loop {
+        let id = g.send(17, 1, &[]);
+        let got = |h: &[Tm]| {
+            h.iter()
+                .any(|t| t.service == 1 && t.subtype == 7 && t.data[..4] == id)
+        };
+        let mut buf = vec![0u8; MAX_PACKET_LEN];
+        let t1 = Instant::now();
+        while t1.elapsed() < Duration::from_millis(500) && !got(&g.heard) {
+            if let Ok((n, _)) = g.sock.recv_from(&mut buf) {
+                let tm = decode_tm(&buf[..n], APID).unwrap();
+                g.heard.push(Tm {
+                    service: tm.header.service,
+                    subtype: tm.header.subtype,
+                    data: tm.source_data.to_vec(),
+                });
+            }
+        }
+        if got(&g.heard) {
+            return;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "the set never answered a ping");
+    }
+}
+
+fn wait_key(out: &Path) -> std::path::PathBuf {
+    let key = out.join("ground.key");
+    common::wait_every(
+        Duration::from_millis(20),
+        "the key file",
+        Duration::from_secs(120),
+        || key.exists(),
+    );
+    key
+}
+
+#[test]
+fn a_whole_cycle_from_the_ground() {
+    let _serial = serial();
+    let dir = support::tmp("cycle");
+    let sc = support::write_scenario(&dir, SHORT);
+    let out = dir.join("out");
+    let pfx = prefix("gcycle");
+    let port = free_port();
+    let mut child = launch(&sc, &out, &pfx, port);
+    let key = wait_key(&out);
+    let to = format!("127.0.0.1:{port}");
+    let mut g = Ground::new(&to, &key, 100);
+    ping_until_up(&mut g);
+    assert!(g.heard.iter().any(|t| (t.service, t.subtype) == (17, 2)));
+    // Refused while nothing ran: apply without a result, stop without a campaign.
+    let r = g.command(8, 1, &function(3, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), Some(Failure::NoResult));
+    let r = g.command(8, 1, &function(2, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), Some(Failure::NotRunning));
+    // Campaign 1.
+    let seed = 5;
+    let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(120));
+    assert_eq!((r.subtype, r.failure()), (7, None));
+    let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(10));
+    assert_eq!(r.failure(), Some(Failure::StartWhileRunning));
+    g.wait("campaign 1's end", Duration::from_secs(600), |h| {
+        h.iter()
+            .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
+    });
+    assert!(g.events(1) >= 2, "mode changes");
+    assert!(g.heard.iter().any(|t| (t.service, t.subtype) == (3, 25)));
+    let c1 = out.join("campaign-1");
+    let r1 = report(&c1);
+    assert_eq!(r1["priors_source"], "scenario");
+    assert_eq!(estimates(&r1), in_process(&sc, seed));
+    // The estimate in housekeeping is report.json's, bit for bit.
+    g.heard.clear();
+    let mut sid = vec![1u8];
+    sid.extend_from_slice(&1u16.to_be_bytes());
+    g.send(3, 27, &sid);
+    g.wait("a one-shot report", Duration::from_secs(10), |h| {
+        h.iter().any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 1)
+    });
+    let tm = g
+        .heard
+        .iter()
+        .find(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 1)
+        .unwrap()
+        .clone();
+    let hk = hk1(&tm);
+    for (i, is) in r1["inertial_sensors"].as_array().unwrap().iter().enumerate() {
+        for (a, axis) in ["x", "y", "z"].iter().enumerate() {
+            let f = |name: &str| f64::from_bits(hk[&format!("{name}_is{}_{axis}", i + 1)]);
+            assert_eq!(f("beta"), is["beta"]["estimate"][a].as_f64().unwrap());
+            assert_eq!(f("beta_sigma"), is["beta"]["sigma"][a].as_f64().unwrap());
+            assert_eq!(f("r"), is["com_offset"]["estimate"][a].as_f64().unwrap());
+        }
+    }
+    // Apply, then campaign 2 from the table.
+    let r = g.command(8, 1, &function(3, &[]), Duration::from_secs(10));
+    assert_eq!((r.subtype, r.failure()), (7, None), "{}", r1["requirements"]);
+    assert_eq!(g.events(6), 1);
+    let r = g.command(8, 1, &start_args(seed + 1, 0.0), Duration::from_secs(120));
+    assert_eq!(r.failure(), None);
+    g.wait("campaign 2's end", Duration::from_secs(600), |h| {
+        h.iter()
+            .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
+    });
+    let r2 = report(&out.join("campaign-2"));
+    assert_eq!(r2["priors_source"], "onboard_table");
+    for (is1, is2) in r1["inertial_sensors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(r2["inertial_sensors"].as_array().unwrap())
+    {
+        assert_eq!(is2["beta"]["prior"], is1["beta"]["estimate"]);
+        assert_eq!(is2["com_offset"]["prior"], is1["com_offset"]["estimate"]);
+    }
+    // Restore, then shut down.
+    let r = g.command(8, 1, &function(4, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), Some(Failure::NothingToRestore));
+    let r = g.command(8, 1, &function(5, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), None);
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "the set did not end");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("campaign-2"), "{stdout}");
+    assert!(pids_with(&pfx, "taiji-").is_empty());
+    // The set again on the same folder: the table and the anti-replay state survived.
+    let mut child = launch(&sc, &out, &pfx, port);
+    let mut g2 = Ground::new(&to, &key, g.seq - 1);
+    g2.count = 500;
+    let id = g2.send(17, 1, &[]);
+    let replayed = |h: &[Tm]| {
+        h.iter()
+            .any(|t| (t.service, t.subtype) == (1, 2) && t.data[..4] == id)
+    };
+    // Its refusal goes to the last accepted sender: nobody yet after a restart, so ask
+    // from the old socket with a fresh number first.
+    g2.seq = g.seq + 10;
+    ping_until_up(&mut g2);
+    let _ = replayed;
+    g2.seq = g.seq; // the last accepted before the restart: a replay
+    let r = g2.command(17, 1, &[], Duration::from_secs(10));
+    assert_eq!(r.failure(), Some(Failure::Replayed));
+    let mut ids = vec![1u8];
+    ids.extend_from_slice(&47u16.to_be_bytes());
+    g2.seq = g.seq + 100;
+    g2.send(20, 1, &ids);
+    g2.wait("the table's state", Duration::from_secs(10), |h| {
+        h.iter().any(|t| (t.service, t.subtype) == (20, 2))
+    });
+    let p = g2.heard.iter().find(|t| (t.service, t.subtype) == (20, 2)).unwrap();
+    assert_eq!(p.data, [1, 0, 47, 1], "table_valid after a restart");
+    signal(child.id() as i32, libc::SIGTERM);
+    let st = child.wait().unwrap();
+    assert_eq!(st.code(), Some(130));
+    let _: Option<Value> = None;
+}
+
+fn signal(pid: i32, sig: i32) {
+    // SAFETY: sending a signal has no memory-safety preconditions.
+    unsafe { libc::kill(pid, sig) };
+}
+
+/// The TMTC process's last heartbeat, read from the set's bus as the supervisor reads it.
+fn tmtc_progress(pfx: &str) -> Option<taiji::sim::msg::Progress> {
+    use taiji::bus::wiring;
+    let node = wiring::node("ground-cycle-test", pfx).ok()?;
+    let sub = wiring::subscriber::<taiji::sim::msg::Progress>(&node, wiring::SVC_PROGRESS).ok()?;
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(5) {
+        while let Ok(Some(p)) = wiring::receive(&sub) {
+            if p.process == taiji::sim::msg::PROC_TMTC {
+                return Some(p);
+            }
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    None
+}
+
+#[test]
+fn a_flood_and_a_killed_tmtc_process_change_nothing() {
+    use rand::{Rng, SeedableRng};
+    let _serial = serial();
+    let dir = support::tmp("flood");
+    let sc = support::write_scenario(&dir, SHORT);
+    let out = dir.join("out");
+    let pfx = prefix("gflood");
+    let port = free_port();
+    let mut child = launch(&sc, &out, &pfx, port);
+    let key = wait_key(&out);
+    let to = format!("127.0.0.1:{port}");
+    let mut g = Ground::new(&to, &key, 1000);
+    ping_until_up(&mut g);
+    let seed = 9;
+    let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(120));
+    assert_eq!(r.failure(), None);
+    // kill -9 of the TMTC process mid-campaign: the supervisor restarts it.
+    let victims = pids_with(&pfx, "taiji-tmtc");
+    assert_eq!(victims.len(), 1, "{victims:?}");
+    signal(victims[0], libc::SIGKILL);
+    // The new one has no destination until a telecommand is accepted again.
+    ping_until_up(&mut g);
+    g.wait("the restart event", Duration::from_secs(30), |h| {
+        h.iter().any(|t| t.service == 5 && t.u16_at(0) == 3)
+    });
+    // 10⁵ garbage datagrams in 10 s from another socket: random bytes, and mutated
+    // copies of a valid telecommand (good CRC, bad MAC; truncated; lying lengths).
+    let flood = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
+    let mut valid = vec![0u8; MAX_PACKET_LEN];
+    let h = TcHeader {
+        apid: APID,
+        sequence_count: 1,
+        ack_flags: 0xF,
+        service: 8,
+        subtype: 1,
+        source_id: 9,
+    };
+    let wrong = Key::from_bytes([7; 32]);
+    let n = encode_signed_tc(&mut valid, &h, &start_args(1, 0.0), 1 << 30, &wrong).unwrap();
+    valid.truncate(n);
+    let t0 = Instant::now();
+    for i in 0..100_000u32 {
+        let d: Vec<u8> = match i % 3 {
+            0 => (0..rng.gen_range(0..200)).map(|_| rng.gen()).collect(),
+            1 => valid.clone(),
+            _ => {
+                let mut v = valid.clone();
+                let at = rng.gen_range(0..v.len());
+                v[at] ^= 1 << rng.gen_range(0..8);
+                v.truncate(rng.gen_range(1..=v.len()));
+                v
+            }
+        };
+        let _ = flood.send_to(&d, &to);
+        // Spread over 10 s.
+        let due = Duration::from_micros(100 * u64::from(i));
+        if let Some(w) = due.checked_sub(t0.elapsed()) {
+            std::thread::sleep(w);
+        }
+    }
+    g.wait("the campaign's end", Duration::from_secs(600), |h| {
+        h.iter()
+            .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
+    });
+    let p = tmtc_progress(&pfx).expect("the TMTC process's heartbeat");
+    assert_eq!(p.loop_allocations, 0, "the TMTC loop allocated");
+    let r = report(&out.join("campaign-1"));
+    assert_eq!(estimates(&r), in_process(&sc, seed));
+    assert_eq!(r["timing"]["samples_lost"], 0);
+    assert_eq!(r["estimator_loop_allocations"], 0);
+    // Refused datagrams are counted in housekeeping structure 2.
+    let mut sid = vec![1u8];
+    sid.extend_from_slice(&2u16.to_be_bytes());
+    g.heard.clear();
+    g.send(3, 27, &sid);
+    g.wait("the health report", Duration::from_secs(10), |h| {
+        h.iter().any(|t| (t.service, t.subtype) == (3, 25) && t.u16_at(0) == 2)
+    });
+    let r = g.command(8, 1, &function(5, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), None);
+    let st = child.wait().unwrap();
+    assert_eq!(st.code(), Some(0));
+}
