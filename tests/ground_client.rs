@@ -138,7 +138,7 @@ fn each_subcommand_sends_its_telecommand_and_ends_at_its_reports() {
         ),
     ];
     let mut seqs = Vec::new();
-    for (i, (args, service, subtype, app, want)) in cases.iter().enumerate() {
+    for (args, service, subtype, app, want) in &cases {
         let o = ground(&fake, &kp, args);
         let (out, err) = (text(&o.stdout), text(&o.stderr));
         assert_eq!(o.status.code(), Some(0), "{args:?}\n{out}\n{err}");
@@ -150,8 +150,7 @@ fn each_subcommand_sends_its_telecommand_and_ends_at_its_reports() {
             "{args:?}: the completion report ends it\n{out}"
         );
         let heard = fake.heard();
-        assert_eq!(heard.len(), i + 1);
-        let h = &heard[i];
+        let h = heard.last().unwrap();
         assert!(h.mac_ok, "{args:?}");
         assert_eq!(
             (h.service, h.subtype, h.ack),
@@ -160,8 +159,22 @@ fn each_subcommand_sends_its_telecommand_and_ends_at_its_reports() {
         );
         assert_eq!(&h.app_data, app, "{args:?}");
         assert!(h.from.ip().is_loopback());
+        // Before any other telecommand, a ping from the same socket claims the reports.
+        if *service != 17 {
+            let claim = &heard[heard.len() - 2];
+            assert_eq!(
+                (claim.service, claim.subtype, claim.ack),
+                (17, 1, 0),
+                "{args:?}"
+            );
+            assert_eq!((claim.from, claim.seq + 1), (h.from, h.seq), "{args:?}");
+            assert!(out.lines().next().unwrap().contains("17,2 #"), "{out}");
+            seqs.push(claim.seq);
+        }
         seqs.push(h.seq);
     }
+    assert_eq!(fake.heard().len(), seqs.len());
+
     // One sequence number after the other, from the counter beside the key.
     assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
     let counter = std::fs::read_to_string(dir.join("ground.key.seq")).unwrap();
@@ -482,4 +495,61 @@ fn listen_claims_the_telemetry_saves_it_and_ends_on_sigterm() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("are left"), "{}", text(&o.stderr));
+}
+
+#[test]
+fn a_refusal_comes_back_because_a_ping_claims_the_reports_first() {
+    let dir = tmp("claim");
+    let (kp, k) = key(&dir);
+    // As the set does: every report to the sender of the last accepted telecommand.
+    let fake = Fake::start(
+        k,
+        Behaviour {
+            set_fails: Some(Failure::OutOfRange),
+            to_last_accepted: true,
+            ..Default::default()
+        },
+    );
+    assert_eq!(ground(&fake, &kp, &["ping"]).status.code(), Some(0));
+    let o = ground(&fake, &kp, &["set", "hk1_interval_ms=50"]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("20,3 failed at acceptance: failure 20 out_of_range"),
+        "{err}"
+    );
+    // Alone, from a new socket, its refusal goes to the last accepted sender's.
+    let o = calib()
+        .args([
+            "ground",
+            "set",
+            "hk1_interval_ms=50",
+            "--no-claim",
+            "--timeout",
+            "0.5",
+        ])
+        .args(["--to", &fake.to(), "--key"])
+        .arg(&kp)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3));
+    assert!(
+        text(&o.stderr).contains("nothing heard from"),
+        "{}",
+        text(&o.stderr)
+    );
+    let heard = fake.heard();
+    let last = &heard[heard.len() - 1];
+    assert_eq!((last.service, last.subtype), (20, 3));
+    assert_ne!(heard[heard.len() - 2].service, 17, "no claiming ping");
+    // --seq: the given number is the telecommand's, no ping before it; accepted, it
+    // makes its sender the reports' destination.
+    let next = last.seq + 10;
+    let o = ground(&fake, &kp, &["restore", "--seq", &next.to_string()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let heard = fake.heard();
+    assert_eq!(
+        (heard.last().unwrap().seq, heard.last().unwrap().service),
+        (next, 8)
+    );
 }

@@ -12,7 +12,7 @@ use crate::ground::describe::{describe, Described};
 use crate::ground::dictionary::Function;
 use crate::ground::exchange::{Exchange, Keepalive, Outcome};
 use crate::ground::publish;
-use crate::ground::tc::{self, Request};
+use crate::ground::tc::{self, Reply, Request};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -108,12 +108,63 @@ fn stage(subtype: u8) -> &'static str {
     }
 }
 
+/// How waiting for an exchange's end ended.
+enum Waited {
+    Done,
+    Failed(Outcome),
+    /// The onboard address refused the datagram: nothing listens there.
+    Refused,
+    /// The deadline passed; whether anything came.
+    Silent {
+        heard: bool,
+    },
+}
+
+/// Prints the telemetry that comes until `ex` is over or `deadline`.
+fn wait(
+    link: &mut Link,
+    ex: &mut Exchange,
+    deadline: Instant,
+    json: bool,
+) -> Result<Waited, CliError> {
+    loop {
+        match link.receive_until(deadline)? {
+            Received::Datagram(d) => {
+                let desc = describe(&d);
+                emit(&desc, json);
+                match ex.take(&desc) {
+                    Some(Outcome::Done) => return Ok(Waited::Done),
+                    Some(f) => return Ok(Waited::Failed(f)),
+                    None => {}
+                }
+            }
+            Received::Refused => return Ok(Waited::Refused),
+            Received::Nothing => return Ok(Waited::Silent { heard: ex.heard() }),
+        }
+    }
+}
+
 /// Sends `req`, prints the telemetry until its exchange is over; the exit code.
+///
+/// The set sends its telemetry, a refused telecommand's failure report included, to
+/// the sender of the last accepted telecommand. So that a refusal comes back here, a
+/// telecommand other than a ping is preceded by a ping from the same socket (no reports
+/// asked for; its 17,2 is printed too), unless `--no-claim` or `--seq` is given.
 fn exchange(req: &Request, x: &ExchangeArgs) -> Result<ExitCode, CliError> {
     let timeout = seconds("timeout", x.timeout)?;
     let app_data = req.app_data()?;
     Exchange::check(x.ack, &req.reply())?;
     let mut link = Link::open(&x.link.config())?;
+    let deadline = Instant::now() + timeout;
+    let json = x.link.json;
+    if !x.no_claim && x.link.seq.is_none() && *req != Request::Ping {
+        let sent = link.send(17, 1, 0, &[])?;
+        let mut ex = Exchange::new(&sent, Reply::Pong)?;
+        let waited = wait(&mut link, &mut ex, deadline, json)?;
+        if !matches!(waited, Waited::Done) {
+            return Ok(ended(waited, (17, 1), &link, x, &ex));
+        }
+    }
     let (service, subtype) = req.service();
     let sent = link.send(service, subtype, x.ack, &app_data)?;
     let mut ex = Exchange::new(&sent, req.reply())?;
@@ -122,55 +173,43 @@ fn exchange(req: &Request, x: &ExchangeArgs) -> Result<ExitCode, CliError> {
         sent.seq,
         link.to()
     );
-    let deadline = Instant::now() + timeout;
-    loop {
-        match link.receive_until(deadline)? {
-            Received::Datagram(d) => {
-                let desc = describe(&d);
-                emit(&desc, x.link.json);
-                match ex.take(&desc) {
-                    Some(Outcome::Done) => return Ok(ExitCode::SUCCESS),
-                    Some(Outcome::Failed {
-                        subtype,
-                        code,
-                        name,
-                        meaning,
-                    }) => {
-                        eprintln!(
-                            "error: {service},{subtype} failed at {}: failure {code} {name}: {meaning}",
-                            stage(subtype)
-                        );
-                        return Ok(ExitCode::from(FAILED));
-                    }
-                    None => {}
-                }
-            }
-            Received::Refused => {
-                eprintln!(
-                    "error: nothing listens on {} (the datagram was refused): is the set up with --ground {}?",
-                    link.to(),
-                    link.to()
-                );
-                return Ok(ExitCode::from(TIMED_OUT));
-            }
-            Received::Nothing if ex.heard() => {
-                eprintln!(
-                    "error: no end of the exchange within {} s: still waiting for {}",
-                    x.timeout,
-                    ex.awaited()
-                );
-                return Ok(ExitCode::from(TIMED_OUT));
-            }
-            Received::Nothing => {
-                eprintln!(
-                    "error: nothing heard from {} within {} s (is the set up, on this address?)",
-                    link.to(),
-                    x.timeout
-                );
-                return Ok(ExitCode::from(TIMED_OUT));
-            }
+    let waited = wait(&mut link, &mut ex, deadline, json)?;
+    Ok(ended(waited, (service, subtype), &link, x, &ex))
+}
+
+/// The exit code of an exchange, its error said on stderr.
+fn ended(waited: Waited, tc: (u8, u8), link: &Link, x: &ExchangeArgs, ex: &Exchange) -> ExitCode {
+    let (service, subtype) = tc;
+    let to = link.to();
+    match waited {
+        Waited::Done => return ExitCode::SUCCESS,
+        Waited::Failed(Outcome::Failed {
+            subtype: report,
+            code,
+            name,
+            meaning,
+        }) => {
+            eprintln!(
+                "error: {service},{subtype} failed at {}: failure {code} {name}: {meaning}",
+                stage(report)
+            );
+            return ExitCode::from(FAILED);
         }
+        Waited::Failed(Outcome::Done) => return ExitCode::SUCCESS,
+        Waited::Refused => eprintln!(
+            "error: nothing listens on {to} (the datagram was refused): is the set up with --ground {to}?"
+        ),
+        Waited::Silent { heard: true } => eprintln!(
+            "error: no end of the exchange within {} s: still waiting for {}",
+            x.timeout,
+            ex.awaited()
+        ),
+        Waited::Silent { heard: false } => eprintln!(
+            "error: nothing heard from {to} within {} s: is the set up on this address, and is this its key? (a refused telecommand's report goes to the sender of the last accepted one)",
+            x.timeout
+        ),
     }
+    ExitCode::from(TIMED_OUT)
 }
 
 /// Receives in slices of this at most (to see a signal or the next keepalive).

@@ -186,6 +186,11 @@ pub(crate) struct ExchangeArgs {
     /// progress, completion (failures are always reported).
     #[arg(long, default_value = "all", value_parser = ack_flags)]
     pub(crate) ack: u8,
+    /// Send the telecommand alone. By default a ping from the same socket comes first,
+    /// so that the set, which sends its telemetry to the sender of the last accepted
+    /// telecommand, sends a refusal of this one here (with --seq: never).
+    #[arg(long)]
+    pub(crate) no_claim: bool,
 }
 
 /// An address as `HOST:PORT`, the first it resolves to.

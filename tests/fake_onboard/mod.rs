@@ -45,6 +45,12 @@ pub struct Behaviour {
     pub stream_every: Option<Duration>,
     /// Function 3 (apply) ends in this completion failure.
     pub apply_fails: Option<Failure>,
+    /// 20,3 is refused at acceptance with this failure.
+    pub set_fails: Option<Failure>,
+    /// Every report, a refusal's too, goes to the sender of the last accepted
+    /// telecommand (none before one), as the set sends them; otherwise a refusal goes
+    /// back to its telecommand's sender.
+    pub to_last_accepted: bool,
 }
 
 pub struct Fake {
@@ -230,7 +236,13 @@ fn serve(
         let tc = match decode_tc(&p, APID) {
             Ok(tc) => tc,
             Err(e) => {
-                tx.report(from, 2, &p, Some(e.into()));
+                if let Some(to) = if b.to_last_accepted {
+                    ground
+                } else {
+                    Some(from)
+                } {
+                    tx.report(to, 2, &p, Some(e.into()));
+                }
                 continue;
             }
         };
@@ -249,12 +261,21 @@ fn serve(
             mac_ok: auth.is_ok(),
             from,
         });
-        if let Err(e) = auth {
-            tx.report(from, 2, &p, Some(e.into()));
-            continue;
-        }
-        if b.check_replay && last.is_some_and(|l| seq <= l) {
-            tx.report(from, 2, &p, Some(Failure::Replayed));
+        let refused = match auth {
+            Err(e) => Some(e.into()),
+            Ok(_) if b.check_replay && last.is_some_and(|l| seq <= l) => Some(Failure::Replayed),
+            Ok(_) if (h.service, h.subtype) == (20, 3) => b.set_fails,
+            Ok(_) => None,
+        };
+        if let Some(f) = refused {
+            let to = if b.to_last_accepted {
+                ground
+            } else {
+                Some(from)
+            };
+            if let Some(to) = to {
+                tx.report(to, 2, &p, Some(f));
+            }
             continue;
         }
         last = Some(seq);
