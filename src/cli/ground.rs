@@ -153,7 +153,12 @@ fn wait(
 fn exchange(req: &Request, x: &ExchangeArgs) -> Result<ExitCode, CliError> {
     let timeout = seconds("timeout", x.timeout)?;
     let app_data = req.app_data()?;
-    Exchange::check(x.ack, &req.reply())?;
+    // A start completes at the campaign's end: by default its start report ends it.
+    let ack = x.ack.unwrap_or(match req {
+        Request::Function(Function::Start { .. }) => client::ACK_ACCEPTANCE | client::ACK_START,
+        _ => client::ACK_ALL,
+    });
+    Exchange::check(ack, &req.reply())?;
     let mut link = Link::open(&x.link.config())?;
     let deadline = Instant::now() + timeout;
     let json = x.link.json;
@@ -166,7 +171,7 @@ fn exchange(req: &Request, x: &ExchangeArgs) -> Result<ExitCode, CliError> {
         }
     }
     let (service, subtype) = req.service();
-    let sent = link.send(service, subtype, x.ack, &app_data)?;
+    let sent = link.send(service, subtype, ack, &app_data)?;
     let mut ex = Exchange::new(&sent, req.reply())?;
     eprintln!(
         "sent {service},{subtype} (sequence number {}) to {}",

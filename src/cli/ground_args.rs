@@ -13,7 +13,8 @@ pub(crate) enum GroundCmd {
         #[command(flatten)]
         x: ExchangeArgs,
     },
-    /// Start a campaign: 8,1 function 1.
+    /// Start a campaign: 8,1 function 1; ends at the start report (the campaign runs;
+    /// `--ack all` waits for its end).
     Start {
         /// The campaign's random seed.
         #[arg(long, default_value_t = 0)]
@@ -183,9 +184,10 @@ pub(crate) struct ExchangeArgs {
     #[arg(long, default_value_t = 10.0, value_name = "S")]
     pub(crate) timeout: f64,
     /// Verification reports to ask for: `all`, or a comma list of acceptance, start,
-    /// progress, completion (failures are always reported).
-    #[arg(long, default_value = "all", value_parser = ack_flags)]
-    pub(crate) ack: u8,
+    /// progress, completion (failures are always reported). Default: all; for `start`,
+    /// acceptance,start (its completion comes at the campaign's end).
+    #[arg(long, value_parser = ack_flags)]
+    pub(crate) ack: Option<u8>,
     /// Send the telecommand alone. By default a ping from the same socket comes first,
     /// so that the set, which sends its telemetry to the sender of the last accepted
     /// telecommand, sends a refusal of this one here (with --seq: never).
