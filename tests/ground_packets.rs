@@ -14,7 +14,8 @@ use std::process::Command;
 use taiji::bus::alloc_count::{thread_allocations, CountingAlloc};
 use taiji::ground::auth::{self, Key};
 use taiji::ground::dictionary::{self, Function, IdList, Mode, APID};
-use taiji::ground::housekeeping::{self, Source, ESTIMATE_LEN};
+use taiji::ground::events;
+use taiji::ground::housekeeping::{self, Health, Source, ESTIMATE_LEN, HEALTH_LEN};
 use taiji::ground::packet::{self, CdsShort, TcHeader, TmHeader, MAX_PACKET_LEN};
 use taiji::ground::replay::{ReplayError, ReplayGuard};
 use taiji::sim::msg::EstimateMsg;
@@ -76,6 +77,45 @@ fn estimate() -> EstimateMsg {
         e.flags,
     ) = (8, 7200, 3, 7203, 7200, 1);
     e
+}
+
+/// A health report with a distinct value in most fields (NaN where nothing runs).
+fn health() -> Health {
+    let mut h = Health {
+        mode: 1,
+        campaign: 2,
+        campaign_tick: 7203,
+        n_samples: 86_400,
+        tmtc_restarts: 1,
+        stage_restarts: 3,
+        tc_accepted: 12,
+        datagrams: 100_013,
+        tm_sent: 200_040,
+        tm_send_errors: 5,
+        ..Health::default()
+    };
+    h.restarts = [0, 0, 0, 3, 0];
+    h.heartbeat_age_ms = [1.25, 2.5, 3.75, 5.0, f64::NAN];
+    h.samples_lost = [0, 0, 0, 0, 17];
+    h.e2e_latency_us = [81.5, 133.25, 410.0];
+    for (i, c) in h.tc_refused.iter_mut().enumerate() {
+        *c = 1000 * i as u32 + 7;
+    }
+    h
+}
+
+/// The source data of event `id` with `args`.
+fn event_data(id: u16, args: &[u64]) -> Vec<u8> {
+    let mut d = [0u8; events::MAX_EVENT_DATA];
+    let n = events::encode_event(events::event(id).unwrap(), args, &mut d).unwrap();
+    d[..n].to_vec()
+}
+
+/// A 20,2 report: hk1_interval_ms 1000, then start_min_duration_s 60.
+fn parameter_report() -> Vec<u8> {
+    let mut d = vec![2u8, 0, 1, 0, 0, 0x03, 0xE8, 0, 3];
+    d.extend_from_slice(&60f64.to_be_bytes());
+    d
 }
 
 /// Start: seed 42, 600 s.
@@ -419,12 +459,21 @@ fn spacepackets_parses_our_telemetry_crc_checked() {
         &mut hk,
     )
     .unwrap();
+    let mut hk2 = [0u8; HEALTH_LEN];
+    housekeeping::encode_health(&health(), &mut hk2).unwrap();
+    let refused = event_data(events::EV_TC_REFUSED, &[11, 17, 1]);
+    let ended = event_data(events::EV_CAMPAIGN_ENDED_EARLY, &[2, 1]);
+    let report = parameter_report();
     let mut packets = Vec::new();
     let mut buf = vec![0u8; MAX_PACKET_LEN];
     for (i, (s, t, data)) in [
         (17u8, 2u8, &[][..]),
         (3, 25, &hk[..]),
         (1, 2, &[0x19, 0x20, 0xC0, 0x09, 0, 11][..]),
+        (3, 25, &hk2[..]),
+        (5, 2, &refused[..]),
+        (5, 4, &ended[..]),
+        (20, 2, &report[..]),
     ]
     .into_iter()
     .enumerate()
@@ -512,6 +561,13 @@ fn space_packet_parser_decodes_our_telemetry_from_the_xtce_alone() {
     housekeeping::encode_estimate(&src, &mut hk).unwrap();
     let tc = [0x19, 0x20, 0xC0, 0x09, 0, 30];
     let (failure, _) = dictionary::verification_data(&tc, Some(dictionary::Failure::BadMac));
+    let h = health();
+    let mut hk2 = [0u8; HEALTH_LEN];
+    housekeeping::encode_health(&h, &mut hk2).unwrap();
+    let refused = event_data(events::EV_TC_REFUSED, &[11, 17, 1]);
+    let status = event_data(events::EV_STATUS_CHANGED, &[2, 0x18, 0]);
+    let mut one = vec![1u8, 0, 3];
+    one.extend_from_slice(&60f64.to_be_bytes());
     let mut buf = vec![0u8; 1024];
     let mut hexes = vec!["xtce".to_string(), xtce.display().to_string()];
     for (s, t, data) in [
@@ -519,6 +575,10 @@ fn space_packet_parser_decodes_our_telemetry_from_the_xtce_alone() {
         (17, 2, &[][..]),
         (1, 2, &failure[..]),
         (1, 7, &failure[..4]),
+        (3, 25, &hk2[..]),
+        (5, 2, &refused[..]),
+        (5, 2, &status[..]),
+        (20, 2, &one[..]),
     ] {
         let n = packet::encode_tm(&mut buf, &tm_header(s, t, 3), data).unwrap();
         hexes.push(hex(&buf[..n]));
@@ -527,7 +587,7 @@ fn space_packet_parser_decodes_our_telemetry_from_the_xtce_alone() {
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    assert_eq!(lines.len(), 4);
+    assert_eq!(lines.len(), 8);
     let mut checked = 0;
     for f in housekeeping::ESTIMATE {
         for i in 0..f.elements.count() {
@@ -563,5 +623,150 @@ fn space_packet_parser_decodes_our_telemetry_from_the_xtce_alone() {
     assert_eq!(lines[2]["FAILURE_CODE"], 11);
     assert_eq!(lines[2]["REQ_PACKET_ID"], 0x1920);
     assert_eq!(lines[3]["REQ_SEQ_CTRL"], 0xC009);
+    // Structure 2, every value bit for bit (NaN included).
+    let (_, values) = housekeeping::decode_structure(&hk2).unwrap();
+    assert_eq!(values.len(), housekeeping::columns(2).unwrap().len());
+    for (c, bits) in &values {
+        let want = match c.kind {
+            dictionary::Kind::F64 => serde_json::json!(hex(&bits.to_be_bytes())),
+            _ => serde_json::json!(bits),
+        };
+        assert_eq!(lines[4][&c.name], want, "{}", c.name);
+    }
+    assert_eq!(lines[4]["HK_STRUCTURE_ID"], 2);
+    assert_eq!(lines[4]["tc_refused_read_only"], 27_007);
+    // Events by their ID, their arguments named after them.
+    assert_eq!(
+        (
+            &lines[5]["EVENT_ID"],
+            &lines[5]["tc_refused_failure"],
+            &lines[5]["tc_refused_service"],
+            &lines[5]["tc_refused_subtype"]
+        ),
+        (
+            &serde_json::json!(8),
+            &serde_json::json!(11),
+            &serde_json::json!(17),
+            &serde_json::json!(1)
+        )
+    );
+    assert_eq!(lines[6]["status_changed_old"], 0x18);
+    assert_eq!(lines[6]["status_changed_new"], 0);
+    // A report of one parameter.
+    assert_eq!(lines[7]["PARAM_ID"], 3);
+    assert_eq!(lines[7]["start_min_duration_s"], hex(&60f64.to_be_bytes()));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The onboard logic (`ground::onboard`) after its construction: 200 accepted
+/// telecommands of every service (each number kept on disk), their answers from the
+/// supervisor, 10⁴ refused datagrams, periodic reports, estimates, set status and
+/// ground state: 0 heap allocations.
+#[test]
+fn the_onboard_logic_allocates_nothing_after_construction() {
+    use taiji::ground::onboard::Onboard;
+    use taiji::ground::requests::{function_call, id_list, interval_list, value_list};
+    use taiji::sim::msg::{GroundNote, GroundState, SetStatus, NOTE_DONE, NOTE_STARTED};
+    let dir = scratch("onboard");
+    let guard = ReplayGuard::open(&dir.join("tc-sequence.state")).unwrap();
+    let mut ob = Onboard::new(key(), guard, 1);
+    let from: std::net::SocketAddr = "127.0.0.1:7400".parse().unwrap();
+    let kinds: Vec<(u8, u8, Vec<u8>)> = vec![
+        (17, 1, vec![]),
+        (3, 27, id_list(&[1, 2]).unwrap()),
+        (3, 31, interval_list(&[(1, 200), (2, 300)]).unwrap()),
+        (3, 6, id_list(&[2]).unwrap()),
+        (3, 5, id_list(&[2]).unwrap()),
+        (5, 6, id_list(&[8]).unwrap()),
+        (5, 5, id_list(&[8]).unwrap()),
+        (20, 1, id_list(&[1, 2, 3, 4, 10, 45, 46, 47]).unwrap()),
+        (20, 3, value_list(&[(3, 30f64.to_bits())]).unwrap()),
+        (8, 1, function_call(&Function::Restore)),
+    ];
+    let mut buf = [0u8; 512];
+    let tcs: Vec<Vec<u8>> = (0..200u32)
+        .map(|i| {
+            let (s, t, app) = &kinds[i as usize % kinds.len()];
+            let n =
+                auth::encode_signed_tc(&mut buf, &tc_header(*s, *t, i as u16), app, i + 1, &key())
+                    .unwrap();
+            buf[..n].to_vec()
+        })
+        .collect();
+    // Mutations of telecommands under another key: none can be accepted (a mutation
+    // may leave a packet as it was).
+    let other = Key::from_bytes([1; 32]);
+    let forged: Vec<Vec<u8>> = tcs
+        .iter()
+        .map(|t| {
+            let tc = packet::decode_tc(t, APID).unwrap();
+            let app = &tc.app_data[..tc.app_data.len() - auth::TRAILER_LEN];
+            let n = auth::encode_signed_tc(&mut buf, &tc.header, app, 1, &other).unwrap();
+            buf[..n].to_vec()
+        })
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let garbage: Vec<Vec<u8>> = (0..10_000)
+        .map(|i| match i % 2 {
+            0 => (0..rng.gen_range(0..96)).map(|_| rng.gen::<u8>()).collect(),
+            _ => mutate(&mut rng, &forged[i % forged.len()]),
+        })
+        .collect();
+    let mut e = estimate();
+    let mut status = SetStatus {
+        n_members: 2,
+        ..SetStatus::default()
+    };
+    status.members[0].process = 4;
+    status.members[1].process = 2;
+    let state = GroundState {
+        campaign: 1,
+        ..GroundState::default()
+    };
+    // Warm-up: the first datagram, report and event.
+    ob.on_ground_state(&state);
+    ob.datagram(&garbage[0], from, 0);
+    ob.clear_outbox();
+    let before = thread_allocations().expect("the counting allocator is installed");
+    let (mut forwarded, mut sent, mut now) = (0, 0usize, 0u64);
+    for (i, g) in garbage.iter().enumerate() {
+        now += 1_000_000;
+        ob.datagram(g, from, now);
+        if i % 50 == 0 {
+            if let Some(r) = ob.datagram(&tcs[i / 50], from, now) {
+                forwarded += 1;
+                for kind in [NOTE_STARTED, NOTE_DONE] {
+                    let code = if i % 100 == 0 { 26 } else { 0 };
+                    ob.on_note(&GroundNote {
+                        kind,
+                        code,
+                        token: r.token,
+                        ..GroundNote::default()
+                    });
+                }
+            }
+            e.status ^= 8;
+            e.header.tick += 1;
+            ob.on_estimate(&e);
+            status.members[0].restarts += 1;
+            ob.on_set_status(&status, now);
+            ob.on_ground_state(&state);
+        }
+        ob.tick(now);
+        sent += (0..ob.outbox_len())
+            .filter_map(|k| ob.outbox_packet(k))
+            .count();
+        for _ in 0..ob.outbox_len() {
+            ob.sent(true);
+        }
+        ob.clear_outbox();
+    }
+    let after = thread_allocations().unwrap();
+    assert_eq!(after - before, 0, "allocations in the onboard logic");
+    let h = ob.health(now);
+    assert_eq!(h.tc_accepted, 200);
+    assert_eq!(forwarded, 20);
+    assert_eq!(h.datagrams, 10_201);
+    assert!(sent > 20_000, "{sent} packets");
     std::fs::remove_dir_all(&dir).unwrap();
 }

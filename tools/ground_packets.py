@@ -10,12 +10,13 @@ package builds authenticated telecommands and parses the set's telemetry, CRC ch
         truncated to 16 bytes, over the packet from its first byte through SEQ.
     ground_packets.py tm HEX [HEX...]
         parses each telemetry packet (CDS short time, 7 bytes) and prints one JSON line
-        per packet: its fields, or {"error": ...} when spacepackets refuses it.
+        per packet: its fields, or {"error": ...} when spacepackets refuses it (the tests
+        give it verification, housekeeping, event and parameter reports).
     ground_packets.py xtce FILE HEX [HEX...]
         validates the XTCE dictionary FILE against the XTCE schema that space-packet-parser
-        ships (no download), decodes each telemetry packet with it alone, and prints one
-        JSON line per packet: every parameter's value (a float as the hex of its binary64
-        bits).
+        ships (no download), decodes each telemetry packet with it alone (housekeeping
+        structures 1 and 2, events, a report of one parameter...), and prints one JSON line
+        per packet: every parameter's value (a float as the hex of its binary64 bits).
 """
 import hashlib
 import hmac

@@ -191,7 +191,8 @@ pub const HEALTH: &[HealthField] = &[
         kind: Kind::U32,
         elements: Elements::One,
         unit: "",
-        meaning: "telemetry packets the socket refused",
+        meaning:
+            "telemetry packets not sent: refused by the socket, or dropped with the outbox full",
         read: |h, _| h.tm_send_errors.into(),
     },
 ];
@@ -229,6 +230,7 @@ pub fn encode_health(h: &Health, out: &mut [u8]) -> Result<usize, EncodeError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ground::dictionary::Failure;
     use crate::ground::housekeeping::{columns, decode_structure, HkError};
 
     #[test]
@@ -251,7 +253,7 @@ mod tests {
         h.samples_lost[4] = 7;
         h.e2e_latency_us = [80.0, 120.0, 300.0];
         h.tc_refused[0] = 99_990;
-        h.tc_refused[N_FAILURES - 1] = 1;
+        h.tc_refused[Failure::ReadOnly as usize - 1] = 1;
         let mut out = [0u8; HEALTH_LEN];
         let n = encode_health(&h, &mut out).unwrap();
         assert_eq!(n, HEALTH_LEN);

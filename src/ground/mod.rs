@@ -3,7 +3,8 @@
 //! the dictionary: the IDs, failure codes, events, parameters and housekeeping layouts
 //! that the code and the published dictionary share (`dictionary`, `events`,
 //! `parameters`, `housekeeping`, `health`, `layout`), the telecommands' application data
-//! (`requests`), printed as XTCE and JSON (`publish`) and as docs/ground.md's tables
+//! (`requests`), printed as XTCE and JSON (`publish` for the telemetry, `commands` for
+//! the telecommands, `xtce` for what they share) and as docs/ground.md's tables
 //! (`tables`); the onboard side's logic (`onboard`, writing into `downlink`), which the
 //! TMTC process (`runtime::process::tmtc`) runs; and the onboard calibration table, kept
 //! across restarts (`table`). docs/ground.md describes them.
@@ -16,6 +17,7 @@
 
 pub mod auth;
 pub mod client;
+pub mod commands;
 pub mod crc;
 pub mod describe;
 pub mod dictionary;
@@ -36,3 +38,4 @@ pub mod seq;
 pub mod table;
 pub mod tables;
 pub mod tc;
+pub mod xtce;

@@ -1,33 +1,19 @@
 //! The published dictionary, printed from the definitions the code uses: as JSON, and
 //! as XTCE (OMG XTCE 1.2) in the convention `space-packet-parser` reads: a root sequence
 //! container `CCSDSPacket` holding the primary header, from which the PUS-C telemetry
-//! header inherits by APID and type, and each packet by service and subtype (and a
-//! housekeeping report by its structure ID).
+//! header inherits by APID and type, and each packet by service and subtype (a
+//! housekeeping report by its structure ID, an event report by its event ID, a report
+//! of one parameter by its ID). The telecommands are `commands`'.
 
 use super::auth::{MAC_LEN, SEQ_LEN};
-use super::dictionary::{Failure, Kind, Mode, APID, FUNCTIONS, SERVICES, TIME_EPOCH};
-use super::housekeeping::{Elements, ESTIMATE, STRUCTURE_ESTIMATE};
+use super::commands::{commands, telecommands_json};
+use super::dictionary::{Failure, Mode, APID, FUNCTIONS, SERVICES, TIME_EPOCH};
+use super::events::EVENTS;
+use super::housekeeping::{columns, structure_name, STRUCTURES};
+use super::parameters::PARAMETERS;
+use super::xtce::{esc, int, of_kind, params_json, pec, type_name, types, Param};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
-
-/// A parameter of a packet: its name, bits on the wire, whether a float, unit, meaning.
-struct Param {
-    name: String,
-    bits: usize,
-    float: bool,
-    unit: &'static str,
-    meaning: String,
-}
-
-fn int(name: &str, bits: usize, unit: &'static str, meaning: &str) -> Param {
-    Param {
-        name: name.into(),
-        bits,
-        float: false,
-        unit,
-        meaning: meaning.into(),
-    }
-}
 
 /// The primary header's fields (space-packet-parser's names).
 fn primary() -> Vec<Param> {
@@ -57,39 +43,39 @@ fn tm_secondary() -> Vec<Param> {
     ]
 }
 
-/// Housekeeping structure 1's parameters, one per element.
-fn estimate_params() -> Vec<Param> {
-    let mut v = Vec::new();
-    for f in ESTIMATE {
-        for i in 0..f.elements.count() {
-            let name = format!("{}{}", f.name, f.elements.suffix(i));
-            let meaning = match f.elements {
-                Elements::One => f.meaning.to_string(),
-                e => format!("{} ({})", f.meaning, e.suffix(i).trim_start_matches('_')),
-            };
-            v.push(Param {
-                name,
-                bits: 8 * f.kind.size(),
-                float: f.kind == Kind::F64,
-                unit: f.unit,
-                meaning,
-            });
-        }
-    }
-    v
+/// A housekeeping structure's parameters, one per element.
+fn structure_params(id: u16) -> Vec<Param> {
+    columns(id)
+        .unwrap_or_default()
+        .iter()
+        .map(|c| of_kind(&c.name, c.kind, c.unit, &c.meaning))
+        .collect()
 }
 
 /// A sequence container: name, base and its restriction, entries.
 struct Container {
-    name: &'static str,
-    meaning: &'static str,
+    name: String,
+    meaning: String,
     base: Option<(&'static str, Vec<(&'static str, u32)>)>,
     abstract_: bool,
     entries: Vec<Param>,
 }
 
-fn pec() -> Param {
-    int("PEC", 16, "", "packet error control (CRC-16/CCITT-FALSE)")
+/// A concrete container of `entries`, then the packet error control.
+fn leaf(
+    name: String,
+    meaning: String,
+    base: (&'static str, Vec<(&'static str, u32)>),
+    mut entries: Vec<Param>,
+) -> Container {
+    entries.push(pec());
+    Container {
+        name,
+        meaning,
+        base: Some(base),
+        abstract_: false,
+        entries,
+    }
 }
 
 fn containers() -> Vec<Container> {
@@ -101,15 +87,15 @@ fn containers() -> Vec<Container> {
     );
     let mut v = vec![
         Container {
-            name: "CCSDSPacket",
-            meaning: "CCSDS space packet primary header",
+            name: "CCSDSPacket".into(),
+            meaning: "CCSDS space packet primary header".into(),
             base: None,
             abstract_: true,
             entries: primary(),
         },
         Container {
-            name: "PUS_TM",
-            meaning: "PUS-C telemetry of the calibration application",
+            name: "PUS_TM".into(),
+            meaning: "PUS-C telemetry of the calibration application".into(),
             base: Some((
                 "CCSDSPacket",
                 vec![("PKT_APID", u32::from(APID)), ("TYPE", 0)],
@@ -118,9 +104,10 @@ fn containers() -> Vec<Container> {
             entries: tm_secondary(),
         },
         Container {
-            name: "TM_1",
+            name: "TM_1".into(),
             meaning:
-                "request verification: the request ID (the TC's packet ID and sequence control)",
+                "request verification: the request ID (the TC's packet ID and sequence control)"
+                    .into(),
             base: Some(("PUS_TM", vec![("SERVICE", 1)])),
             abstract_: true,
             entries: vec![
@@ -134,90 +121,117 @@ fn containers() -> Vec<Container> {
         (3, "TM_1_3", "start of execution success"),
         (7, "TM_1_7", "completion of execution success"),
     ] {
-        v.push(Container {
-            name,
-            meaning,
-            base: Some(("TM_1", vec![("SUBTYPE", sub)])),
-            abstract_: false,
-            entries: vec![pec()],
-        });
+        v.push(leaf(
+            name.into(),
+            meaning.into(),
+            ("TM_1", vec![("SUBTYPE", sub)]),
+            vec![],
+        ));
     }
     for (sub, name, meaning) in [
         (2, "TM_1_2", "acceptance failure"),
         (4, "TM_1_4", "start of execution failure"),
         (8, "TM_1_8", "completion of execution failure"),
     ] {
-        let entries = vec![int(&failure.name, 16, "", &failure.meaning), pec()];
-        v.push(Container {
-            name,
-            meaning,
-            base: Some(("TM_1", vec![("SUBTYPE", sub)])),
-            abstract_: false,
+        let entries = vec![failure.clone()];
+        v.push(leaf(
+            name.into(),
+            meaning.into(),
+            ("TM_1", vec![("SUBTYPE", sub)]),
             entries,
-        });
+        ));
     }
     v.push(Container {
-        name: "TM_3_25",
-        meaning: "housekeeping parameter report",
+        name: "TM_3_25".into(),
+        meaning: "housekeeping parameter report".into(),
         base: Some(("PUS_TM", vec![("SERVICE", 3), ("SUBTYPE", 25)])),
         abstract_: true,
         entries: vec![int("HK_STRUCTURE_ID", 16, "", "housekeeping structure ID")],
     });
-    let mut est = estimate_params();
-    est.push(pec());
-    v.push(Container {
-        name: "HK_ESTIMATE",
-        meaning: "housekeeping structure 1: the latest estimate",
-        base: Some((
-            "TM_3_25",
-            vec![("HK_STRUCTURE_ID", u32::from(STRUCTURE_ESTIMATE))],
-        )),
-        abstract_: false,
-        entries: est,
-    });
-    v.push(Container {
-        name: "TM_17_2",
-        meaning: "are-you-alive response",
-        base: Some(("PUS_TM", vec![("SERVICE", 17), ("SUBTYPE", 2)])),
-        abstract_: false,
-        entries: vec![pec()],
-    });
+    for id in STRUCTURES {
+        let name = structure_name(id).unwrap_or_default();
+        v.push(leaf(
+            format!("HK_{}", name.to_uppercase()),
+            format!("housekeeping structure {id}: {name}"),
+            ("TM_3_25", vec![("HK_STRUCTURE_ID", u32::from(id))]),
+            structure_params(id),
+        ));
+    }
+    v.push(leaf(
+        "TM_17_2".into(),
+        "are-you-alive response".into(),
+        ("PUS_TM", vec![("SERVICE", 17), ("SUBTYPE", 2)]),
+        vec![],
+    ));
+    v.extend(event_containers());
+    v.extend(parameter_containers());
     v
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
+/// Service 5: `TM_5` holds the event ID; each event's report inherits from it by its ID
+/// and severity (the subtype). Its arguments are named `<event>_<argument>`.
+fn event_containers() -> Vec<Container> {
+    let mut v = vec![Container {
+        name: "TM_5".into(),
+        meaning: "event report (subtype: severity 1 info, 2 low, 3 medium, 4 high)".into(),
+        base: Some(("PUS_TM", vec![("SERVICE", 5)])),
+        abstract_: true,
+        entries: vec![int("EVENT_ID", 16, "", "the event's ID")],
+    }];
+    for e in EVENTS {
+        let args = e
+            .args
+            .iter()
+            .map(|a| of_kind(&format!("{}_{}", e.name, a.name), a.kind, a.unit, a.meaning))
+            .collect();
+        v.push(leaf(
+            format!("EV_{}", e.name.to_uppercase()),
+            format!("event {}: {}", e.id, e.meaning),
+            (
+                "TM_5",
+                vec![
+                    ("SUBTYPE", u32::from(e.severity)),
+                    ("EVENT_ID", u32::from(e.id)),
+                ],
+            ),
+            args,
+        ));
+    }
+    v
 }
 
-/// The parameter type a parameter uses: by encoding and unit.
-fn type_name(p: &Param) -> String {
-    let unit: String = p
-        .unit
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-        .collect();
-    let base = if p.float {
-        format!("float{}", p.bits)
-    } else {
-        format!("uint{}", p.bits)
-    };
-    if unit.is_empty() {
-        base
-    } else {
-        format!("{base}_{unit}")
+/// Service 20: `TM_20_2` holds N and the first entry's parameter ID; a report of one
+/// parameter inherits from it by that ID and decodes whole. A longer report's further
+/// entries follow the same layout (N × (ID u16, value in its kind)).
+fn parameter_containers() -> Vec<Container> {
+    let mut v = vec![Container {
+        name: "TM_20_2".into(),
+        meaning: "parameter value report: N (u8), then N × (parameter ID u16, value in its kind)"
+            .into(),
+        base: Some(("PUS_TM", vec![("SERVICE", 20), ("SUBTYPE", 2)])),
+        abstract_: false,
+        entries: vec![
+            int("PARAM_COUNT", 8, "", "N: the entries of the report"),
+            int("PARAM_ID", 16, "", "the first entry's parameter ID"),
+        ],
+    }];
+    for p in PARAMETERS {
+        v.push(leaf(
+            format!("TM_20_2_{}", p.name.to_uppercase()),
+            format!("parameter {} alone: {}", p.id, p.meaning),
+            (
+                "TM_20_2",
+                vec![("PARAM_COUNT", 1), ("PARAM_ID", u32::from(p.id))],
+            ),
+            vec![of_kind(p.name, p.kind, p.unit, p.meaning)],
+        ));
     }
+    v
 }
 
 /// The whole telemetry dictionary as XTCE.
 pub fn xtce() -> String {
     let cs = containers();
-    let mut types = std::collections::BTreeMap::new();
-    for p in cs.iter().flat_map(|c| &c.entries) {
-        types.entry(type_name(p)).or_insert(p);
-    }
     let mut x = String::from("<?xml version='1.0' encoding='UTF-8'?>\n");
     x += "<xtce:SpaceSystem xmlns:xtce=\"http://www.omg.org/spec/XTCE/20180204\" name=\"taiji-calibration\">\n";
     let _ = writeln!(
@@ -225,39 +239,7 @@ pub fn xtce() -> String {
         "  <xtce:Header version=\"1\" validationStatus=\"Working\"/>"
     );
     x += "  <xtce:TelemetryMetaData>\n    <xtce:ParameterTypeSet>\n";
-    for (name, p) in &types {
-        let (tag, enc) = if p.float {
-            (
-                "FloatParameterType",
-                format!(
-                    "<xtce:FloatDataEncoding sizeInBits=\"{}\" encoding=\"IEEE754\"/>",
-                    p.bits
-                ),
-            )
-        } else {
-            (
-                "IntegerParameterType",
-                format!(
-                    "<xtce:IntegerDataEncoding sizeInBits=\"{}\" encoding=\"unsigned\"/>",
-                    p.bits
-                ),
-            )
-        };
-        let signed = if p.float {
-            String::new()
-        } else {
-            " signed=\"false\"".into()
-        };
-        let _ = writeln!(x, "      <xtce:{tag} name=\"{name}\"{signed}>");
-        if !p.unit.is_empty() {
-            let _ = writeln!(
-                x,
-                "        <xtce:UnitSet><xtce:Unit>{}</xtce:Unit></xtce:UnitSet>",
-                esc(p.unit)
-            );
-        }
-        let _ = writeln!(x, "        {enc}\n      </xtce:{tag}>");
-    }
+    x += &types(cs.iter().flat_map(|c| &c.entries), "Parameter");
     x += "    </xtce:ParameterTypeSet>\n    <xtce:ParameterSet>\n";
     let mut seen = std::collections::BTreeSet::new();
     for p in cs
@@ -275,7 +257,7 @@ pub fn xtce() -> String {
             "      <xtce:SequenceContainer name=\"{}\" abstract=\"{}\" shortDescription=\"{}\">",
             c.name,
             c.abstract_,
-            esc(c.meaning)
+            esc(&c.meaning)
         );
         x += "        <xtce:EntryList>\n";
         for p in &c.entries {
@@ -303,227 +285,6 @@ pub fn xtce() -> String {
     x += &commands();
     x += "</xtce:SpaceSystem>\n";
     x
-}
-
-/// A telecommand of fixed layout: its name, service, subtype, function ID (8,1) and
-/// arguments; every one ends in the authentication trailer and the CRC.
-struct Command {
-    name: String,
-    meaning: String,
-    service: u8,
-    subtype: u8,
-    function: Option<u16>,
-    args: Vec<Param>,
-}
-
-/// The telecommands whose layout is fixed: 17,1 and the functions of 8,1.
-fn fixed_commands() -> Vec<Command> {
-    let mut v = vec![Command {
-        name: "TC_17_1".into(),
-        meaning: "are-you-alive connection test".into(),
-        service: 17,
-        subtype: 1,
-        function: None,
-        args: vec![],
-    }];
-    for f in FUNCTIONS {
-        let args = f
-            .args
-            .iter()
-            .map(|a| {
-                let range = a
-                    .range
-                    .map(|(lo, _)| format!("; finite, at least {lo}"))
-                    .unwrap_or_default();
-                let meaning = format!("{}{range}", a.meaning);
-                Param {
-                    name: a.name.into(),
-                    bits: 8 * a.kind.size(),
-                    float: a.kind == Kind::F64,
-                    unit: a.unit,
-                    meaning,
-                }
-            })
-            .collect();
-        v.push(Command {
-            name: format!("FN_{}", f.name.to_uppercase()),
-            meaning: format!("8,1 function {}: {}", f.id, f.meaning),
-            service: 8,
-            subtype: 1,
-            function: Some(f.id),
-            args,
-        });
-    }
-    v
-}
-
-/// The telecommand header's arguments (the ground tool sets them per packet).
-fn tc_header_args() -> Vec<Param> {
-    vec![
-        int("SRC_SEQ_CTR", 14, "", "sequence count"),
-        int("PKT_LEN", 16, "", "packet data length − 1"),
-        int(
-            "ACK_FLAGS",
-            4,
-            "",
-            "acknowledgement flags: acceptance, start, progress, completion (bits 0 to 3)",
-        ),
-        int("SERVICE", 8, "", "service type"),
-        int("SUBTYPE", 8, "", "message subtype"),
-        int("SOURCE_ID", 16, "", "source ID"),
-    ]
-}
-
-/// The trailer's and CRC's arguments, which close every telecommand.
-fn tc_trailer_args() -> Vec<Param> {
-    vec![
-        int(
-            "AUTH_SEQ",
-            32,
-            "",
-            "anti-replay sequence number: larger than the last accepted",
-        ),
-        int("PEC", 16, "", "packet error control (CRC-16/CCITT-FALSE)"),
-    ]
-}
-
-fn refs(x: &mut String, names: &[&str]) {
-    for n in names {
-        let _ = writeln!(
-            x,
-            "            <xtce:ArgumentRefEntry argumentRef=\"{n}\"/>"
-        );
-    }
-}
-
-/// The entries of the primary and PUS-C secondary headers of a telecommand.
-fn tc_header_entries() -> String {
-    let mut x = fixed("VERSION", 0, 3);
-    x += &fixed("TYPE", 1, 1);
-    x += &fixed("SEC_HDR_FLG", 1, 1);
-    x += &fixed("PKT_APID", u32::from(APID), 11);
-    x += &fixed("SEQ_FLGS", 3, 2);
-    refs(&mut x, &["SRC_SEQ_CTR", "PKT_LEN"]);
-    x += &fixed("PUS_VERSION", 2, 4);
-    refs(&mut x, &["ACK_FLAGS", "SERVICE", "SUBTYPE", "SOURCE_ID"]);
-    x
-}
-
-fn fixed(name: &str, value: u32, bits: usize) -> String {
-    format!("            <xtce:FixedValueEntry name=\"{name}\" binaryValue=\"{value:04X}\" sizeInBits=\"{bits}\"/>\n")
-}
-
-fn argument_list(ps: &[Param], mac: bool) -> String {
-    let mut x = String::from("        <xtce:ArgumentList>\n");
-    for p in ps {
-        let (n, t, d) = (&p.name, type_name(p), esc(&p.meaning));
-        let _ = writeln!(x, "          <xtce:Argument name=\"{n}\" argumentTypeRef=\"{t}\" shortDescription=\"{d}\"/>");
-    }
-    if mac {
-        x += "          <xtce:Argument name=\"AUTH_MAC\" argumentTypeRef=\"bytes16\" shortDescription=\"HMAC-SHA-256 truncated to 16 bytes, over the packet from its first byte through AUTH_SEQ\"/>\n";
-    }
-    x + "        </xtce:ArgumentList>\n"
-}
-
-/// The telecommands as XTCE `CommandMetaData`: an abstract `PUS_TC` with the headers'
-/// arguments, from which each command inherits them, setting its service and subtype;
-/// each command's container lays out the whole packet.
-fn commands() -> String {
-    let cmds = fixed_commands();
-    let header = tc_header_args();
-    let trailer = tc_trailer_args();
-    let mut types = std::collections::BTreeMap::new();
-    for p in header
-        .iter()
-        .chain(&trailer)
-        .chain(cmds.iter().flat_map(|c| &c.args))
-    {
-        types.entry(type_name(p)).or_insert(p);
-    }
-    let mut x = String::from("  <xtce:CommandMetaData>\n    <xtce:ArgumentTypeSet>\n");
-    for (name, p) in &types {
-        let (tag, enc, signed) = if p.float {
-            (
-                "FloatArgumentType",
-                format!(
-                    "<xtce:FloatDataEncoding sizeInBits=\"{}\" encoding=\"IEEE754\"/>",
-                    p.bits
-                ),
-                "",
-            )
-        } else {
-            let enc = format!(
-                "<xtce:IntegerDataEncoding sizeInBits=\"{}\" encoding=\"unsigned\"/>",
-                p.bits
-            );
-            ("IntegerArgumentType", enc, " signed=\"false\"")
-        };
-        let _ = writeln!(x, "      <xtce:{tag} name=\"{name}\"{signed}>");
-        if !p.unit.is_empty() {
-            let _ = writeln!(
-                x,
-                "        <xtce:UnitSet><xtce:Unit>{}</xtce:Unit></xtce:UnitSet>",
-                esc(p.unit)
-            );
-        }
-        let _ = writeln!(x, "        {enc}\n      </xtce:{tag}>");
-    }
-    x += "      <xtce:BinaryArgumentType name=\"bytes16\">\n        <xtce:BinaryDataEncoding><xtce:SizeInBits><xtce:FixedValue>128</xtce:FixedValue></xtce:SizeInBits></xtce:BinaryDataEncoding>\n      </xtce:BinaryArgumentType>\n";
-    x += "    </xtce:ArgumentTypeSet>\n    <xtce:MetaCommandSet>\n";
-    x += "      <xtce:MetaCommand name=\"PUS_TC\" abstract=\"true\" shortDescription=\"PUS-C telecommand of the calibration application\">\n";
-    x += &argument_list(&header, false);
-    x += "      </xtce:MetaCommand>\n";
-    for c in &cmds {
-        let _ = writeln!(
-            x,
-            "      <xtce:MetaCommand name=\"{}\" shortDescription=\"{}\">",
-            c.name,
-            esc(&c.meaning)
-        );
-        x += "        <xtce:BaseMetaCommand metaCommandRef=\"PUS_TC\">\n          <xtce:ArgumentAssignmentList>\n";
-        for (n, v) in [("SERVICE", c.service), ("SUBTYPE", c.subtype)] {
-            let _ = writeln!(
-                x,
-                "            <xtce:ArgumentAssignment argumentName=\"{n}\" argumentValue=\"{v}\"/>"
-            );
-        }
-        x += "          </xtce:ArgumentAssignmentList>\n        </xtce:BaseMetaCommand>\n";
-        let mut args: Vec<Param> = c
-            .args
-            .iter()
-            .map(|p| Param {
-                name: p.name.clone(),
-                meaning: p.meaning.clone(),
-                ..*p
-            })
-            .collect();
-        args.extend(tc_trailer_args());
-        x += &argument_list(&args, true);
-        let _ = writeln!(
-            x,
-            "        <xtce:CommandContainer name=\"{}\">\n          <xtce:EntryList>",
-            c.name
-        );
-        x += &tc_header_entries();
-        if let Some(id) = c.function {
-            x += &fixed("FUNCTION_ID", u32::from(id), 16);
-        }
-        let names: Vec<&str> = c.args.iter().map(|p| p.name.as_str()).collect();
-        refs(&mut x, &names);
-        refs(&mut x, &["AUTH_SEQ", "AUTH_MAC", "PEC"]);
-        x += "          </xtce:EntryList>\n";
-        x += "        </xtce:CommandContainer>\n      </xtce:MetaCommand>\n";
-    }
-    x += "    </xtce:MetaCommandSet>\n  </xtce:CommandMetaData>\n";
-    x
-}
-
-fn params_json(ps: &[Param]) -> Value {
-    let v: Vec<Value> = ps
-        .iter()
-        .map(|p| json!({"name": p.name, "type": if p.float { "float" } else { "uint" }, "bits": p.bits, "unit": p.unit, "meaning": p.meaning}))
-        .collect();
-    Value::Array(v)
 }
 
 /// The whole dictionary as JSON: the same content as the XTCE, and the telecommands.
@@ -564,6 +325,28 @@ pub fn json() -> Value {
             json!({"name": c.name, "abstract": c.abstract_, "meaning": c.meaning, "inherits": base, "entries": params_json(&c.entries)})
         })
         .collect();
+    let housekeeping: Vec<Value> = STRUCTURES
+        .iter()
+        .map(|&id| json!({"id": id, "name": structure_name(id), "parameters": params_json(&structure_params(id))}))
+        .collect();
+    let events: Vec<Value> = EVENTS
+        .iter()
+        .map(|e| {
+            let args: Vec<Value> = e
+                .args
+                .iter()
+                .map(|a| json!({"name": a.name, "type": a.kind.name(), "unit": a.unit, "meaning": a.meaning}))
+                .collect();
+            json!({"id": e.id, "name": e.name, "severity": e.severity, "subtype": e.severity, "arguments": args, "meaning": e.meaning})
+        })
+        .collect();
+    let parameters: Vec<Value> = PARAMETERS
+        .iter()
+        .map(|p| {
+            let range = p.range.map(|(lo, hi)| json!({"min": lo, "max": hi}));
+            json!({"id": p.id, "name": p.name, "type": p.kind.name(), "unit": p.unit, "range": range, "settable": p.settable, "default": p.default, "meaning": p.meaning})
+        })
+        .collect();
     json!({
         "apid": APID,
         "time": {"code": "CCSDS CDS short (preamble 0x40, 16-bit day, 32-bit millisecond of day)", "epoch": TIME_EPOCH},
@@ -579,7 +362,10 @@ pub fn json() -> Value {
         "functions": functions,
         "failure_codes": failures,
         "modes": modes,
-        "housekeeping": [{"id": STRUCTURE_ESTIMATE, "name": "estimate", "parameters": params_json(&estimate_params())}],
+        "telecommands": telecommands_json(),
+        "housekeeping": housekeeping,
+        "events": events,
+        "parameters": parameters,
         "telemetry_containers": packets,
     })
 }
@@ -588,7 +374,7 @@ pub fn json() -> Value {
 mod tests {
     use super::*;
     use crate::ground::dictionary::REQUEST_ID_LEN;
-    use crate::ground::housekeeping::ESTIMATE_LEN;
+    use crate::ground::housekeeping::{ESTIMATE_LEN, HEALTH_LEN};
 
     #[test]
     fn the_containers_add_up_to_the_packets() {
@@ -597,26 +383,38 @@ mod tests {
         assert_eq!(bits(&cs[0].entries), 48);
         assert_eq!(bits(&cs[1].entries), 8 * 14);
         assert_eq!(
-            (cs[2].name, bits(&cs[2].entries)),
+            (cs[2].name.as_str(), bits(&cs[2].entries)),
             ("TM_1", 8 * REQUEST_ID_LEN)
         );
-        assert_eq!(bits(&estimate_params()), 8 * (ESTIMATE_LEN - 2));
+        assert_eq!(bits(&structure_params(1)), 8 * (ESTIMATE_LEN - 2));
+        assert_eq!(bits(&structure_params(2)), 8 * (HEALTH_LEN - 2));
+        let find = |n: &str| cs.iter().find(|c| c.name == n).unwrap();
+        let ev = find("EV_TC_REFUSED");
+        assert_eq!(bits(&ev.entries), 8 * (2 + 1 + 1) + 16);
+        assert_eq!(
+            ev.base.as_ref().unwrap().1,
+            [("SUBTYPE", 2), ("EVENT_ID", 8)]
+        );
+        assert_eq!(bits(&find("TM_20_2_START_MIN_DURATION_S").entries), 64 + 16);
         let x = xtce();
         assert!(x.contains("<xtce:SequenceContainer name=\"CCSDSPacket\" abstract=\"true\""));
         assert!(x.contains("parameterRef=\"PKT_APID\" value=\"288\""));
-        // Each command's layout adds up to the packet the encoder writes.
-        for c in fixed_commands() {
-            let header = 3 + 1 + 1 + 11 + 2 + 4 + bits(&tc_header_args());
-            let function = if c.function.is_some() { 16 } else { 0 };
-            let total = header + function + bits(&c.args) + bits(&tc_trailer_args()) + 128;
-            let app = function / 8 + bits(&c.args) / 8;
-            assert_eq!(total, 8 * (6 + 5 + app + 20 + 2), "{}", c.name);
-        }
+        assert!(x.contains("<xtce:SequenceContainer name=\"HK_HEALTH\" abstract=\"false\""));
         assert!(x.contains("<xtce:MetaCommand name=\"FN_START_CAMPAIGN\""));
-        assert_eq!(json()["functions"][0]["arguments"][1]["unit"], "s");
+        let j = json();
+        assert_eq!(j["functions"][0]["arguments"][1]["unit"], "s");
         assert_eq!(
-            json()["failure_codes"].as_array().map(Vec::len),
+            j["failure_codes"].as_array().map(Vec::len),
             Some(Failure::ALL.len())
         );
+        assert_eq!(j["events"].as_array().map(Vec::len), Some(EVENTS.len()));
+        assert_eq!(j["parameters"][1]["default"], 5000.0);
+        assert_eq!(j["housekeeping"][1]["name"], "health");
+        // Names are unique: a parameter of two containers is one parameter of one type.
+        let mut seen = std::collections::BTreeMap::new();
+        for p in cs.iter().flat_map(|c| &c.entries) {
+            let t = seen.entry(p.name.clone()).or_insert_with(|| type_name(p));
+            assert_eq!(*t, type_name(p), "{}", p.name);
+        }
     }
 }

@@ -13,10 +13,150 @@
 //! | 20,1 | N (u8), N parameter IDs (u16) |
 //! | 20,3 | N (u8), N × (parameter ID u16, value in its kind) |
 
-use super::dictionary::{read_bits, write_bits, Failure, Function, IdList};
+use super::dictionary::{read_bits, write_bits, Failure, Function, IdList, Kind};
 use super::events::event;
 use super::housekeeping::structure_name;
 use super::parameters::{in_range, parameter, ParamDef, INTERVAL_RANGE_MS};
+
+/// A field of a telecommand's application data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TcField {
+    pub name: &'static str,
+    /// Its kind; `None`: the kind of the parameter the entry names (20,3's value).
+    pub kind: Option<Kind>,
+    pub unit: &'static str,
+    pub meaning: &'static str,
+}
+
+/// A telecommand the set takes and its application data (before the trailer): the
+/// fields of `head`, then, with `entry`, N (u8) and N entries of its fields.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TcLayout {
+    pub service: u8,
+    pub subtype: u8,
+    pub name: &'static str,
+    pub meaning: &'static str,
+    pub head: &'static [TcField],
+    pub entry: Option<&'static [TcField]>,
+}
+
+const fn field(
+    name: &'static str,
+    kind: Kind,
+    unit: &'static str,
+    meaning: &'static str,
+) -> TcField {
+    TcField {
+        name,
+        kind: Some(kind),
+        unit,
+        meaning,
+    }
+}
+
+const STRUCTURE_ID: TcField = field("structure_id", Kind::U16, "", "a housekeeping structure ID");
+const EVENT_ID: TcField = field("event_id", Kind::U16, "", "an event ID");
+const PARAMETER_ID: TcField = field("parameter_id", Kind::U16, "", "a parameter ID");
+
+/// Every telecommand the set takes, in service order (`dictionary::SERVICES`).
+pub const TELECOMMANDS: &[TcLayout] = &[
+    TcLayout {
+        service: 3,
+        subtype: 5,
+        name: "enable_housekeeping",
+        meaning: "enable the periodic reports of the structures",
+        head: &[],
+        entry: Some(&[STRUCTURE_ID]),
+    },
+    TcLayout {
+        service: 3,
+        subtype: 6,
+        name: "disable_housekeeping",
+        meaning: "disable the periodic reports of the structures",
+        head: &[],
+        entry: Some(&[STRUCTURE_ID]),
+    },
+    TcLayout {
+        service: 3,
+        subtype: 27,
+        name: "report_housekeeping",
+        meaning: "one report of each structure now",
+        head: &[],
+        entry: Some(&[STRUCTURE_ID]),
+    },
+    TcLayout {
+        service: 3,
+        subtype: 31,
+        name: "change_housekeeping_interval",
+        meaning: "change the structures' report intervals",
+        head: &[],
+        entry: Some(&[
+            STRUCTURE_ID,
+            field(
+                "interval",
+                Kind::U32,
+                "ms",
+                "the report interval, 100 to 3600000",
+            ),
+        ]),
+    },
+    TcLayout {
+        service: 5,
+        subtype: 5,
+        name: "enable_events",
+        meaning: "enable the reports of the events",
+        head: &[],
+        entry: Some(&[EVENT_ID]),
+    },
+    TcLayout {
+        service: 5,
+        subtype: 6,
+        name: "disable_events",
+        meaning: "disable the reports of the events",
+        head: &[],
+        entry: Some(&[EVENT_ID]),
+    },
+    TcLayout {
+        service: 8,
+        subtype: 1,
+        name: "perform_function",
+        meaning: "perform a function; its arguments follow its ID (the functions table)",
+        head: &[field("function_id", Kind::U16, "", "the function's ID")],
+        entry: None,
+    },
+    TcLayout {
+        service: 17,
+        subtype: 1,
+        name: "are_you_alive",
+        meaning: "connection test: answered with 17,2",
+        head: &[],
+        entry: None,
+    },
+    TcLayout {
+        service: 20,
+        subtype: 1,
+        name: "report_parameters",
+        meaning: "report the parameters' values (20,2)",
+        head: &[],
+        entry: Some(&[PARAMETER_ID]),
+    },
+    TcLayout {
+        service: 20,
+        subtype: 3,
+        name: "set_parameters",
+        meaning: "set the parameters' values, each range-checked; all or none are set",
+        head: &[],
+        entry: Some(&[
+            PARAMETER_ID,
+            TcField {
+                name: "value",
+                kind: None,
+                unit: "",
+                meaning: "the value, in the parameter's kind",
+            },
+        ]),
+    },
+];
 
 /// The IDs of an ID list, each checked by `known`, else `unknown`.
 fn checked_ids(
@@ -293,6 +433,20 @@ mod tests {
         }
         assert!(value_list(&[(9, 0)]).is_none());
         assert!(parse_values(&[0]).unwrap().is_empty());
+    }
+
+    #[test]
+    fn every_telecommand_routed_has_its_layout() {
+        use crate::ground::dictionary::SERVICES;
+        let routed: Vec<(u8, u8)> = SERVICES
+            .iter()
+            .flat_map(|s| s.tc.iter().map(move |&t| (s.id, t)))
+            .collect();
+        let laid: Vec<(u8, u8)> = TELECOMMANDS
+            .iter()
+            .map(|t| (t.service, t.subtype))
+            .collect();
+        assert_eq!(routed, laid);
     }
 
     #[test]
