@@ -102,7 +102,7 @@ fn each_subcommand_sends_its_telecommand_and_ends_at_its_reports() {
             "completion ok",
         ),
         (
-            vec!["hk-now", "1", "2"],
+            vec!["hk-now", "estimate", "2"],
             3,
             27,
             vec![2, 0, 1, 0, 2],
@@ -315,7 +315,7 @@ fn bad_arguments_and_a_key_others_can_read_exit_2_sending_nothing() {
         (&["set", "hk1_interval_ms"][..], "expected NAME_OR_ID=VALUE"),
         (&["set", "hk1_interval_ms=-3"][..], "is not a u32 value"),
         (&["event-enable", "99"][..], "no event \"99\""),
-        (&["hk-now", "estimate"][..], "is not a structure ID"),
+        (&["hk-now", "estimates"][..], "is no housekeeping structure"),
         (&["ping", "--ack", "none"][..], ""),
         (
             &["stop", "--ack", "none"][..],

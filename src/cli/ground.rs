@@ -243,6 +243,9 @@ fn listen(
     };
     let mut link = Link::open(&args.config())?;
     client::catch_termination();
+    if let Some(local) = link.local() {
+        eprintln!("listening on {local} for the telemetry of {}", link.to());
+    }
     let t0 = Instant::now();
     let mut keep = Keepalive::new(keepalive);
     let mut refused_said = false;

@@ -47,7 +47,7 @@ pub(crate) enum GroundCmd {
     },
     /// Enable periodic housekeeping reports of these structures: 3,5.
     HkEnable {
-        /// Structure IDs (1 estimate, 2 health).
+        /// Structure IDs or names (1 estimate, 2 health).
         #[arg(required = true)]
         ids: Vec<String>,
         #[command(flatten)]

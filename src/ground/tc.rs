@@ -5,6 +5,7 @@
 
 use super::dictionary::{Function, Kind};
 use super::events::EVENTS;
+use super::housekeeping::{structure_name, STRUCTURES};
 use super::parameters::{ParamDef, PARAMETERS};
 use super::requests::{function_call, id_list, interval_list, value_list};
 
@@ -15,7 +16,7 @@ pub enum TcError {
     UnknownParameter(String),
     #[error("no event {0:?} in the dictionary (`taiji-calib ground dictionary` lists them)")]
     UnknownEvent(String),
-    #[error("{0:?} is not a structure ID (a number, e.g. 1 or 2)")]
+    #[error("{0:?} is no housekeeping structure (1 or estimate, 2 or health)")]
     BadStructure(String),
     #[error("{0:?}: expected NAME_OR_ID=VALUE")]
     NotAnAssignment(String),
@@ -154,13 +155,20 @@ pub fn event_ids(list: &[String]) -> Result<Vec<u16>, TcError> {
         .collect()
 }
 
-/// Structure IDs (numbers: the set answers an unknown one with `unknown_structure`).
+/// Structure IDs from IDs (an unknown one the set answers with `unknown_structure`)
+/// or names (`estimate`, `health`).
 pub fn structure_ids(list: &[String]) -> Result<Vec<u16>, TcError> {
     if list.is_empty() {
         return Err(TcError::Empty);
     }
     list.iter()
-        .map(|s| s.parse().map_err(|_| TcError::BadStructure(s.clone())))
+        .map(|s| match s.parse() {
+            Ok(id) => Ok(id),
+            Err(_) => STRUCTURES
+                .into_iter()
+                .find(|&id| structure_name(id) == Some(s.as_str()))
+                .ok_or_else(|| TcError::BadStructure(s.clone())),
+        })
         .collect()
 }
 
@@ -271,6 +279,10 @@ mod tests {
             structure_ids(&["x".into()]),
             Err(TcError::BadStructure(_))
         ));
+        assert_eq!(
+            structure_ids(&["health".into(), "1".into(), "9".into()]).unwrap(),
+            [2, 1, 9]
+        );
         assert_eq!(value_bits("p", Kind::U8, "0xff"), Ok(255));
         assert!(value_bits("p", Kind::U8, "256").is_err());
         assert!(value_bits("p", Kind::U32, "-1").is_err());
