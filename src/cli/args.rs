@@ -6,6 +6,8 @@ use crate::telemetry::Compression;
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
+pub(crate) use super::ground_args::GroundCmd;
+
 #[derive(Parser)]
 #[command(
     name = "taiji-calib",
@@ -135,28 +137,13 @@ pub(crate) enum Cmd {
     /// estimates against the bound, status, rejections, latency, every process. It
     /// changes nothing in the run; `q` leaves the monitor only.
     Monitor(crate::runtime::monitor::MonitorArgs),
-    /// The ground side of the link: the dictionary of packets, services, functions,
-    /// failure codes and housekeeping layouts (docs/ground.md).
+    /// The ground side of the link: one subcommand per telecommand, `listen` for the
+    /// telemetry, and the dictionary of packets, services, functions, failure codes,
+    /// events, parameters and housekeeping layouts (docs/ground.md).
     Ground {
         #[command(subcommand)]
         cmd: GroundCmd,
     },
-}
-
-#[derive(Subcommand)]
-pub(crate) enum GroundCmd {
-    /// Print the dictionary, generated from the definitions the code uses: XTCE (as
-    /// space-packet-parser reads it) or JSON.
-    Dictionary {
-        #[arg(long, value_enum, default_value = "json")]
-        format: DictionaryFormat,
-    },
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-pub(crate) enum DictionaryFormat {
-    Json,
-    Xtce,
 }
 
 #[derive(clap::Args)]

@@ -61,6 +61,31 @@ pub(crate) enum CliError {
     Plot(#[from] crate::analysis::plots::PlotError),
     #[error(transparent)]
     Monitor(#[from] crate::runtime::monitor::MonitorError),
+    /// The ground link: the key, the sequence counter, the socket.
+    #[error(transparent)]
+    GroundLink(#[from] crate::ground::client::ClientError),
+    /// A telecommand's arguments (names, IDs, values).
+    #[error(transparent)]
+    Telecommand(#[from] crate::ground::tc::TcError),
+    #[error(transparent)]
+    Exchange(#[from] crate::ground::exchange::NothingEnds),
+    /// A number of seconds that is none.
+    #[error("--{name}: must be seconds ≥ 0, not {value}")]
+    Seconds { name: &'static str, value: f64 },
+    /// `listen --save` or `decode`: the file.
+    #[error("{}: {source}", path.display())]
+    Save {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// `decode`: a saved stream that ends inside a record.
+    #[error("{}: {source}", path.display())]
+    Saved {
+        path: PathBuf,
+        #[source]
+        source: crate::ground::client::saved::SavedError,
+    },
 }
 
 impl CliError {

@@ -1,13 +1,14 @@
 //! `taiji-calib`: run the calibration campaign in one process, replay or export a
 //! recording, a Monte Carlo over seeds, the Cramér–Rao bound of a scenario, the
-//! maneuver planner, the live monitor of a running set, or the ground link's
-//! dictionary. One file per subcommand group; `src/bin/taiji-calib.rs` only calls [`main`].
+//! maneuver planner, the live monitor of a running set, or the ground side of the
+//! link (telecommands, telemetry, the dictionary). One file per subcommand group; `src/bin/taiji-calib.rs` only calls [`main`].
 
 mod analysis;
 mod args;
 mod campaign;
 mod error;
 mod ground;
+mod ground_args;
 mod output;
 mod replay;
 

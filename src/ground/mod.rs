@@ -8,13 +8,22 @@
 //! (`tables`); the onboard side's logic (`onboard`, writing into `downlink`), which the
 //! TMTC process (`runtime::process::tmtc`) runs; and the onboard calibration table, kept
 //! across restarts (`table`). docs/ground.md describes them.
+//!
+//! The ground side: the link that sends authenticated telecommands and receives the
+//! telemetry (`client`), with its sequence counter (`seq`), the telecommands built from
+//! what an operator types (`tc`), any telemetry packet decoded for people and scripts
+//! (`describe`), when a telecommand's exchange is over (`exchange`), and housekeeping
+//! read back into the messages it was made from (`readback`).
 
 pub mod auth;
+pub mod client;
 pub mod commands;
 pub mod crc;
+pub mod describe;
 pub mod dictionary;
 pub mod downlink;
 pub mod events;
+pub mod exchange;
 pub mod health;
 pub mod housekeeping;
 pub mod layout;
@@ -22,8 +31,11 @@ pub mod onboard;
 pub mod packet;
 pub mod parameters;
 pub mod publish;
+pub mod readback;
 pub mod replay;
 pub mod requests;
+pub mod seq;
 pub mod table;
 pub mod tables;
+pub mod tc;
 pub mod xtce;

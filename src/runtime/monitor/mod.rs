@@ -4,8 +4,11 @@
 //! terminal screen (`screen`) or prints one snapshot (`--once`, `--json`). It never
 //! writes where a stage reads: the only thing it sends is an operator's request to
 //! the supervisor (stop, after a y/n question), which alone commands the stages.
+//! `--ground ADDR` draws the same screen from the ground link's telemetry instead
+//! (`ground`), on any machine that reaches the set's address, with no shared memory.
 
 pub mod feed;
+pub mod ground;
 pub mod model;
 pub mod png;
 pub mod screen;
@@ -15,6 +18,7 @@ use crate::runtime::launch::LaunchDescription;
 use crate::sim::files::FileError;
 use crate::sim::msg::SetStatus;
 use model::{Snapshot, Tracker, Truth};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -42,12 +46,37 @@ pub struct MonitorArgs {
     /// snapshot (rates and latency windows need time).
     #[arg(long, default_value_t = 1.0, requires = "once")]
     pub watch: f64,
-    /// Give up after this long [s] without a run (0: wait forever in the terminal UI).
+    /// Give up after this long [s] without a run (0: wait forever in the terminal UI;
+    /// with --ground, without both housekeeping structures, 0: wait forever).
     #[arg(long, default_value_t = 30.0)]
     pub timeout: f64,
     /// With --once: also draw the screen to this PNG (the README's screenshot).
     #[arg(long, requires = "once")]
     pub png: Option<PathBuf>,
+    /// Draw the screen from the ground link's telemetry alone, no shared memory: the
+    /// set's address (`tools/launch --ground ADDR`). Needs --key.
+    #[arg(long, value_name = "ADDR", requires = "key", conflicts_with_all = ["hosts", "bus_prefix"], value_parser = address)]
+    pub ground: Option<SocketAddr>,
+    /// With --ground: the link's key file (readable by its owner only).
+    #[arg(long, requires = "ground")]
+    pub key: Option<PathBuf>,
+    /// With --ground: the local address to receive on (default: an ephemeral port on
+    /// the loopback, or on every interface when ADDR is not a loopback address).
+    #[arg(long, requires = "ground", value_parser = address)]
+    pub bind: Option<SocketAddr>,
+    /// With --ground: ping every S seconds to keep the telemetry coming here (it goes
+    /// to the sender of the last accepted telecommand); 0: only at start.
+    #[arg(long, default_value_t = 5.0, value_name = "S")]
+    pub keepalive: f64,
+}
+
+/// An address as `HOST:PORT`, the first it resolves to.
+fn address(s: &str) -> Result<SocketAddr, String> {
+    use std::net::ToSocketAddrs;
+    s.to_socket_addrs()
+        .map_err(|e| format!("{s:?} is not an address HOST:PORT ({e})"))?
+        .next()
+        .ok_or_else(|| format!("{s:?} resolves to no address"))
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -80,13 +109,31 @@ pub enum MonitorError {
     Json(#[from] serde_json::Error),
     #[error(transparent)]
     Png(#[from] png::PngError),
+    /// `--ground` without `--key` (clap asks for it; this is the library's own check).
+    #[error("--ground needs --key")]
+    NoKey,
+    /// The ground link: the key, the sequence counter, the socket.
+    #[error(transparent)]
+    Link(#[from] crate::ground::client::ClientError),
+    /// No telemetry came from the set (exit 1: nothing to show).
+    #[error("no telemetry from {address} after {timeout_s} s{why}")]
+    NoTelemetry {
+        address: SocketAddr,
+        timeout_s: f64,
+        why: &'static str,
+    },
+    /// The set refused the monitor's ping.
+    #[error("the set at {address} refused the monitor's ping: {why}")]
+    Refused { address: SocketAddr, why: String },
 }
 
 impl MonitorError {
     /// 1 when there was nothing to watch, 2 for everything else.
     pub fn exit_code(&self) -> u8 {
         match self {
-            MonitorError::NoRun { .. } | MonitorError::Ended { .. } => 1,
+            MonitorError::NoRun { .. }
+            | MonitorError::Ended { .. }
+            | MonitorError::NoTelemetry { .. } => 1,
             _ => 2,
         }
     }
@@ -135,6 +182,13 @@ pub fn run(args: &MonitorArgs) -> Result<u8, MonitorError> {
     });
     let timeout = seconds(args.timeout)?;
     let watch = seconds(args.watch)?;
+    if let Some(to) = args.ground {
+        return if args.once {
+            once_ground(args, to, truth, timeout, watch)
+        } else {
+            ui::run_ground(args, to, truth, timeout)
+        };
+    }
     if args.once {
         once(args, truth, &hosts, timeout, watch)
     } else {
@@ -227,13 +281,68 @@ fn once(
     detach(feed, &args.bus_prefix);
     result?;
     let snap = t.snapshot(&args.bus_prefix, hosts, Instant::now());
+    print_snapshot(args, &snap, &t)
+}
+
+/// `--once --ground`: watch the telemetry until structures 1 and 2 have come and
+/// `--watch` has passed, then print the snapshot.
+fn once_ground(
+    args: &MonitorArgs,
+    to: SocketAddr,
+    truth: Option<Truth>,
+    timeout: Duration,
+    watch: Duration,
+) -> Result<u8, MonitorError> {
+    let mut g = ground::GroundFeed::open(args, to)?;
+    crate::ground::client::catch_termination();
+    let mut t = Tracker::new(truth);
+    let mut since: Option<Instant> = None;
+    let t0 = Instant::now();
+    loop {
+        if crate::ground::client::terminated() {
+            return Err(MonitorError::Terminated);
+        }
+        g.pump(&mut t, FRAME)?;
+        if g.new_campaign {
+            t = Tracker::new(t.truth);
+            since = None;
+        }
+        if let Some(why) = g.refused.take() {
+            return Err(MonitorError::Refused { address: to, why });
+        }
+        if since.is_none() && t.latest.is_some() && g.has_health() {
+            since = Some(Instant::now());
+        }
+        if since.is_some_and(|s| s.elapsed() >= watch) {
+            break;
+        }
+        if since.is_none() && !timeout.is_zero() && t0.elapsed() > timeout {
+            return Err(MonitorError::NoTelemetry {
+                address: to,
+                timeout_s: timeout.as_secs_f64(),
+                why: match (g.nothing_listens, g.heard_at) {
+                    (true, _) => " (nothing listens there: is the set up with --ground?)",
+                    (false, None) => " (is the set up, on this address, with this key?)",
+                    (false, Some(_)) => " with both housekeeping structures (enable them with `ground hk-enable 1 2`)",
+                },
+            });
+        }
+    }
+    let now = Instant::now();
+    let mut snap = t.snapshot("", &HostNames(None), now);
+    g.finish(&mut snap, now);
+    print_snapshot(args, &snap, &t)
+}
+
+/// `--once`'s output: the PNG if asked for, then the JSON or the text.
+fn print_snapshot(args: &MonitorArgs, snap: &Snapshot, t: &Tracker) -> Result<u8, MonitorError> {
     if let Some(path) = &args.png {
-        png::write(&snap, &t, path)?;
+        png::write(snap, t, path)?;
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&snap)?);
+        println!("{}", serde_json::to_string_pretty(snap)?);
     } else {
-        print!("{}", text(&snap, &t));
+        print!("{}", text(snap, t));
     }
     Ok(0)
 }

@@ -259,7 +259,8 @@ impl Tracker {
 
     pub fn snapshot(&self, prefix: &str, hosts: &super::HostNames, now: Instant) -> Snapshot {
         Snapshot {
-            bus_prefix: prefix.to_string(),
+            bus_prefix: Some(prefix.to_string()),
+            ground: None,
             estimates_received: self.estimates_seen,
             status_age_s: self.status_at.map(|t| (now - t).as_secs_f64()),
             run: self.status.map(|s| run_of(&s)),
@@ -320,11 +321,11 @@ impl Tracker {
                 .zip(m.chi2_per_dof)
                 .map(|(g, v)| (g.to_string(), v))
                 .collect(),
-            sigma_inflation: m.sigma_inflation,
+            sigma_inflation: Some(m.sigma_inflation),
             samples_used: m.n_used,
             samples_rejected: m.n_rejected,
             ticks_in_window,
-            rejections,
+            rejections: Some(rejections),
             parameters,
         }
     }
@@ -336,7 +337,7 @@ impl Tracker {
                 p50: m.last.hop_latency_us[0],
                 p99: m.last.hop_latency_us[1],
                 max: m.last.hop_latency_us[2],
-                count: m.last.latency_count,
+                count: Some(m.last.latency_count),
             })
         };
         let est = member(PROC_ESTIMATOR);
@@ -347,9 +348,9 @@ impl Tracker {
             _ => None,
         };
         Latency {
-            realtime: st.period_ns > 0,
+            realtime: Some(st.period_ns > 0),
             window_s: WINDOW.as_secs_f64(),
-            end_to_end_us: quantiles(&self.e2e),
+            end_to_end_us: Some(quantiles(&self.e2e)),
             segments_us: SEGMENTS
                 .iter()
                 .zip(&self.segments)
@@ -360,7 +361,7 @@ impl Tracker {
                 p50: m.last.e2e_latency_us[0],
                 p99: m.last.e2e_latency_us[1],
                 max: m.last.e2e_latency_us[2],
-                count: m.last.latency_count,
+                count: Some(m.last.latency_count),
             }),
             hops_since_start_us: [
                 ("commander->plant", hop(PROC_PLANT)),
@@ -370,7 +371,7 @@ impl Tracker {
             .into_iter()
             .filter_map(|(n, h)| h.map(|h| (n.to_string(), h)))
             .collect(),
-            missed_deadlines: est.map_or(0, |m| m.last.missed_deadlines),
+            missed_deadlines: Some(est.map_or(0, |m| m.last.missed_deadlines)),
             missed_deadlines_in_window: missed_window,
             samples_lost: st
                 .members
@@ -395,7 +396,7 @@ fn quantiles(w: &VecDeque<(Instant, u64)>) -> Quantiles {
         p50: q(0.5),
         p99: q(0.99),
         max: v.last().copied().unwrap_or(0.0),
-        count: v.len() as u64,
+        count: Some(v.len() as u64),
     }
 }
 
@@ -419,24 +420,25 @@ fn run_of(s: &SetStatus) -> RunView {
             SET_STOPPING => "stopping",
             _ => "unknown",
         },
-        supervisor_pid: s.supervisor_pid,
-        elapsed_s: s.elapsed_ns as f64 / 1e9,
-        pacing: if s.period_ns > 0 {
+        campaign: None,
+        supervisor_pid: Some(s.supervisor_pid),
+        elapsed_s: Some(s.elapsed_ns as f64 / 1e9),
+        pacing: Some(if s.period_ns > 0 {
             "realtime"
         } else {
             "accelerated"
-        },
+        }),
         time_scale: (s.period_ns > 0).then_some(s.time_scale),
         period_us: (s.period_ns > 0).then_some(s.period_ns as f64 / 1e3),
         tick,
         n_samples: s.n_samples,
         progress: tick as f64 / s.n_samples.max(1) as f64,
         sim_time_s: tick as f64 / s.sample_rate_hz,
-        maneuver: Maneuver {
+        maneuver: Some(Maneuver {
             axis: axis.map(|a| AXES[a]),
             torque_nm: axis.map_or(0.0, |a| torque[a]),
             axes_rocked: (0..3).filter(|&a| torque[a] != 0.0).count(),
-        },
+        }),
         stop_requested_by: (s.stop_requested_by != 0).then_some(s.stop_requested_by),
     }
 }
@@ -452,7 +454,7 @@ fn processes_of(s: &SetStatus, hosts: &super::HostNames) -> Vec<ProcessView> {
                 .map_or("?", |st| st.process);
             ProcessView {
                 name: name.to_string(),
-                host: hosts.name(s, m.host, name),
+                host: Some(hosts.name(s, m.host, name)),
                 state: match (m.heard, m.last.state) {
                     (0, _) => "not heard",
                     (_, STATE_READY) => "ready",
@@ -460,9 +462,9 @@ fn processes_of(s: &SetStatus, hosts: &super::HostNames) -> Vec<ProcessView> {
                     (_, STATE_DONE) => "done",
                     _ => "unknown",
                 },
-                heartbeat_age_ms: m.heartbeat_age_ns as f64 / 1e6,
+                heartbeat_age_ms: Some(m.heartbeat_age_ns as f64 / 1e6),
                 restarts: m.restarts,
-                next_tick: m.last.next_tick,
+                next_tick: Some(m.last.next_tick),
                 samples_lost: m.last.samples_lost,
                 loop_allocations: (m.process == PROC_ESTIMATOR).then_some(m.last.loop_allocations),
             }
@@ -473,7 +475,11 @@ fn processes_of(s: &SetStatus, hosts: &super::HostNames) -> Vec<ProcessView> {
 /// Everything shown, in SI units (`--json`; the screen draws the same).
 #[derive(Debug, Clone, Serialize)]
 pub struct Snapshot {
-    pub bus_prefix: String,
+    /// The run's bus prefix (None: drawn from the ground link).
+    pub bus_prefix: Option<String>,
+    /// Drawn from the ground link's telemetry (`monitor --ground`), not the bus.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ground: Option<GroundView>,
     pub estimates_received: u64,
     /// Seconds since the supervisor's last status arrived (None: none yet).
     pub status_age_s: Option<f64>,
@@ -483,12 +489,39 @@ pub struct Snapshot {
     pub processes: Vec<ProcessView>,
 }
 
+/// The ground link a snapshot was drawn from (`monitor --ground`), and what its
+/// health report says of the link itself; None before the first health report.
+#[derive(Debug, Clone, Serialize)]
+pub struct GroundView {
+    /// The set's address.
+    pub address: String,
+    /// Seconds since the last datagram came (None: none yet).
+    pub telemetry_age_s: Option<f64>,
+    /// The set's mode as its number (0 standby, 1 running, 2 shutting down).
+    pub mode: Option<u8>,
+    pub campaign: Option<u32>,
+    pub tmtc_restarts: Option<u32>,
+    pub stage_restarts: Option<u32>,
+    pub tc_accepted: Option<u32>,
+    /// Telecommands refused, every failure code together.
+    pub tc_refused: Option<u64>,
+    pub datagrams: Option<u64>,
+    pub tm_sent: Option<u64>,
+    pub tm_send_errors: Option<u32>,
+    /// The snapshot's figures the ground link does not carry (shown as unavailable).
+    pub unavailable: Vec<&'static str>,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct RunView {
     pub state: &'static str,
-    pub supervisor_pid: u32,
-    pub elapsed_s: f64,
-    pub pacing: &'static str,
+    /// The campaign's number (only over the ground link).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub campaign: Option<u32>,
+    /// None: not known (over the ground link), as below.
+    pub supervisor_pid: Option<u32>,
+    pub elapsed_s: Option<f64>,
+    pub pacing: Option<&'static str>,
     pub time_scale: Option<f64>,
     pub period_us: Option<f64>,
     /// The estimator's next tick.
@@ -497,7 +530,7 @@ pub struct RunView {
     /// Fraction of the campaign the estimator has taken in.
     pub progress: f64,
     pub sim_time_s: f64,
-    pub maneuver: Maneuver,
+    pub maneuver: Option<Maneuver>,
     pub stop_requested_by: Option<u32>,
 }
 
@@ -520,12 +553,13 @@ pub struct EstimateView {
     pub status_word: u64,
     /// Per residual group (1 when the noise model fits).
     pub chi2_per_dof: std::collections::BTreeMap<String, f64>,
-    pub sigma_inflation: f64,
+    /// None: not known (over the ground link), as below.
+    pub sigma_inflation: Option<f64>,
     pub samples_used: u64,
     pub samples_rejected: u64,
     /// Ticks the estimator took in during the window.
     pub ticks_in_window: u64,
-    pub rejections: Vec<Rejection>,
+    pub rejections: Option<Vec<Rejection>>,
     pub parameters: Vec<Parameter>,
 }
 
@@ -558,15 +592,18 @@ pub struct Quantiles {
     pub p50: f64,
     pub p99: f64,
     pub max: f64,
-    pub count: u64,
+    /// Latencies behind the figures (None: not known, over the ground link).
+    pub count: Option<u64>,
 }
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Latency {
-    pub realtime: bool,
+    /// Real-time pacing (None: not known, over the ground link).
+    pub realtime: Option<bool>,
     pub window_s: f64,
-    /// Plant publish → estimate published, over the window [µs].
-    pub end_to_end_us: Quantiles,
+    /// Plant publish → estimate published, over the window [µs] (None over the
+    /// ground link: the estimates' publish times do not cross it).
+    pub end_to_end_us: Option<Quantiles>,
     /// Over the window, each stage's segment of it [µs]: from its upstream's publish to
     /// its own (input hop and processing), by `SEGMENTS` name; a stream that does not
     /// reach the monitor's host is left out.
@@ -575,7 +612,8 @@ pub struct Latency {
     pub end_to_end_since_start_us: Option<Quantiles>,
     /// Each stage's input hop since it started [µs].
     pub hops_since_start_us: std::collections::BTreeMap<String, Quantiles>,
-    pub missed_deadlines: u64,
+    /// The estimator's missed deadlines (None: not known, over the ground link).
+    pub missed_deadlines: Option<u64>,
     pub missed_deadlines_in_window: Option<u64>,
     pub samples_lost: u64,
 }
@@ -583,11 +621,12 @@ pub struct Latency {
 #[derive(Debug, Clone, Serialize)]
 pub struct ProcessView {
     pub name: String,
-    pub host: String,
+    /// None: not known (over the ground link), as below.
+    pub host: Option<String>,
     pub state: &'static str,
-    pub heartbeat_age_ms: f64,
+    pub heartbeat_age_ms: Option<f64>,
     pub restarts: u32,
-    pub next_tick: u64,
+    pub next_tick: Option<u64>,
     pub samples_lost: u64,
     pub loop_allocations: Option<u64>,
 }
@@ -648,14 +687,15 @@ mod tests {
         t.settle(t1);
         let s = t.snapshot("p_", &hosts, t1);
         let l = s.latency.unwrap();
-        assert_eq!(l.end_to_end_us.count, 101);
-        assert_eq!(l.end_to_end_us.p50, 50.0);
-        assert_eq!(l.end_to_end_us.p99, 99.0);
-        assert_eq!(l.end_to_end_us.max, 100.0);
-        assert_eq!(l.missed_deadlines, 7);
+        let e2e = l.end_to_end_us.unwrap();
+        assert_eq!(e2e.count, Some(101));
+        assert_eq!(e2e.p50, 50.0);
+        assert_eq!(e2e.p99, 99.0);
+        assert_eq!(e2e.max, 100.0);
+        assert_eq!(l.missed_deadlines, Some(7));
         assert_eq!(l.missed_deadlines_in_window, Some(5));
         let e = s.estimate.unwrap();
-        let outlier = &e.rejections[CAUSE_LINEAR_OUTLIER];
+        let outlier = &e.rejections.unwrap()[CAUSE_LINEAR_OUTLIER];
         assert_eq!((outlier.count, outlier.rate_per_s), (10, 5.0));
         assert_eq!(e.parameters.len(), 18);
         assert!(e
@@ -666,9 +706,9 @@ mod tests {
         let t2 = t1 + WINDOW + Duration::from_secs(1);
         t.settle(t2);
         let s = t.snapshot("p_", &hosts, t2);
-        assert_eq!(s.latency.unwrap().end_to_end_us.count, 0);
+        assert_eq!(s.latency.unwrap().end_to_end_us.unwrap().count, Some(0));
         assert_eq!(
-            s.estimate.unwrap().rejections[CAUSE_LINEAR_OUTLIER].rate_per_s,
+            s.estimate.unwrap().rejections.unwrap()[CAUSE_LINEAR_OUTLIER].rate_per_s,
             0.0
         );
     }
@@ -722,9 +762,10 @@ mod tests {
             let q = l.segments_us[n];
             (q.count, q.max)
         };
-        assert_eq!(seg("commander->plant"), (2, 2.0));
-        assert_eq!(seg("plant->fee"), (2, 4.0));
-        assert_eq!(seg("fee->estimator"), (2, 5.0));
-        assert_eq!((l.end_to_end_us.count, l.end_to_end_us.max), (2, 9.0));
+        assert_eq!(seg("commander->plant"), (Some(2), 2.0));
+        assert_eq!(seg("plant->fee"), (Some(2), 4.0));
+        assert_eq!(seg("fee->estimator"), (Some(2), 5.0));
+        let e2e = l.end_to_end_us.unwrap();
+        assert_eq!((e2e.count, e2e.max), (Some(2), 9.0));
     }
 }

@@ -66,9 +66,10 @@ pub fn draw(f: &mut Frame, v: &View) {
         .split(rows[2]);
     plot(f, low[0], v);
     processes(f, low[1], v.snap);
-    let keys = match v.notice {
-        Some(n) => format!(" {n}"),
-        None => {
+    let keys = match (v.notice, &v.snap.ground) {
+        (Some(n), _) => format!(" {n}"),
+        (None, Some(_)) => format!(" q quit · ↑/↓ select a row to plot · {UNAVAILABLE}: not carried by the ground link's telemetry"),
+        (None, None) => {
             " q quit (the run goes on) · ↑/↓ select a row to plot · s stop the run (asks first)"
                 .to_string()
         }
@@ -95,36 +96,54 @@ pub fn draw(f: &mut Frame, v: &View) {
     }
 }
 
+/// What the screen shows for a figure the source does not carry.
+pub const UNAVAILABLE: &str = "n/a";
+
 fn header(f: &mut Frame, r: Rect, s: &Snapshot) {
-    let title = format!(" taiji monitor · bus prefix {} ", s.bus_prefix);
+    let title = match &s.ground {
+        Some(g) => format!(" taiji monitor · ground link {} ", g.address),
+        None => format!(
+            " taiji monitor · bus prefix {} ",
+            s.bus_prefix.as_deref().unwrap_or_default()
+        ),
+    };
     let block = Block::default().borders(Borders::ALL).title(title);
     let Some(run) = &s.run else {
-        let text = "waiting for a run on this prefix (the supervisor's status) …";
+        let text = match &s.ground {
+            Some(_) => "waiting for the set's health report (housekeeping structure 2) …",
+            None => "waiting for a run on this prefix (the supervisor's status) …",
+        };
         f.render_widget(Paragraph::new(text).block(block), r);
         return;
     };
-    let pacing = match (run.time_scale, run.period_us) {
-        (Some(x), Some(p)) => format!("real time ×{x} ({p:.0} µs period)"),
-        _ => "accelerated lock-step".to_string(),
+    let pacing = match (run.time_scale, run.period_us, run.pacing) {
+        (Some(x), Some(p), _) => format!("real time ×{x} ({p:.0} µs period)"),
+        (_, _, Some(_)) => "accelerated lock-step".to_string(),
+        (_, _, None) => format!("pacing {UNAVAILABLE}"),
     };
-    let phase = match run.maneuver.axis {
-        Some(a) if run.maneuver.axes_rocked == 1 => {
-            format!("rocking {a}, {:+.2e} N m", run.maneuver.torque_nm)
-        }
-        Some(_) => format!("{} axes rocked", run.maneuver.axes_rocked),
-        None => "quiet".to_string(),
+    let phase = match &run.maneuver {
+        None => UNAVAILABLE.to_string(),
+        Some(m) => match m.axis {
+            Some(a) if m.axes_rocked == 1 => format!("rocking {a}, {:+.2e} N m", m.torque_nm),
+            Some(_) => format!("{} axes rocked", m.axes_rocked),
+            None => "quiet".to_string(),
+        },
     };
     let stop = run.stop_requested_by.map_or(String::new(), |p| {
         format!(" · stop requested by monitor pid {p}")
     });
+    let who = match (run.campaign, run.supervisor_pid) {
+        (Some(c), _) => format!("campaign {c}"),
+        (None, Some(p)) => format!("supervisor pid {p}"),
+        (None, None) => format!("supervisor pid {UNAVAILABLE}"),
+    };
     let label = format!(
-        "{} · tick {}/{} ({:.1} %) · t = {:.0} s · {pacing} · maneuver: {phase} · supervisor pid {}{stop}",
+        "{} · tick {}/{} ({:.1} %) · t = {:.0} s · {pacing} · maneuver: {phase} · {who}{stop}",
         run.state,
         run.tick,
         run.n_samples,
         100.0 * run.progress,
         run.sim_time_s,
-        run.supervisor_pid
     );
     f.render_widget(
         Gauge::default()
@@ -166,7 +185,11 @@ fn parameters(f: &mut Frame, r: Rect, v: &View) {
             _ => format!("{:.6e}", p.estimate),
         };
         let rel = p.estimate;
-        let ratio = p.sigma_over_bound.map_or("—".into(), |x| format!("{x:.2}"));
+        let ratio = match (p.sigma_over_bound, &v.snap.ground) {
+            (Some(x), _) => format!("{x:.2}"),
+            (None, Some(_)) => UNAVAILABLE.into(),
+            (None, None) => "—".into(),
+        };
         let err = p.err_over_sigma.map_or("—".into(), |x| format!("{x:+.2}"));
         let truth = match (p.name, p.truth) {
             (_, None) => "—".into(),
@@ -183,7 +206,10 @@ fn parameters(f: &mut Frame, r: Rect, v: &View) {
             Cell::from(format!("{} {}", greek(p.name), p.axis)),
             Cell::from(est),
             Cell::from(shown(p.name, Some(p.sigma), rel)),
-            Cell::from(shown(p.name, p.bound, rel)),
+            Cell::from(match (p.bound, &v.snap.ground) {
+                (None, Some(_)) => UNAVAILABLE.into(),
+                (b, _) => shown(p.name, b, rel),
+            }),
             Cell::from(ratio),
             Cell::from(truth),
             Cell::from(err),
@@ -237,13 +263,14 @@ fn status(f: &mut Frame, r: Rect, s: &Snapshot) {
             )),
         ]),
         Line::from(format!(
-            "χ²/dof {} · σ ×{:.2}",
+            "χ²/dof {} · σ ×{}",
             e.chi2_per_dof
                 .iter()
                 .map(|(g, v)| format!("{g} {v:.2}"))
                 .collect::<Vec<_>>()
                 .join(", "),
             e.sigma_inflation
+                .map_or(UNAVAILABLE.to_string(), |x| format!("{x:.2}"))
         )),
         Line::from(format!(
             "samples used {} · rejected {} ({} ticks in the last {:.0} s)",
@@ -253,16 +280,16 @@ fn status(f: &mut Frame, r: Rect, s: &Snapshot) {
             super::model::WINDOW.as_secs_f64()
         )),
     ];
-    let causes: Vec<String> = e
-        .rejections
-        .iter()
-        .filter(|c| c.count > 0)
-        .map(|c| format!("{} {} ({:.1}/s)", c.cause, c.count, c.rate_per_s))
-        .collect();
-    lines.push(Line::from(if causes.is_empty() {
-        "rejections by cause: none".to_string()
-    } else {
-        format!("rejections by cause: {}", causes.join(", "))
+    let causes: Option<Vec<String>> = e.rejections.as_ref().map(|r| {
+        r.iter()
+            .filter(|c| c.count > 0)
+            .map(|c| format!("{} {} ({:.1}/s)", c.cause, c.count, c.rate_per_s))
+            .collect()
+    });
+    lines.push(Line::from(match causes {
+        None => format!("rejections by cause: {UNAVAILABLE}"),
+        Some(c) if c.is_empty() => "rejections by cause: none".to_string(),
+        Some(c) => format!("rejections by cause: {}", c.join(", ")),
     }));
     f.render_widget(
         Paragraph::new(lines)
@@ -281,12 +308,15 @@ fn latency(f: &mut Frame, r: Rect, s: &Snapshot) {
     let title = " latency [µs] p50 / p99 / max ";
     let block = Block::default().borders(Borders::ALL).title(title);
     let q = |x: &super::model::Quantiles| format!("{:.1} / {:.1} / {:.1}", x.p50, x.p99, x.max);
-    let mut lines = vec![Line::from(format!(
-        "last {:.0} s: end to end {} ({} samples)",
-        l.window_s,
-        q(&l.end_to_end_us),
-        l.end_to_end_us.count
-    ))];
+    let mut lines = vec![Line::from(match &l.end_to_end_us {
+        Some(e) => format!(
+            "last {:.0} s: end to end {} ({} samples)",
+            l.window_s,
+            q(e),
+            e.count.unwrap_or(0)
+        ),
+        None => format!("last {:.0} s: end to end {UNAVAILABLE}", l.window_s),
+    })];
     for (seg, s) in &l.segments_us {
         lines.push(Line::from(format!("  {seg} out: {}", q(s))));
     }
@@ -296,10 +326,11 @@ fn latency(f: &mut Frame, r: Rect, s: &Snapshot) {
     for (hop, h) in &l.hops_since_start_us {
         lines.push(Line::from(format!("  hop {hop}: {}", q(h))));
     }
-    let missed = match (l.realtime, l.missed_deadlines_in_window) {
-        (false, _) => "no deadline (accelerated)".to_string(),
-        (true, Some(n)) => format!("{} ({n} in the window)", l.missed_deadlines),
-        (true, None) => l.missed_deadlines.to_string(),
+    let missed = match (l.realtime, l.missed_deadlines, l.missed_deadlines_in_window) {
+        (Some(false), ..) => "no deadline (accelerated)".to_string(),
+        (_, None, _) => UNAVAILABLE.to_string(),
+        (_, Some(m), Some(n)) => format!("{m} ({n} in the window)"),
+        (_, Some(m), None) => m.to_string(),
     };
     lines.push(Line::from(format!(
         "missed deadlines {missed} · samples lost {}",
@@ -320,11 +351,17 @@ fn processes(f: &mut Frame, r: Rect, s: &Snapshot) {
             .map_or(String::new(), |a| format!(" alloc {a}"));
         Row::new(vec![
             Cell::from(p.name.trim_start_matches("taiji-").to_string()),
-            Cell::from(p.host.clone()),
+            Cell::from(p.host.clone().unwrap_or_else(|| UNAVAILABLE.into())),
             Cell::from(p.state),
-            Cell::from(format!("{:.0} ms", p.heartbeat_age_ms)),
+            Cell::from(
+                p.heartbeat_age_ms
+                    .map_or_else(|| "—".into(), |a| format!("{a:.0} ms")),
+            ),
             Cell::from(p.restarts.to_string()),
-            Cell::from(format!("{}{alloc}", p.next_tick)),
+            Cell::from(match p.next_tick {
+                Some(t) => format!("{t}{alloc}"),
+                None => UNAVAILABLE.to_string(),
+            }),
         ])
     });
     let widths = [

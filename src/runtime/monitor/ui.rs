@@ -141,3 +141,78 @@ pub fn run(
     }
     Ok(0)
 }
+
+/// `--ground` without `--once`: the same screen from the ground link's telemetry. `q`
+/// leaves; there is no stop from here (send `taiji-calib ground stop`).
+pub fn run_ground(
+    args: &MonitorArgs,
+    to: std::net::SocketAddr,
+    truth: Option<Truth>,
+    timeout: Duration,
+) -> Result<u8, MonitorError> {
+    let mut g = super::ground::GroundFeed::open(args, to)?;
+    crate::ground::client::catch_termination();
+    enable_raw_mode().map_err(MonitorError::Terminal)?;
+    let _guard = TerminalGuard;
+    crossterm::execute!(std::io::stdout(), EnterAlternateScreen).map_err(MonitorError::Terminal)?;
+    let mut term = ratatui::Terminal::new(CrosstermBackend::new(std::io::stdout()))
+        .map_err(MonitorError::Terminal)?;
+    let mut t = Tracker::new(truth);
+    let mut selected = 0usize;
+    let t0 = Instant::now();
+    while !crate::ground::client::terminated() {
+        g.pump(&mut t, Duration::from_millis(5))?;
+        if g.new_campaign {
+            t = Tracker::new(t.truth);
+        }
+        let silent = g.heard_at.map_or(t0.elapsed(), |at| at.elapsed());
+        if g.heard_at.is_none() && timeout > Duration::ZERO && silent > timeout {
+            drop(term);
+            return Err(MonitorError::NoTelemetry {
+                address: to,
+                timeout_s: timeout.as_secs_f64(),
+                why: if g.nothing_listens {
+                    " (nothing listens there: is the set up with --ground?)"
+                } else {
+                    " (is the set up, on this address, with this key?)"
+                },
+            });
+        }
+        let notice = match (&g.refused, g.nothing_listens) {
+            (Some(why), _) => Some(format!("the set refused the monitor's ping: {why}")),
+            (None, true) => Some(format!("nothing listens on {to} (yet); q quit")),
+            _ if silent > SILENT => Some(format!(
+                "no telemetry from {to} for {:.0} s; this is its last state. q quit",
+                silent.as_secs_f64()
+            )),
+            _ => None,
+        };
+        let now = Instant::now();
+        let mut snap = t.snapshot("", &super::HostNames(None), now);
+        g.finish(&mut snap, now);
+        let mut view = super::screen::View::of(&t, &snap);
+        view.selected = selected;
+        view.notice = notice.as_deref();
+        term.draw(|f| super::screen::draw(f, &view))
+            .map_err(MonitorError::Terminal)?;
+        if !event::poll(FRAME).map_err(MonitorError::Terminal)? {
+            continue;
+        }
+        let Event::Key(k) = event::read().map_err(MonitorError::Terminal)? else {
+            continue;
+        };
+        if k.kind != KeyEventKind::Press {
+            continue;
+        }
+        let ctrl_c = k.code == KeyCode::Char('c') && k.modifiers.contains(KeyModifiers::CONTROL);
+        match k.code {
+            KeyCode::Char('q') | KeyCode::Esc => break,
+            _ if ctrl_c => break,
+            KeyCode::Down | KeyCode::Char('j') => selected = (selected + 1) % ROWS,
+            KeyCode::Up | KeyCode::Char('k') => selected = (selected + ROWS - 1) % ROWS,
+            _ => {}
+        }
+    }
+    drop(term);
+    Ok(0)
+}
