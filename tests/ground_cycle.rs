@@ -111,10 +111,8 @@ impl Ground {
     fn command(&mut self, service: u8, subtype: u8, app_data: &[u8], timeout: Duration) -> Tm {
         let id = self.send(service, subtype, app_data);
         let done = |h: &[Tm]| {
-            h.iter().any(|t| {
-                t.service == 1 && matches!(t.subtype, 2 | 8) && t.data[..4] == id
-                    || t.service == 1 && t.subtype == 7 && t.data[..4] == id
-            })
+            h.iter()
+                .any(|t| t.service == 1 && matches!(t.subtype, 2 | 7 | 8) && t.data[..4] == id)
         };
         self.wait("completion report", timeout, done);
         self.heard

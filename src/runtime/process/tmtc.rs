@@ -29,8 +29,7 @@ use crate::ground::onboard::Onboard;
 use crate::ground::packet::MAX_PACKET_LEN;
 use crate::ground::replay::{ReplayError, ReplayGuard};
 use crate::sim::msg::{
-    EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, PROC_TMTC, STATE_READY,
-    STATE_RUNNING,
+    GroundNote, GroundRequest, GroundState, Header, Progress, PROC_TMTC, STATE_READY, STATE_RUNNING,
 };
 use iceoryx2::prelude::*;
 use std::ffi::CString;
@@ -223,7 +222,7 @@ pub fn run(args: &TmtcArgs) -> Result<Exit, ProcessError> {
         state_heard_ns: None,
         allocs_before: None,
         turns_heard: 0,
-        last_estimate: EstimateMsg::default(),
+        last_estimate: Header::default(),
     };
     l.run()
 }
@@ -244,8 +243,8 @@ struct Loop {
     /// The thread's allocations when the warm-up ended.
     allocs_before: Option<u64>,
     turns_heard: u32,
-    /// The last estimate relayed (a repeat is not taken again).
-    last_estimate: EstimateMsg,
+    /// The header of the last estimate relayed (a repeat is not taken again).
+    last_estimate: Header,
 }
 
 impl Loop {
@@ -352,10 +351,11 @@ impl Loop {
         // The campaign's estimate and status come relayed in the supervisor's state:
         // this process connects to no port of a campaign's processes.
         while let Some(g) = wiring::receive(&self.ports.state)? {
-            if g.estimate != self.last_estimate {
+            // A campaign's estimate (published, so its time is set), once.
+            if g.estimate.header.publish_ns != 0 && g.estimate.header != self.last_estimate {
                 self.onboard.on_estimate(&g.estimate);
                 self.progress.next_tick = g.estimate.header.tick + 1;
-                self.last_estimate = g.estimate;
+                self.last_estimate = g.estimate.header;
             }
             if g.set.state != 0 {
                 self.onboard.on_set_status(&g.set, now);
