@@ -225,7 +225,7 @@ fn failure_reports_exit_1_naming_the_failure_and_silence_exits_3() {
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("failed at completion: failure 24 unverified_result: function 3 on a result whose status word is not 0"),
+        err.contains("failed at completion: failure 24 unverified_result: function 3 on a result its report does not call verified"),
         "{err}"
     );
     assert!(text(&o.stdout).contains("completion FAILED"));

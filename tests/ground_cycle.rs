@@ -196,6 +196,11 @@ impl Drop for Set {
 }
 
 fn launch(sc: &Path, out: &Path, pfx: &str, port: u16) -> Set {
+    launch_at(sc, out, pfx, port, 1000)
+}
+
+/// The set at real time × `scale`.
+fn launch_at(sc: &Path, out: &Path, pfx: &str, port: u16, scale: u32) -> Set {
     let c = Command::new(SUPERVISOR)
         .arg("--scenario")
         .arg(sc)
@@ -204,7 +209,7 @@ fn launch(sc: &Path, out: &Path, pfx: &str, port: u16) -> Set {
         .args(["--bus-prefix", pfx])
         .args(["--ground", &format!("127.0.0.1:{port}")])
         // Paced, so a campaign runs long enough to be commanded while it runs.
-        .args(["--realtime", "--time-scale", "1000"])
+        .args(["--realtime", "--time-scale", &scale.to_string()])
         .env("TAIJI_ALLOC_TRACE", common::alloc_trace_file(out))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -476,11 +481,14 @@ fn signal(pid: i32, sig: i32) {
     unsafe { libc::kill(pid, sig) };
 }
 
-/// The TMTC process's last heartbeat, read from the set's bus as the supervisor reads it.
+/// The TMTC process's heartbeat, read from the set's bus as the supervisor reads it:
+/// the first to come, published before this subscriber's connection (which iceoryx2
+/// makes on the publisher's side at its next send, allocating) could count.
 fn tmtc_progress(pfx: &str) -> Option<taiji::sim::msg::Progress> {
     use taiji::bus::wiring;
     let node = wiring::node("ground-cycle-test", pfx).ok()?;
-    let sub = wiring::subscriber::<taiji::sim::msg::Progress>(&node, wiring::SVC_PROGRESS).ok()?;
+    let sub =
+        wiring::subscriber::<taiji::sim::msg::Progress>(&node, wiring::SVC_GROUND_BEAT).ok()?;
     let t0 = Instant::now();
     while t0.elapsed() < Duration::from_secs(5) {
         while let Ok(Some(p)) = wiring::receive(&sub) {
@@ -502,7 +510,8 @@ fn a_flood_and_a_killed_tmtc_process_change_nothing() {
     let out = dir.join("out");
     let pfx = prefix("gflood");
     let port = free_port();
-    let child = launch(&sc, &out, &pfx, port);
+    // × 200: the 3000 s campaign lasts the flood's 10 s and more.
+    let child = launch_at(&sc, &out, &pfx, port, 200);
     let key = wait_key(&out);
     let to = format!("127.0.0.1:{port}");
     let mut g = Ground::new(&to, &key, 1000);
@@ -519,46 +528,52 @@ fn a_flood_and_a_killed_tmtc_process_change_nothing() {
     g.wait("the restart event", Duration::from_secs(30), |h| {
         h.iter().any(|t| t.service == 5 && t.u16_at(0) == 3)
     });
-    // 10⁵ garbage datagrams in 10 s from another socket: random bytes, and mutated
-    // copies of a valid telecommand (good CRC, bad MAC; truncated; lying lengths).
-    let flood = UdpSocket::bind("127.0.0.1:0").unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
-    let mut valid = vec![0u8; MAX_PACKET_LEN];
-    let h = TcHeader {
-        apid: APID,
-        sequence_count: 1,
-        ack_flags: 0xF,
-        service: 8,
-        subtype: 1,
-        source_id: 9,
-    };
-    let wrong = Key::from_bytes([7; 32]);
-    let n = encode_signed_tc(&mut valid, &h, &start_args(1, 0.0), 1 << 30, &wrong).unwrap();
-    valid.truncate(n);
-    let t0 = Instant::now();
-    for i in 0..100_000u32 {
-        let d: Vec<u8> = match i % 3 {
-            0 => (0..rng.gen_range(0..200)).map(|_| rng.gen()).collect(),
-            1 => valid.clone(),
-            _ => {
-                let mut v = valid.clone();
-                let at = rng.gen_range(0..v.len());
-                v[at] ^= 1 << rng.gen_range(0..8);
-                v.truncate(rng.gen_range(1..=v.len()));
-                v
-            }
+    // 10⁵ garbage datagrams in 10 s from another socket, while the ground listens:
+    // random bytes, and copies of a telecommand signed with another key, some mutated
+    // and truncated.
+    let target = to.clone();
+    let flooder = std::thread::spawn(move || {
+        let flood = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
+        let mut valid = vec![0u8; MAX_PACKET_LEN];
+        let h = TcHeader {
+            apid: APID,
+            sequence_count: 1,
+            ack_flags: 0xF,
+            service: 8,
+            subtype: 1,
+            source_id: 9,
         };
-        let _ = flood.send_to(&d, &to);
-        // Spread over 10 s.
-        let due = Duration::from_micros(100 * u64::from(i));
-        if let Some(w) = due.checked_sub(t0.elapsed()) {
-            std::thread::sleep(w);
+        let wrong = Key::from_bytes([7; 32]);
+        let n = encode_signed_tc(&mut valid, &h, &start_args(1, 0.0), 1 << 30, &wrong).unwrap();
+        valid.truncate(n);
+        let t0 = Instant::now();
+        for i in 0..100_000u32 {
+            let d: Vec<u8> = match i % 3 {
+                0 => (0..rng.gen_range(0..200)).map(|_| rng.gen()).collect(),
+                1 => valid.clone(),
+                _ => {
+                    let mut v = valid.clone();
+                    let at = rng.gen_range(0..v.len());
+                    v[at] ^= 1 << rng.gen_range(0..8);
+                    v.truncate(rng.gen_range(1..=v.len()));
+                    v
+                }
+            };
+            let _ = flood.send_to(&d, &target);
+            let due = Duration::from_micros(100 * u64::from(i));
+            if let Some(w) = due.checked_sub(t0.elapsed()) {
+                std::thread::sleep(w);
+            }
         }
-    }
+        t0.elapsed()
+    });
     g.wait("the campaign's end", Duration::from_secs(600), |h| {
         h.iter()
             .any(|t| t.service == 5 && matches!(t.u16_at(0), 4 | 5))
     });
+    let took = flooder.join().unwrap();
+    assert!(took < Duration::from_secs(30), "the flood took {took:?}");
     let p = tmtc_progress(&pfx).expect("the TMTC process's heartbeat");
     assert_eq!(p.loop_allocations, 0, "the TMTC loop allocated");
     let r = report(&out.join("campaign-1"));

@@ -507,10 +507,10 @@ fn spacepackets_parses_our_telemetry_crc_checked() {
     );
 }
 
-/// docs/ground.md's generated tables equal the code's (`TAIJI_BLESS=1` rewrites them).
+/// docs/ground-packets.md's generated tables equal the code's (`TAIJI_BLESS=1` rewrites them).
 #[test]
 fn the_docs_tables_are_the_dictionarys() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/ground.md");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/ground-packets.md");
     let page = std::fs::read_to_string(&path).unwrap();
     let mut fresh = page.clone();
     for (name, table) in taiji::ground::tables::all() {
@@ -519,7 +519,7 @@ fn the_docs_tables_are_the_dictionarys() {
             fresh.find(&open),
             fresh.find(&open).and_then(|a| fresh[a..].find("<!--/g-->")),
         ) else {
-            panic!("docs/ground.md has no <!--g:{name}--> … <!--/g--> block");
+            panic!("docs/ground-packets.md has no <!--g:{name}--> … <!--/g--> block");
         };
         fresh.replace_range(a + open.len()..a + len, &table);
     }
@@ -528,7 +528,7 @@ fn the_docs_tables_are_the_dictionarys() {
     } else {
         assert!(
             page == fresh,
-            "docs/ground.md's tables differ from the dictionary's: TAIJI_BLESS=1 cargo test --release --test ground_packets"
+            "docs/ground-packets.md's tables differ from the dictionary's: TAIJI_BLESS=1 cargo test --release --test ground_packets"
         );
     }
 }

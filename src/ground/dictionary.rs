@@ -1,7 +1,7 @@
 //! The ground interface's definitions as data: the APID, the services and subtypes the
 //! set serves, the functions of service 8 with their arguments, the failure codes of
 //! every refusal and the set's modes. The decoders below read these tables, and the
-//! published dictionary and docs/ground.md are printed from them.
+//! published dictionary and docs/ground-packets.md are printed from them.
 
 use super::auth::AuthError;
 use super::packet::PacketError;

@@ -4,10 +4,10 @@
 //! that the code and the published dictionary share (`dictionary`, `events`,
 //! `parameters`, `housekeeping`, `health`, `layout`), the telecommands' application data
 //! (`requests`), printed as XTCE and JSON (`publish` for the telemetry, `commands` for
-//! the telecommands, `xtce` for what they share) and as docs/ground.md's tables
+//! the telecommands, `xtce` for what they share) and as docs/ground-packets.md's tables
 //! (`tables`); the onboard side's logic (`onboard`, writing into `downlink`), which the
 //! TMTC process (`runtime::process::tmtc`) runs; and the onboard calibration table, kept
-//! across restarts (`table`). docs/ground.md describes them.
+//! across restarts (`table`). docs/ground.md and docs/ground-packets.md describe them.
 //!
 //! The ground side: the link that sends authenticated telecommands and receives the
 //! telemetry (`client`), with its sequence counter (`seq`), the telecommands built from

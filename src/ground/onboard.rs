@@ -105,7 +105,15 @@ pub struct Onboard {
     datagrams: u64,
     tm_sent: u64,
     tm_send_errors: u32,
+    /// The current datagram's time [ns], and the refusals reported in its second.
+    now_ns: u64,
+    refusal_second: u64,
+    refusals_reported: u32,
 }
+
+/// Refusals reported one by one per second at most (each a 1,2 and an event); a flood
+/// beyond it is counted in housekeeping structure 2's `tc_refused`, not reported.
+pub const MAX_REFUSAL_REPORTS_PER_S: u32 = 50;
 
 fn default_of(id: u16) -> f64 {
     parameter(id).and_then(|p| p.default).unwrap_or(0.0)
@@ -158,6 +166,9 @@ impl Onboard {
             datagrams: 0,
             tm_sent: 0,
             tm_send_errors: 0,
+            now_ns: 0,
+            refusal_second: 0,
+            refusals_reported: 0,
         }
     }
 
@@ -256,25 +267,40 @@ impl Onboard {
         });
     }
 
-    /// Counts a refusal with `code` and reports it as event `tc_refused`.
-    fn count_refusal(&mut self, code: u16, service: u8, subtype: u8) {
+    /// Counts a refusal with `code` in housekeeping.
+    fn count(&mut self, code: u16) {
         if let Some(slot) = usize::from(code)
             .checked_sub(1)
             .and_then(|i| self.tc_refused.get_mut(i))
         {
             *slot = slot.wrapping_add(1);
         }
+    }
+
+    /// Counts a refusal with `code` and reports it as event `tc_refused`.
+    fn count_refusal(&mut self, code: u16, service: u8, subtype: u8) {
+        self.count(code);
         self.event(
             ev::EV_TC_REFUSED,
             &[code.into(), service.into(), subtype.into()],
         );
     }
 
-    /// Refuses `datagram` (its header, when it decoded) with `f`: 1,2 and the event.
+    /// Refuses `datagram` (its header, when it decoded) with `f`: 1,2 and the event,
+    /// up to `MAX_REFUSAL_REPORTS_PER_S`; always counted.
     fn refuse(&mut self, datagram: &[u8], header: Option<&TcHeader>, f: Failure) {
+        let second = self.now_ns / 1_000_000_000;
+        if second != self.refusal_second {
+            (self.refusal_second, self.refusals_reported) = (second, 0);
+        }
+        let (service, subtype) = header.map_or((0, 0), |h| (h.service, h.subtype));
+        if self.refusals_reported >= MAX_REFUSAL_REPORTS_PER_S {
+            self.count(f.code());
+            return;
+        }
+        self.refusals_reported += 1;
         let dest_id = header.map_or(self.dest_id, |h| h.source_id);
         self.verification(2, dest_id, datagram, Some(f.code()));
-        let (service, subtype) = header.map_or((0, 0), |h| (h.service, h.subtype));
         self.count_refusal(f.code(), service, subtype);
     }
 
@@ -287,6 +313,7 @@ impl Onboard {
         now_ns: u64,
     ) -> Option<GroundRequest> {
         self.datagrams += 1;
+        self.now_ns = now_ns;
         let tc = match decode_tc(bytes, APID) {
             Ok(tc) => tc,
             Err(e) => {

@@ -681,7 +681,14 @@ fn a_flood_of_random_datagrams_is_refused_without_a_panic() {
         }
         let r = b.ob.datagram(&buf[..len], other(), b.now);
         assert!(r.is_none(), "datagram {i} was forwarded");
-        assert_eq!(b.ob.outbox_len(), 2);
+        // Reported one by one up to the limit in its second (all at one time here),
+        // then only counted.
+        let reported = i < super::MAX_REFUSAL_REPORTS_PER_S as usize;
+        assert_eq!(
+            b.ob.outbox_len(),
+            if reported { 2 } else { 0 },
+            "datagram {i}"
+        );
         if i % 1000 == 0 {
             b.ob.tick(b.now + i as u64 * 1_000_000);
         }
@@ -701,4 +708,24 @@ fn a_flood_of_random_datagrams_is_refused_without_a_panic() {
     // The set still answers its ground station.
     let p = b.tc(17, 1, &[]);
     assert_eq!(b.send(&p).0.len(), 4);
+}
+
+#[test]
+fn refusals_are_reported_up_to_the_limit_each_second_and_always_counted() {
+    let mut b = Bench::new("refusal-limit");
+    b.connect();
+    let limit = super::MAX_REFUSAL_REPORTS_PER_S as usize;
+    for second in 0..3u64 {
+        let now = b.now + second * 1_000_000_000;
+        let mut reported = 0;
+        for _ in 0..limit + 7 {
+            assert!(b.ob.datagram(&[0u8; 3], other(), now).is_none());
+            reported += usize::from(b.ob.outbox_len() > 0);
+            b.ob.clear_outbox();
+        }
+        assert_eq!(reported, limit, "second {second}");
+    }
+    let h = b.ob.health(b.now);
+    let total = h.tc_refused.iter().map(|&c| u64::from(c)).sum::<u64>();
+    assert_eq!(total, 3 * (limit as u64 + 7));
 }
