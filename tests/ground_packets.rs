@@ -767,6 +767,7 @@ fn the_onboard_logic_allocates_nothing_after_construction() {
     assert_eq!(h.tc_accepted, 200);
     assert_eq!(forwarded, 20);
     assert_eq!(h.datagrams, 10_201);
-    assert!(sent > 20_000, "{sent} packets");
+    // Refusals beyond MAX_REFUSAL_REPORTS_PER_S a second are counted, not reported.
+    assert!(sent > 2_000, "{sent} packets");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -223,6 +223,20 @@ enum Supervised {
     HostStopped(String),
 }
 
+/// The prefix's and folder's holds and the janitor, when the campaign takes them itself.
+fn holds(
+    args: &SupervisorArgs,
+    hold: Hold,
+) -> Result<Option<(locks::PrefixHold, Janitor)>, SupervisorError> {
+    Ok(match hold {
+        Hold::Claim => Some((
+            claim(args)?,
+            Janitor::start(&args.bus_prefix).map_err(SupervisorError::Set)?,
+        )),
+        Hold::Held => None,
+    })
+}
+
 fn supervise(
     args: &SupervisorArgs,
     s: &Scenario,
@@ -234,13 +248,7 @@ fn supervise(
     let set_err = |e: BusError| SupervisorError::Set(e.into());
     let t_start = Instant::now();
     // Declared before every port and node of the run, so dropped after them.
-    let (_hold, _janitor) = match hold {
-        Hold::Claim => (
-            Some(claim(args)?),
-            Some(Janitor::start(&args.bus_prefix).map_err(SupervisorError::Set)?),
-        ),
-        Hold::Held => (None, None),
-    };
+    let _holds = holds(args, hold)?;
     let ckpt = fresh_checkpoint(args)?;
     let node = wiring::node("taiji-supervisor", &args.bus_prefix).map_err(set_err)?;
     let progress = wiring::subscriber::<Progress>(&node, wiring::SVC_PROGRESS).map_err(set_err)?;

@@ -230,6 +230,9 @@ impl Desk<'_> {
                     if let Some(code) = self.execute(&r, ports) {
                         shutdown = Some((Instant::now(), code));
                     }
+                    // The state after it before its answer: a parameter read after the
+                    // completion report sees the table the request left.
+                    self.say_state(ports);
                 }
             }
             if let Ok(Some(st)) = latest(&ports.status) {
