@@ -10,8 +10,8 @@
 //! `tools/test` builds it where namespaces can be made and sets `TAIJI_TUNNEL_BIN`):
 //!   cargo build --release --manifest-path tools/tunnel/Cargo.toml
 //! found through `TAIJI_TUNNEL_BIN`, in tools/tunnel/target/release or beside our
-//! binaries (a shared `CARGO_TARGET_DIR`). Elsewhere every
-//! test says why it is skipped and passes.
+//! binaries (a shared `CARGO_TARGET_DIR`). Elsewhere every test says why it is skipped;
+//! under `CI=true` it fails instead, saying why.
 
 mod common;
 mod support;
@@ -61,9 +61,15 @@ fn unavailable() -> Option<String> {
     }
 }
 
+/// Under `CI=true` a two-host test that cannot make its hosts fails, saying why; elsewhere
+/// it is skipped, saying so.
 macro_rules! need_two_hosts {
     () => {
         if let Some(why) = unavailable() {
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "two-host test cannot run under CI=true: {why}"
+            );
             eprintln!("SKIPPED: two-host test: {why}");
             return;
         }
