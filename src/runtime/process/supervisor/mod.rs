@@ -116,12 +116,13 @@ pub fn run(args: &SupervisorArgs) -> Outcome {
 }
 
 /// Who holds the bus prefix and the output folder during a campaign.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone)]
 pub(crate) enum Hold {
     /// The campaign claims them, and releases them at its end.
     Claim,
-    /// A caller holds them across campaigns (the ground link's standby).
-    Held,
+    /// A caller holds them across campaigns (the ground link's standby), and takes
+    /// the campaign's estimates from the relay.
+    Held(std::sync::Arc<watch::Relay>),
 }
 
 /// One campaign of the prepared run through the process set.
@@ -226,14 +227,14 @@ enum Supervised {
 /// The prefix's and folder's holds and the janitor, when the campaign takes them itself.
 fn holds(
     args: &SupervisorArgs,
-    hold: Hold,
+    hold: &Hold,
 ) -> Result<Option<(locks::PrefixHold, Janitor)>, SupervisorError> {
     Ok(match hold {
         Hold::Claim => Some((
             claim(args)?,
             Janitor::start(&args.bus_prefix).map_err(SupervisorError::Set)?,
         )),
-        Hold::Held => None,
+        Hold::Held(_) => None,
     })
 }
 
@@ -248,7 +249,11 @@ fn supervise(
     let set_err = |e: BusError| SupervisorError::Set(e.into());
     let t_start = Instant::now();
     // Declared before every port and node of the run, so dropped after them.
-    let _holds = holds(args, hold)?;
+    let _holds = holds(args, &hold)?;
+    let relay = match &hold {
+        Hold::Held(r) => Some(r.as_ref()),
+        Hold::Claim => None,
+    };
     let ckpt = fresh_checkpoint(args)?;
     let node = wiring::node("taiji-supervisor", &args.bus_prefix).map_err(set_err)?;
     let progress = wiring::subscriber::<Progress>(&node, wiring::SVC_PROGRESS).map_err(set_err)?;
@@ -301,6 +306,7 @@ fn supervise(
                 progress: &progress,
                 estimates: &estimates,
                 send: &send,
+                relay,
             };
             let mut board = StatusBoard::new(&node, args, s, launch, bound).map_err(set_err)?;
             let r =

@@ -19,6 +19,43 @@ pub(super) struct Ports<'a> {
     pub(super) progress: &'a wiring::Sub<Progress>,
     pub(super) estimates: &'a wiring::Sub<EstimateMsg>,
     pub(super) send: &'a dyn Fn(u32, u64) -> Result<(), BusError>,
+    /// A campaign run from the ground: the estimates go on to the ground desk.
+    pub(super) relay: Option<&'a Relay>,
+}
+
+/// The estimates a campaign run from the ground hands to the ground desk (another
+/// thread of this supervisor), so no further port of the supervisor's subscribes to the
+/// estimator's stream: the latest, and each one whose status word changed.
+#[derive(Debug, Default)]
+pub(crate) struct Relay {
+    latest: std::sync::Mutex<Option<EstimateMsg>>,
+    changed: std::sync::Mutex<Vec<EstimateMsg>>,
+    status: std::sync::atomic::AtomicU64,
+}
+
+impl Relay {
+    fn put(&self, e: &EstimateMsg) {
+        use std::sync::atomic::Ordering::Relaxed;
+        if self.status.swap(e.status, Relaxed) != e.status {
+            if let Ok(mut c) = self.changed.lock() {
+                c.push(*e);
+            }
+        }
+        if let Ok(mut l) = self.latest.lock() {
+            *l = Some(*e);
+        }
+    }
+
+    /// The estimates whose status changed since the last call, then the latest.
+    pub(crate) fn take(&self) -> (Vec<EstimateMsg>, Option<EstimateMsg>) {
+        let changed = self
+            .changed
+            .lock()
+            .map(|mut c| std::mem::take(&mut *c))
+            .unwrap_or_default();
+        let latest = self.latest.lock().ok().and_then(|mut l| l.take());
+        (changed, latest)
+    }
 }
 
 /// What the supervisor in charge knows while it watches the set.
@@ -125,6 +162,9 @@ impl Watch {
             None => false,
         };
         while let Some(e) = wiring::receive(ports.estimates).map_err(|e| set_err(e.into()))? {
+            if let Some(r) = ports.relay {
+                r.put(&e);
+            }
             if e.flags & EST_FINAL != 0 {
                 self.final_est = Some(e);
             }

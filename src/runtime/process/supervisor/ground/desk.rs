@@ -62,6 +62,8 @@ struct Running {
     stop: Option<u64>,
     /// Where its reports go.
     args: SupervisorArgs,
+    /// Its estimates, handed over by its thread.
+    relay: std::sync::Arc<crate::runtime::process::supervisor::watch::Relay>,
 }
 
 /// The ports of the ground supervisor's node.
@@ -69,7 +71,6 @@ struct Ports {
     requests: Sub<GroundRequest>,
     beats: Sub<Progress>,
     status: Sub<SetStatus>,
-    estimates: Sub<EstimateMsg>,
     notes: Pub<GroundNote>,
     state: Pub<GroundState>,
     stop: Pub<Request>,
@@ -130,7 +131,6 @@ fn serve_held(args: &SupervisorArgs, up: Up) -> Result<u8, BusError> {
         requests: wiring::subscriber(&node, wiring::SVC_GROUND_REQUEST)?,
         beats: wiring::subscriber(&node, wiring::SVC_GROUND_BEAT)?,
         status: wiring::subscriber(&node, wiring::SVC_STATUS)?,
-        estimates: wiring::subscriber(&node, wiring::SVC_ESTIMATE)?,
         notes: wiring::publisher(&node, wiring::SVC_GROUND_NOTE)?,
         state: wiring::publisher(&node, wiring::SVC_GROUND_STATE)?,
         stop: wiring::publisher(&node, wiring::SVC_REQUEST)?,
@@ -238,14 +238,15 @@ impl Desk<'_> {
             if let Ok(Some(st)) = latest(&ports.status) {
                 self.status(&st);
             }
-            // Every estimate: a status word that changed is said at once.
-            let mut changed = false;
-            while let Ok(Some(e)) = wiring::receive(&ports.estimates) {
-                changed |= e.status != self.estimate.status;
-                self.estimate = e;
-                if changed {
+            // The campaign's estimates: each whose status word changed is said at once.
+            if let Some(r) = &self.running {
+                let (changed, latest) = r.relay.take();
+                for e in changed {
+                    self.estimate = e;
                     self.say_state(ports);
-                    changed = false;
+                }
+                if let Some(e) = latest {
+                    self.estimate = e;
                 }
             }
             if self
@@ -356,11 +357,14 @@ impl Desk<'_> {
         let mut prepared = self.prepared.clone();
         let table = self.table.current().map(|(v, _)| v);
         let run_args = args.clone();
+        let relay =
+            std::sync::Arc::new(crate::runtime::process::supervisor::watch::Relay::default());
+        let hold = Hold::Held(relay.clone());
         let thread = std::thread::Builder::new()
             .name(format!("campaign-{n}"))
             .spawn(
                 move || match prepare_campaign(&mut prepared, seed, duration_s, table) {
-                    Ok(()) => campaign(&run_args, &prepared, Hold::Held),
+                    Ok(()) => campaign(&run_args, &prepared, hold),
                     Err(e) => Outcome::UserError(e),
                 },
             );
@@ -373,6 +377,7 @@ impl Desk<'_> {
                     start: Some(token),
                     stop: None,
                     args,
+                    relay,
                 });
                 self.set_mode(Mode::Running);
             }
