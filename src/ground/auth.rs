@@ -130,15 +130,24 @@ impl Key {
                 source,
             })?;
         let key = Key(k);
-        let mut f = std::fs::OpenOptions::new()
+        // Written whole to a temporary file, then linked in: a reader never finds the
+        // key file empty or half written, and an existing file is never replaced.
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(format!(".tmp-{}", std::process::id()));
+        let tmp = std::path::PathBuf::from(tmp);
+        let _ = std::fs::remove_file(&tmp);
+        let written = std::fs::OpenOptions::new()
             .write(true)
             .create_new(true)
             .mode(0o600)
-            .open(path)
-            .map_err(io)?;
-        writeln!(f, "{}", key.to_hex())
-            .and_then(|_| f.sync_all())
-            .map_err(io)?;
+            .open(&tmp)
+            .and_then(|mut f| {
+                writeln!(f, "{}", key.to_hex())?;
+                f.sync_all()
+            })
+            .and_then(|_| std::fs::hard_link(&tmp, path));
+        let _ = std::fs::remove_file(&tmp);
+        written.map_err(io)?;
         Ok(key)
     }
 
