@@ -32,11 +32,14 @@ MAC = 16
 CRC = 2
 
 
-def tc(key_hex, seq, count, service, subtype, source, app_hex):
+def signed_tc(key, seq, count, service, subtype, source, app, ack_flags=0xF):
+    """The bytes of a PUS-C telecommand of APID 0x120 built by spacepackets: `app`, then
+    the authentication trailer (`seq` as u32, the truncated HMAC-SHA-256 under `key`).
+    The packet is built with the MAC zeroed, the MAC computed over its bytes before the
+    MAC field, and the packet built again with it, so the CRC covers the final bytes."""
     from spacepackets.ecss.tc import PusTc
 
-    key = bytes.fromhex(key_hex)
-    app = bytes.fromhex(app_hex) + int(seq).to_bytes(4, "big")
+    app = bytes(app) + int(seq).to_bytes(4, "big")
 
     def build(mac):
         return PusTc(
@@ -45,14 +48,20 @@ def tc(key_hex, seq, count, service, subtype, source, app_hex):
             apid=APID,
             seq_count=int(count),
             source_id=int(source),
+            ack_flags=int(ack_flags),
             app_data=app + mac,
         ).pack()
 
     draft = build(bytes(MAC))
-    mac = hmac.new(key, draft[: -(MAC + CRC)], hashlib.sha256).digest()[:MAC]
+    mac = hmac.new(bytes(key), draft[: -(MAC + CRC)], hashlib.sha256).digest()[:MAC]
     packet = build(mac)
     assert packet[: -(MAC + CRC)] == draft[: -(MAC + CRC)]
-    print(packet.hex())
+    return bytes(packet)
+
+
+def tc(key_hex, seq, count, service, subtype, source, app_hex):
+    key = bytes.fromhex(key_hex)
+    print(signed_tc(key, seq, count, service, subtype, source, bytes.fromhex(app_hex)).hex())
 
 
 def tm(packets):

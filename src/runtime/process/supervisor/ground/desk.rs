@@ -255,6 +255,7 @@ impl Desk<'_> {
                 .is_some_and(|r| r.thread.is_finished())
             {
                 self.join_campaign(false);
+                self.say_final_state(ports);
             }
             if last_state.is_none_or(|t| t.elapsed() >= STATE_EVERY) {
                 last_state = Some(Instant::now());
@@ -270,6 +271,7 @@ impl Desk<'_> {
                         .is_some_and(|r| r.thread.is_finished())
                     {
                         self.join_campaign(code == 130);
+                        self.say_final_state(ports);
                     }
                     continue;
                 }
@@ -552,6 +554,16 @@ impl Desk<'_> {
                 return;
             }
         }
+    }
+
+    /// A campaign's end, said before its events go out (`flush`): the last estimates it
+    /// published and the mode after it, so a report asked for on its end event (3,27)
+    /// holds the final estimate, report.json's, not one up to 100 ms older.
+    fn say_final_state(&mut self, ports: &Ports) {
+        while let Ok(Some(e)) = wiring::receive(&ports.estimates) {
+            self.estimate = e;
+        }
+        self.say_state(ports);
     }
 
     fn say_state(&mut self, ports: &Ports) {
