@@ -9,13 +9,14 @@
  *        symbol that exists nowhere, and the link succeeds (a CI test; with --probe, a
  *        deliberately reachable panic, the same link fails).
  *
- * MEMORY The state: taiji_estimator_size() bytes (50 000) aligned to
- *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes, any
- *        alignment. solve and finish also take scratch: taiji_solve_work_size() bytes
- *        (137 960), 8-aligned, not overlapping the state; its contents do not matter
- *        before or after a call, so one buffer serves every estimator of a task. In all
- *        187 960 bytes, fixed at start-up. Stack per call, measured by painting
- *        (docs/flight.md, every call): update 7.4 KB (7.8 KB on a LEON3, 8.0 KB on
+ * MEMORY The state: taiji_estimator_size() bytes (62 848) aligned to
+ *        taiji_estimator_align() (8). A checkpoint: taiji_checkpoint_size() bytes (62 336),
+ *        any alignment. solve and finish also take scratch:
+ *        taiji_solve_work_size() bytes (133 928), 8-aligned, not overlapping the state;
+ *        its contents do not matter before or after a call, so one buffer serves every
+ *        estimator of a task. In all (196 776) bytes, fixed at start-up (the sizes in
+ *        parentheses are the library's, checked by tests/c_header.rs). Stack per call,
+ *        measured by painting (docs/flight.md, every call): update 7.4 KB (7.8 KB on a LEON3, 8.0 KB on
  *        x86-64); init 3.3 KB and restore 1.2 KB (they build the state in place);
  *        checkpoint 0.3 KB; solve and finish 12.3 / 12.9 KB on a Cortex-M7, 12.6 / 13.3
  *        KB on a LEON3, 12.8 / 13.4 KB on x86-64. A 16 KB task stack holds every call.

@@ -125,6 +125,16 @@ pub(crate) enum Hold {
     Held(std::sync::Arc<watch::Relay>),
 }
 
+impl Hold {
+    /// Where the campaign's estimates go on to, when a caller takes them.
+    fn relay(&self) -> Option<&watch::Relay> {
+        match self {
+            Hold::Held(r) => Some(r),
+            Hold::Claim => None,
+        }
+    }
+}
+
 /// One campaign of the prepared run through the process set.
 pub(crate) fn campaign(args: &SupervisorArgs, p: &Prepared, hold: Hold) -> Outcome {
     let (s, plan, launch, me) = (&p.s, &p.plan, &p.launch, p.me.clone());
@@ -250,10 +260,6 @@ fn supervise(
     let t_start = Instant::now();
     // Declared before every port and node of the run, so dropped after them.
     let _holds = holds(args, &hold)?;
-    let relay = match &hold {
-        Hold::Held(r) => Some(r.as_ref()),
-        Hold::Claim => None,
-    };
     let ckpt = fresh_checkpoint(args)?;
     let node = wiring::node("taiji-supervisor", &args.bus_prefix).map_err(set_err)?;
     let progress = wiring::subscriber::<Progress>(&node, wiring::SVC_PROGRESS).map_err(set_err)?;
@@ -306,7 +312,7 @@ fn supervise(
                 progress: &progress,
                 estimates: &estimates,
                 send: &send,
-                relay,
+                relay: hold.relay(),
             };
             let mut board = StatusBoard::new(&node, args, s, launch, bound).map_err(set_err)?;
             let r =

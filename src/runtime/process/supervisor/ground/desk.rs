@@ -416,6 +416,11 @@ impl Desk<'_> {
             return;
         };
         let n = run.n;
+        // Its last estimates (the final one among them), before anything is said.
+        let (changed, latest) = run.relay.take();
+        if let Some(e) = latest.or(changed.last().copied()) {
+            self.estimate = e;
+        }
         let mut failed = None;
         let Ok(outcome) = run.thread.join() else {
             eprintln!("taiji-supervisor: campaign {n}: its supervision thread panicked");
@@ -560,9 +565,6 @@ impl Desk<'_> {
     /// published and the mode after it, so a report asked for on its end event (3,27)
     /// holds the final estimate, report.json's, not one up to 100 ms older.
     fn say_final_state(&mut self, ports: &Ports) {
-        while let Ok(Some(e)) = wiring::receive(&ports.estimates) {
-            self.estimate = e;
-        }
         self.say_state(ports);
     }
 
