@@ -416,12 +416,7 @@ mod tests {
         );
         assert_eq!(
             users(wiring::SVC_ESTIMATE),
-            [
-                "supervisor",
-                "taiji-estimator",
-                "taiji-recorder",
-                "taiji-tmtc"
-            ]
+            ["supervisor", "taiji-estimator", "taiji-recorder"]
         );
         assert_eq!(
             users(&wiring::wake_service("commander")),

@@ -153,7 +153,8 @@ fn wait(
 fn exchange(req: &Request, x: &ExchangeArgs) -> Result<ExitCode, CliError> {
     let timeout = seconds("timeout", x.timeout)?;
     let app_data = req.app_data()?;
-    // A start completes at the campaign's end: by default its start report ends it.
+    // A start completes once every process of the campaign runs (the bound computed,
+    // the set spawned and ready: seconds): by default its start report ends it.
     let ack = x.ack.unwrap_or(match req {
         Request::Function(Function::Start { .. }) => client::ACK_ACCEPTANCE | client::ACK_START,
         _ => client::ACK_ALL,

@@ -185,7 +185,7 @@ pub(crate) struct ExchangeArgs {
     pub(crate) timeout: f64,
     /// Verification reports to ask for: `all`, or a comma list of acceptance, start,
     /// progress, completion (failures are always reported). Default: all; for `start`,
-    /// acceptance,start (its completion comes at the campaign's end).
+    /// acceptance,start (its completion comes once every process of the campaign runs).
     #[arg(long, value_parser = ack_flags)]
     pub(crate) ack: Option<u8>,
     /// Send the telecommand alone. By default a ping from the same socket comes first,

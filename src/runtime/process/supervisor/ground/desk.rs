@@ -272,6 +272,8 @@ impl Desk<'_> {
                     {
                         self.join_campaign(code == 130);
                         self.say_final_state(ports);
+                        // Its end's reports get their time to go out.
+                        shutdown = Some((Instant::now(), code));
                     }
                     continue;
                 }
