@@ -88,14 +88,19 @@ impl Ground {
 
     /// Listen until `until` holds for what was heard, or fail after `timeout`.
     fn wait(&mut self, what: &str, timeout: Duration, until: impl Fn(&[Tm]) -> bool) {
+        let heard = self.listen(timeout, until);
+        assert!(
+            heard,
+            "no {what} within {timeout:?}; heard (service, subtype, first u16) {:?}",
+            self.summary()
+        );
+    }
+
+    /// Listen for at most `d` until `until` holds for what was heard; whether it does.
+    fn listen(&mut self, d: Duration, until: impl Fn(&[Tm]) -> bool) -> bool {
         let t0 = Instant::now();
         let mut buf = vec![0u8; MAX_PACKET_LEN];
-        while !until(&self.heard) {
-            assert!(
-                t0.elapsed() < timeout,
-                "no {what} within {timeout:?}; heard (service, subtype, first u16) {:?}",
-                self.summary()
-            );
+        while t0.elapsed() < d && !until(&self.heard) {
             if let Ok((n, _)) = self.sock.recv_from(&mut buf) {
                 let tm = decode_tm(&buf[..n], APID).expect("telemetry decodes, CRC checked");
                 self.heard.push(Tm {
@@ -105,6 +110,7 @@ impl Ground {
                 });
             }
         }
+        until(&self.heard)
     }
 
     /// Send and wait for the request's completion report; returns it.
@@ -251,18 +257,7 @@ fn ping_until_up(g: &mut Ground) {
             h.iter()
                 .any(|t| t.service == 1 && t.subtype == 7 && t.data[..4] == id)
         };
-        let mut buf = vec![0u8; MAX_PACKET_LEN];
-        let t1 = Instant::now();
-        while t1.elapsed() < Duration::from_millis(500) && !got(&g.heard) {
-            if let Ok((n, _)) = g.sock.recv_from(&mut buf) {
-                let tm = decode_tm(&buf[..n], APID).unwrap();
-                g.heard.push(Tm {
-                    service: tm.header.service,
-                    subtype: tm.header.subtype,
-                    data: tm.source_data.to_vec(),
-                });
-            }
-        }
+        g.listen(Duration::from_millis(500), got);
         if got(&g.heard) {
             return;
         }
@@ -425,18 +420,7 @@ fn a_whole_cycle_from_the_ground() {
             h.iter()
                 .any(|t| (t.service, t.subtype) == (1, 2) && t.data[..4] == id)
         };
-        let mut buf = vec![0u8; MAX_PACKET_LEN];
-        let t1 = Instant::now();
-        while t1.elapsed() < Duration::from_millis(500) && !refused(&g.heard) {
-            if let Ok((n, _)) = g.sock.recv_from(&mut buf) {
-                let tm = decode_tm(&buf[..n], APID).unwrap();
-                g.heard.push(Tm {
-                    service: tm.header.service,
-                    subtype: tm.header.subtype,
-                    data: tm.source_data.to_vec(),
-                });
-            }
-        }
+        g.listen(Duration::from_millis(500), refused);
         if refused(&g.heard) {
             let t = g
                 .heard
