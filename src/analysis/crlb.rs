@@ -242,11 +242,13 @@ fn noise_free_samples(
 
 /// The bound of the statistics `est` accumulated: the Fisher σ at the truth.
 fn bound_of(s: &Scenario, est: &JointEstimator) -> Option<Crlb> {
+    // The campaign's truths (with `[drift]`, at its middle).
+    let t = s.truths();
     let mut beta = [[0.0; 3]; 2];
     let mut r = [[0.0; 3]; 2];
-    for (i, is) in s.inertial_sensor.iter().enumerate() {
-        beta[i] = is.beta;
-        r[i] = is.com_offset_m;
+    for i in 0..s.inertial_sensor.len() {
+        beta[i] = t.beta[i];
+        r[i] = t.com_offset_m[i];
     }
     // Nuisances at their noise-free best fit, β and r at the truth.
     let p = est.params_with(&beta, &r);

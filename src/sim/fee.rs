@@ -29,6 +29,9 @@ pub struct FrontEnd {
     /// False for the noise-free sensors: no draws at all (see [`FrontEnd::new`]).
     noisy: bool,
     seq: u64,
+    /// With `[drift]`: the truths' history and the campaign's epoch [days]; β and k
+    /// follow it, taken at each tick's middle.
+    drift: Option<(crate::sim::drift::History, f64)>,
 }
 
 impl FrontEnd {
@@ -72,6 +75,7 @@ impl FrontEnd {
             rng_star: stream(seed, Stream::StarTracker),
             noisy,
             seq: 0,
+            drift: crate::sim::drift::History::for_campaign(s).map(|h| (h, s.epoch_day)),
         }
     }
 
@@ -88,6 +92,10 @@ impl FrontEnd {
     pub fn step(&mut self, truth: &TruthState) -> SensorSample {
         let tick = truth.header.tick;
         let t_end = (tick + 1) as f64 / self.fs;
+        if let Some((h, epoch)) = &self.drift {
+            let truths = h.at(epoch + (tick as f64 + 0.5) / self.fs / crate::sim::drift::DAY_S);
+            (self.beta, self.k) = (truths.beta, truths.k);
+        }
         let mut out = SensorSample {
             header: Header::at(self.seq, tick, self.fs),
             ..Default::default()

@@ -7,6 +7,7 @@
 pub use taiji_core::{capi, math};
 
 pub mod commander;
+pub mod drift;
 pub mod estimate;
 pub mod faults;
 pub mod fee;

@@ -16,6 +16,9 @@ pub enum Stream {
     StarTracker = 6,
     /// Injected faults (`[faults]`): their own stream, so clean noise is unchanged.
     Faults = 7,
+    /// The truths' history (`[drift]`'s random walks), from the mission's seed: every
+    /// campaign of one mission sees one history.
+    Drift = 8,
     /// IS front-end electronics; IS i uses `InertialSensor as u64 + i`.
     InertialSensor = 16,
 }

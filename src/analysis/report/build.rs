@@ -57,12 +57,14 @@ impl Report {
         let mut iss = Vec::new();
         let mut met = true;
         let priors = s.priors();
+        // The truths judged against: the file's, or with `[drift]` at the campaign's middle.
+        let truths = s.truths();
         for (i, is) in s.inertial_sensor.iter().enumerate() {
             let q = Quantity::new;
-            let mut beta = q(is.beta, est.beta[i], est.beta_sigma[i], crlb.beta[i]);
-            let mut k = q(is.k(), est.k[i], est.k_sigma[i], crlb.k[i]);
+            let mut beta = q(truths.beta[i], est.beta[i], est.beta_sigma[i], crlb.beta[i]);
+            let mut k = q(truths.k[i], est.k[i], est.k_sigma[i], crlb.k[i]);
             let mut r = q(
-                is.com_offset_m,
+                truths.com_offset_m[i],
                 est.r_b[i],
                 est.r_sigma[i],
                 crlb.com_offset_m[i],
@@ -206,6 +208,8 @@ impl Report {
                 "the written maneuver rocks one axis at a time, and the thrusters are too quiet to rock the others meanwhile: the estimator fixes the SRP's level only once the last axis rocks, the samples before lack the turn of its fluctuation, and r's σ may be optimistic (r_z's by 1.3× at 10⁴ s, 2× at 10⁵ s); `taiji-calib plan` plans a maneuver that rocks every axis from the start".to_string(),
             );
         }
+        // Truths outside the prior's box: the run flew them (item 4 of issue 51).
+        self.warnings.extend(s.truth_warnings());
         if !self.prior_dominated.is_empty() {
             self.warnings.push(format!(
                 "prior-dominated: {}",

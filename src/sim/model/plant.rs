@@ -61,6 +61,9 @@ pub struct Plant {
     /// The last step's TM and SRP accelerations without the SRP's fluctuation and the
     /// thrusters' force noise (`noise_free_twin`).
     twin_a: ([[f64; 3]; 2], [f64; 3]),
+    /// With `[drift]`: the truths' history and the campaign's epoch [days]; the CoM
+    /// offsets follow it, taken at each tick's middle.
+    drift: Option<(crate::sim::drift::History, f64)>,
 }
 
 impl Plant {
@@ -128,6 +131,7 @@ impl Plant {
             },
             q0: nalgebra::UnitQuaternion::identity(),
             twin_a: ([[0.0; 3]; 2], [0.0; 3]),
+            drift: crate::sim::drift::History::for_campaign(s).map(|h| (h, s.epoch_day)),
         }
     }
 
@@ -136,6 +140,10 @@ impl Plant {
         let dt = 1.0 / self.fs;
         let h = dt / SUBSTEPS as f64;
         let t0 = tick as f64 * dt;
+        if let Some((h, epoch)) = &self.drift {
+            let truths = h.at(epoch + (t0 + 0.5 * dt) / crate::sim::drift::DAY_S);
+            self.r_tm_b = truths.com_offset_m.map(Vector3::from);
+        }
         self.thrusters
             .command(t0, torque_cmd_b, &mut self.rng_edges);
         let omega_start = self.body.omega_b;

@@ -12,6 +12,10 @@ mod check;
 pub mod faults;
 mod limits;
 pub mod maneuver;
+pub mod mission;
+mod truth_box;
+
+pub use mission::{CampaignDays, Drift, DriftStep, MissionTimeline};
 
 /// Arc-second in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
@@ -146,6 +150,20 @@ pub struct Scenario {
     pub inertial_sensor: Vec<InertialSensor>,
     /// Injected faults (none by default).
     pub faults: faults::FaultsConfig,
+    /// How the truths move with mission time (absent: they do not).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift: Option<Drift>,
+    /// The mission `taiji-calib timeline` flies (other commands ignore it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timeline: Option<MissionTimeline>,
+    /// Mission day at which this campaign starts (a timeline sets it; 0 otherwise).
+    /// Not a key: with `[drift]` the truths are those of this epoch and on.
+    #[serde(skip)]
+    pub epoch_day: f64,
+    /// Seed of the truths' history (`[drift]`'s random walks): the mission's, shared
+    /// by its campaigns; `None`: the scenario's `seed`. Not a key.
+    #[serde(skip)]
+    pub mission_seed: Option<u64>,
     /// The maneuver is still to be planned (no waveform key was given); `plan::resolve`
     /// fills it in. Not a key: a written scenario carries its maneuver.
     #[serde(skip)]
@@ -326,6 +344,10 @@ impl Default for Scenario {
             ground_calibration: GroundCalibration::default(),
             inertial_sensor: vec![is1, is2],
             faults: faults::FaultsConfig::default(),
+            drift: None,
+            timeline: None,
+            epoch_day: 0.0,
+            mission_seed: None,
             plan_pending: false,
         }
     }
