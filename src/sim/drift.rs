@@ -262,6 +262,40 @@ mod tests {
         assert_eq!(History::of(&campaign, 10.0).unwrap().at(7.7), h.at(7.7));
     }
 
+    /// Every TM acceleration and IS voltage of `ticks` ticks of `s` at seed 3.
+    fn stream(s: &Scenario, ticks: u64) -> Vec<u64> {
+        use crate::sim::model::plant::{Plant, PlantNoise};
+        let mut cmd = crate::sim::commander::Commander::new(s);
+        let mut plant = Plant::new(s, 3, PlantNoise::ALL);
+        let mut fee = crate::sim::fee::FrontEnd::new(s, 3, true);
+        let mut out = Vec::new();
+        for tick in 0..ticks {
+            let t = plant.step(tick, &cmd.step(tick).torque_cmd_b);
+            let m = fee.step(&t);
+            out.extend(t.a_tm_b.iter().flatten().map(|x| x.to_bits()));
+            for is in &m.is {
+                out.extend(is.volts.iter().flatten().map(|x| x.to_bits()));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_drift_of_zero_flies_the_campaign_bit_for_bit_and_a_drift_moves_it() {
+        let s = Scenario::default();
+        let zero = Scenario {
+            drift: Some(Drift::none()),
+            epoch_day: 123.4,
+            ..s.clone()
+        };
+        let base = stream(&s, 3000);
+        assert_eq!(base, stream(&zero, 3000));
+        // A rate moves r within the campaign: the TM accelerations change.
+        let mut d = Drift::none();
+        d.com_m_per_day[0] = [1e-3, 0.0, 0.0];
+        assert_ne!(base, stream(&Scenario { drift: Some(d), ..s }, 3000));
+    }
+
     #[test]
     fn without_drift_the_truths_are_the_files() {
         let s = Scenario::default();
