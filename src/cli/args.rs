@@ -105,6 +105,22 @@ pub(crate) enum Cmd {
         #[command(flatten)]
         args: MonteCarloArgs,
     },
+    /// Fly a mission (the scenario's `[timeline]` and `[drift]`): campaign after
+    /// campaign, each applied by function 3's rules and taken into the trend filters;
+    /// write DIR/timeline.json, DIR/report.md and DIR/plots/timeline_*.png/.svg.
+    Timeline {
+        /// Scenario file (TOML); without `[timeline]`, a year with `campaigns = "auto"`.
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// The mission's seed: its truths' history, and every campaign's seed from it
+        /// (overrides the scenario's `seed`).
+        #[arg(long)]
+        seed: Option<u64>,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[arg(long, value_enum, default_value = "joint")]
+        method: MethodArg,
+    },
     /// Print the Cramér–Rao bound of β, k, r for a scenario.
     Crlb {
         #[arg(long)]

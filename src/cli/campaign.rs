@@ -47,41 +47,41 @@ pub(crate) fn run_campaign(
     let seed = seed.unwrap_or(s.seed);
     let s = Scenario { seed, ..s };
     let t0 = std::time::Instant::now();
-    // The maneuver's bound (its motion alone) on a thread beside the campaign; the
-    // run's (at its seed: its torque noise's motion and the data it lost) from the
-    // campaign's own simulation (`crlb::run_with_bound`).
-    let maneuver = {
-        let s = s.clone();
-        std::thread::spawn(move || crate::analysis::plan::maneuver_bound(&s))
-    };
     let bar = Bar::new(1000, "campaign");
     let tick = |f: f64| bar.set((f * 1000.0) as u64);
-    let (estimate, tel, faults, run_bound) = if record.is_some() || plots {
+    let (mut report, tel) = if record.is_some() || plots {
         // The recording streams to the folder as the campaign runs.
         out_dir(out)?;
-        recorded_campaign(&s, seed, method, out, record, plots, tick)?
+        // The maneuver's bound (its motion alone) on a thread beside the campaign; the
+        // run's (at its seed: its torque noise's motion and the data it lost) from the
+        // campaign's own simulation (`crlb::run_with_bound`).
+        let maneuver = {
+            let s = s.clone();
+            std::thread::spawn(move || crate::analysis::plan::maneuver_bound(&s))
+        };
+        let (estimate, tel, faults, run_bound) =
+            recorded_campaign(&s, seed, method, out, record, plots, tick)?;
+        let maneuver = maneuver
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        let bounds = crate::analysis::crlb::Bounds {
+            run: run_bound.ok_or(CliError::Unexcited)?,
+            maneuver,
+        };
+        let mut report =
+            Report::with_bounds(&s, seed, "in-process", method.name(), &estimate, &bounds);
+        report.faults = faults.map(|f| f.summary());
+        (report, tel)
     } else {
         let threads = crate::analysis::campaign::Threads::available();
-        let (res, bound) =
-            crate::analysis::crlb::run_with_bound(&s, seed, method, threads, tick, None)
-                .unwrap_or_else(|e| {
-                    unreachable!("a campaign that records nothing cannot fail: {e}")
-                });
-        (res.estimate, None, res.faults, bound)
+        let report = crate::analysis::campaign_report::run(&s, seed, method, threads, tick)
+            .map_err(|_| CliError::Unexcited)?;
+        (report, None)
     };
     bar.finish();
-    let maneuver = maneuver
-        .join()
-        .unwrap_or_else(|e| std::panic::resume_unwind(e));
-    let bounds = crate::analysis::crlb::Bounds {
-        run: run_bound.ok_or(CliError::Unexcited)?,
-        maneuver,
-    };
-    let mut report = Report::with_bounds(&s, seed, "in-process", method.name(), &estimate, &bounds);
     if let (Some(m), Some(p)) = (report.maneuver.as_mut(), &plan) {
         m.search = Some(p.search_json());
     }
-    report.faults = faults.map(|f| f.summary());
     report.wall_time_s = Some(t0.elapsed().as_secs_f64());
     if let (true, Some(tel)) = (plots, &tel) {
         crate::analysis::plots::write_all(tel, &s, out)?;

@@ -11,6 +11,7 @@ mod ground;
 mod ground_args;
 mod output;
 mod replay;
+mod timeline;
 
 use crate::analysis::montecarlo;
 use analysis::{monte_carlo, montecarlo_out, plan, print_crlb};
@@ -78,6 +79,12 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode, CliError> {
             montecarlo_out(&montecarlo::shard::merge(&dirs)?, out)
         }
         Cmd::Montecarlo { merge: None, args } => monte_carlo(args),
+        Cmd::Timeline {
+            scenario,
+            seed,
+            out,
+            method,
+        } => timeline::run(scenario.as_deref(), seed, &out, method.into()),
         Cmd::Crlb { scenario } => print_crlb(scenario.as_deref()),
         Cmd::Plan {
             scenario,
