@@ -38,7 +38,8 @@ pub fn run(
         run: run_bound.ok_or(Unexcited)?,
         maneuver,
     };
-    let mut report = Report::with_bounds(s, seed, "in-process", method.name(), &res.estimate, &bounds);
+    let mut report =
+        Report::with_bounds(s, seed, "in-process", method.name(), &res.estimate, &bounds);
     report.faults = res.faults.map(|f| f.summary());
     Ok(report)
 }

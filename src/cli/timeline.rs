@@ -46,7 +46,10 @@ pub(crate) fn run(
     output::write_markdown(&m, out, &stems)?;
     print!("{}", output::summary_text(&m));
     println!("Timeline: {}", out.join("timeline.json").display());
-    let met = m.summary.iter().all(|g| g.requirement_met_share >= MET_SHARE);
+    let met = m
+        .summary
+        .iter()
+        .all(|g| g.requirement_met_share >= MET_SHARE);
     Ok(if met {
         ExitCode::SUCCESS
     } else {

@@ -293,7 +293,16 @@ mod tests {
         // A rate moves r within the campaign: the TM accelerations change.
         let mut d = Drift::none();
         d.com_m_per_day[0] = [1e-3, 0.0, 0.0];
-        assert_ne!(base, stream(&Scenario { drift: Some(d), ..s }, 3000));
+        assert_ne!(
+            base,
+            stream(
+                &Scenario {
+                    drift: Some(d),
+                    ..s
+                },
+                3000
+            )
+        );
     }
 
     #[test]

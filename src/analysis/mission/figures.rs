@@ -37,7 +37,13 @@ pub fn figure(m: &Mission, s: &Scenario, g: usize, z: f64) -> Figure {
                     (v / r0 - 1.0) * 1e6
                 }
             };
-            let scale = |sigma: f64| if g == 2 { sigma * 1e6 } else { sigma / r0 * 1e6 };
+            let scale = |sigma: f64| {
+                if g == 2 {
+                    sigma * 1e6
+                } else {
+                    sigma / r0 * 1e6
+                }
+            };
             let rows: Vec<_> = m
                 .daily
                 .iter()

@@ -117,10 +117,7 @@ type Grid<T> = [[[T; 3]; 3]; 2];
 /// The values in use from one time on: the ground calibration, or the trends.
 #[derive(Debug, Clone)]
 enum InUse {
-    Ground {
-        value: Grid<f64>,
-        sigma: Grid<f64>,
-    },
+    Ground { value: Grid<f64>, sigma: Grid<f64> },
     Trends(Box<Grid<Option<Trend>>>),
 }
 
@@ -269,7 +266,13 @@ pub fn run(
         next = match &tl.campaigns {
             CampaignDays::Days(d) => d.get(n + 1).copied(),
             CampaignDays::Auto => Some(next_auto(
-                &in_use, n_is, z, end, &tl, campaign_days, &mut warnings,
+                &in_use,
+                n_is,
+                z,
+                end,
+                &tl,
+                campaign_days,
+                &mut warnings,
             )),
         };
     }

@@ -55,14 +55,17 @@ pub fn markdown(m: &Mission, figures: &[String]) -> String {
         "\n| campaign | day | seed | status | requirements met | applied |\n|---|---|---|---|---|---|"
     );
     for (n, c) in m.campaigns.iter().enumerate() {
-        let (status, met) = c.report.as_ref().map_or(("not flown".to_string(), "—"), |r| {
-            (
-                r.estimator_status
-                    .as_ref()
-                    .map_or("—".to_string(), |s| s.text.clone()),
-                if r.requirements.met { "yes" } else { "no" },
-            )
-        });
+        let (status, met) = c
+            .report
+            .as_ref()
+            .map_or(("not flown".to_string(), "—"), |r| {
+                (
+                    r.estimator_status
+                        .as_ref()
+                        .map_or("—".to_string(), |s| s.text.clone()),
+                    if r.requirements.met { "yes" } else { "no" },
+                )
+            });
         let applied = match (&c.refused, c.applied) {
             (_, true) => "yes".to_string(),
             (Some(why), false) => format!("no: {why}"),
@@ -114,7 +117,11 @@ pub fn write_markdown(m: &Mission, dir: &Path, figures: &[String]) -> Result<(),
 pub fn summary_text(m: &Mission) -> String {
     let mut o = String::new();
     let flown = m.campaigns.iter().filter(|c| c.report.is_some()).count();
-    let days: Vec<String> = m.campaigns.iter().map(|c| format!("{:.0}", c.day)).collect();
+    let days: Vec<String> = m
+        .campaigns
+        .iter()
+        .map(|c| format!("{:.0}", c.day))
+        .collect();
     let _ = writeln!(
         o,
         "Mission {:?}, seed {}, {} days: {} campaigns (days {}), science time {:.4} %",

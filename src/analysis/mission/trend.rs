@@ -47,7 +47,10 @@ impl Trend {
             epoch_day: day,
             value: z,
             rate: 0.0,
-            p: [[sigma * sigma, 0.0], [0.0, model.rate_sigma * model.rate_sigma]],
+            p: [
+                [sigma * sigma, 0.0],
+                [0.0, model.rate_sigma * model.rate_sigma],
+            ],
             model,
         }
     }
