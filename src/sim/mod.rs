@@ -18,3 +18,4 @@ pub mod requirements;
 pub mod rng;
 pub mod scenario;
 pub mod stage;
+pub mod truth_box;

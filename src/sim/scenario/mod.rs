@@ -13,8 +13,8 @@ pub mod faults;
 mod limits;
 pub mod maneuver;
 pub mod mission;
-mod truth_box;
 
+pub use check::{MAX_BETA_PRIOR_REL, MAX_COM_PRIOR_ERROR_M};
 pub use mission::{CampaignDays, Drift, DriftStep, MissionTimeline};
 
 /// Arc-second in radians.

@@ -5,9 +5,8 @@
 //! report.md). What happens then (saturated samples, a degraded or unverified status)
 //! is what the run shows.
 
-use super::check::{MAX_BETA_PRIOR_REL, MAX_COM_PRIOR_ERROR_M};
-use super::maneuver::{torque_boost, Timeline};
-use super::Scenario;
+use crate::sim::scenario::maneuver::{torque_boost, Timeline};
+use crate::sim::scenario::{Priors, Scenario, MAX_BETA_PRIOR_REL, MAX_COM_PRIOR_ERROR_M};
 
 impl Scenario {
     /// Every truth outside its prior's box, one line each: β's prior more than 10 %
@@ -53,7 +52,7 @@ impl Scenario {
     fn true_range_warning(
         &self,
         t: &crate::sim::drift::Truths,
-        priors: &[super::Priors],
+        priors: &[Priors],
     ) -> Option<String> {
         if self.plan_pending {
             return None;
