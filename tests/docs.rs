@@ -181,7 +181,21 @@ fn every_scenario_key_is_documented() {
         is.beta_prior = Some(is.beta);
         is.com_offset_prior_m = Some(is.com_offset_m);
     }
+    let mut drift = taiji::sim::scenario::Drift::default();
+    drift.step.push(taiji::sim::scenario::DriftStep::default());
+    s.drift = Some(drift.clone());
+    s.timeline = Some(Default::default());
     let v = toml::Value::try_from(&s).unwrap();
+    // The steps' own keys, under their heading.
+    let doc = read("docs/scenario.md");
+    assert!(doc.contains("`[[drift.step]]`"));
+    let step = toml::Value::try_from(&drift.step[0]).unwrap();
+    for f in step.as_table().unwrap().keys() {
+        assert!(
+            doc.contains(&format!("`{f}`")),
+            "docs/scenario.md lacks drift.step.{f}"
+        );
+    }
     let doc = read("docs/scenario.md");
     let mut missing = Vec::new();
     let table = v.as_table().unwrap();
