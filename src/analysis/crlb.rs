@@ -246,10 +246,9 @@ fn bound_of(s: &Scenario, est: &JointEstimator) -> Option<Crlb> {
     let t = s.truths();
     let mut beta = [[0.0; 3]; 2];
     let mut r = [[0.0; 3]; 2];
-    for i in 0..s.inertial_sensor.len() {
-        beta[i] = t.beta[i];
-        r[i] = t.com_offset_m[i];
-    }
+    let n = s.inertial_sensor.len();
+    beta[..n].copy_from_slice(&t.beta[..n]);
+    r[..n].copy_from_slice(&t.com_offset_m[..n]);
     // Nuisances at their noise-free best fit, β and r at the truth.
     let p = est.params_with(&beta, &r);
     let p = est.nuisance_fit(p);

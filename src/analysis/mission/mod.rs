@@ -117,7 +117,8 @@ type Grid<T> = [[[T; 3]; 3]; 2];
 /// The values in use from one time on: the ground calibration, or the trends.
 #[derive(Debug, Clone)]
 enum InUse {
-    Ground { value: Grid<f64>, sigma: Grid<f64> },
+    /// Value and σ.
+    Ground(Box<(Grid<f64>, Grid<f64>)>),
     Trends(Box<Grid<Option<Trend>>>),
 }
 
@@ -125,7 +126,7 @@ impl InUse {
     /// Value and σ of (IS i, group g, axis a) at `day`.
     fn at(&self, i: usize, g: usize, a: usize, day: f64) -> (f64, f64) {
         match self {
-            InUse::Ground { value, sigma } => (value[i][g][a], sigma[i][g][a]),
+            InUse::Ground(vs) => (vs.0[i][g][a], vs.1[i][g][a]),
             InUse::Trends(t) => t[i][g][a].map_or((f64::NAN, f64::NAN), |t| t.predict(day)),
         }
     }
@@ -319,7 +320,7 @@ fn ground(base: &Scenario, seed: u64) -> InUse {
             sigma[i][2][a] = gc.com_offset_error_m;
         }
     }
-    InUse::Ground { value, sigma }
+    InUse::Ground(Box::new((value, sigma)))
 }
 
 /// Campaign `n` on `day`: its scenario (epoch, seed, priors from the values in use
