@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 use taiji::ground::auth::{encode_signed_tc, Key};
 use taiji::ground::dictionary::{Failure, APID};
 use taiji::ground::packet::{decode_tm, TcHeader, MAX_PACKET_LEN};
+use taiji::sim::scenario::Scenario;
 
 const SUPERVISOR: &str = env!("CARGO_BIN_EXE_taiji-supervisor");
 const SHORT: &str = "name = \"short\"\nseed = 11\nduration_s = 3000.0\n";
@@ -298,8 +299,10 @@ fn a_whole_cycle_from_the_ground() {
     assert_eq!(r.failure(), Some(Failure::NoResult));
     let r = g.command(8, 1, &function(2, &[]), Duration::from_secs(10));
     assert_eq!(r.failure(), Some(Failure::NotRunning));
-    // Campaign 1.
-    let seed = 5;
+    // Campaign 1, at the seed of a timeline's first campaign (mission seed 5), so that
+    // the cycle start, apply, start can be held against the timeline's (issue 51).
+    let mission_seed = 5;
+    let seed = taiji::analysis::mission::campaign_seed(mission_seed, 0);
     let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(120));
     assert_eq!((r.subtype, r.failure()), (7, None));
     let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(10));
@@ -358,7 +361,8 @@ fn a_whole_cycle_from_the_ground() {
         r1["requirements"]
     );
     assert_eq!(g.events(6), 1);
-    let r = g.command(8, 1, &start_args(seed + 1, 0.0), Duration::from_secs(120));
+    let seed2 = taiji::analysis::mission::campaign_seed(mission_seed, 1);
+    let r = g.command(8, 1, &start_args(seed2, 0.0), Duration::from_secs(120));
     assert_eq!(r.failure(), None);
     g.wait(
         "campaign 2's end and standby",
@@ -382,6 +386,29 @@ fn a_whole_cycle_from_the_ground() {
     {
         assert_eq!(is2["beta"]["prior"], is1["beta"]["estimate"]);
         assert_eq!(is2["com_offset"]["prior"], is1["com_offset"]["estimate"]);
+    }
+    // The first two campaigns of a timeline (mission seed 5, no drift) are these
+    // two, bit for bit: the ground cycle start, apply, start is the timeline's.
+    let timeline = {
+        let mut s = Scenario::load(&sc).unwrap();
+        s.timeline = Some(taiji::sim::scenario::MissionTimeline {
+            days: 3.0,
+            campaigns: taiji::sim::scenario::CampaignDays::Days(vec![0.0, 1.0]),
+            confidence: 0.997,
+        });
+        let (s, _) = taiji::analysis::plan::resolve(s).unwrap();
+        taiji::analysis::mission::run(
+            &s,
+            mission_seed,
+            taiji::sim::estimate::Method::Joint,
+            taiji::analysis::campaign::Threads::available(),
+            |_| {},
+        )
+    };
+    for (c, r) in timeline.campaigns.iter().zip([&r1, &r2]) {
+        let v = serde_json::to_value(c.report.as_ref().unwrap()).unwrap();
+        assert_eq!(estimates(&v), estimates(r), "campaign on day {}", c.day);
+        assert_eq!(v["priors_source"], r["priors_source"]);
     }
     // Apply campaign 2's result, restore campaign 1's, and no further back.
     let r = g.command(8, 1, &function(3, &[]), Duration::from_secs(10));

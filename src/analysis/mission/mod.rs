@@ -30,13 +30,15 @@ pub const AXES: [&str; 3] = ["x", "y", "z"];
 /// would otherwise never end).
 pub const MAX_CAMPAIGNS: usize = 1000;
 
-/// The seed of campaign `n` of the mission of seed `seed` (SplitMix64 of both): every
-/// campaign its own noise, the same for the same mission.
+/// The seed of campaign `n` of the mission of seed `seed` (SplitMix64 of both, its top
+/// bit cleared: a scenario file's seed is a TOML integer, at most 2⁶³ − 1, and the
+/// process set passes its scenario as a file): every campaign its own noise, the same
+/// for the same mission.
 pub fn campaign_seed(seed: u64, n: usize) -> u64 {
     let mut z = seed.wrapping_add((n as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    (z ^ (z >> 31)) & (i64::MAX as u64)
 }
 
 /// One campaign of the mission.
