@@ -298,6 +298,18 @@ mod tests {
     }
 
     #[test]
+    fn a_written_mission_reads_back_the_same() {
+        for campaigns in ["\"auto\"", "[0, 12.5, 40]"] {
+            let s = Scenario::from_toml_str(&format!(
+                "[drift]\n[[drift.step]]\nday = 3\n[timeline]\ncampaigns = {campaigns}\n"
+            ))
+            .unwrap();
+            let back = Scenario::from_toml_str(&toml::to_string(&s).unwrap()).unwrap();
+            assert_eq!((&back.drift, &back.timeline), (&s.drift, &s.timeline));
+        }
+    }
+
+    #[test]
     fn every_mission_key_is_checked_by_name() {
         for (text, key) in [
             ("[drift]\nbeta_rel_per_day = nan", "drift.beta_rel_per_day"),
