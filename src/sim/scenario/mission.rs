@@ -229,6 +229,15 @@ impl MissionTimeline {
                 &format!("must be in (0, {MAX_MISSION_DAYS}] days, got {}", self.days),
             );
         }
+        if self.days < campaign_days {
+            return err(
+                "timeline.days",
+                &format!(
+                    "{} days do not hold one campaign of duration_s ({campaign_days:.3} days)",
+                    self.days
+                ),
+            );
+        }
         if !(self.confidence > 0.5 && self.confidence < 1.0) {
             return err(
                 "timeline.confidence",
@@ -343,6 +352,7 @@ mod tests {
             ("[[drift.step]]\ndays = 3", "days"),
             ("[timeline]\ndays = 0", "timeline.days"),
             ("[timeline]\ndays = 1e5", "timeline.days"),
+            ("[timeline]\ndays = 0.05", "timeline.days"),
             ("[timeline]\nconfidence = 1.0", "timeline.confidence"),
             ("[timeline]\nconfidence = nan", "timeline.confidence"),
             ("[timeline]\ncampaigns = \"often\"", "timeline.campaigns"),
