@@ -217,6 +217,7 @@ fn every_shipped_scenario_loads_and_says_what_it_shows() {
         names,
         [
             "com-shifted",
+            "mission-drift",
             "one-is",
             "paper",
             "srp-doubled",
