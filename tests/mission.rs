@@ -9,12 +9,13 @@ use taiji::analysis::mission;
 use taiji::sim::estimate::Method;
 use taiji::sim::scenario::Scenario;
 
-/// The example mission of the issue, shortened: `days`, campaigns `campaigns`.
-fn scenario(days: f64, campaigns: &str, step: bool) -> Scenario {
+/// The example mission of the issue, shortened: `days`, campaigns `campaigns`, and
+/// `timeline` more keys of `[timeline]`.
+fn scenario_with(days: f64, campaigns: &str, step: bool, timeline: &str) -> Scenario {
     let text = format!(
         "name = \"drift\"\n[drift]\nbeta_rel_per_day = 1.5e-6\nbeta_rel_per_sqrt_day = 4.0e-7\n\
          com_m_per_day = [[0.9e-6, -1.1e-6, 0.4e-6], [0.7e-6, 1.3e-6, 0.2e-6]]\n\
-         com_m_per_sqrt_day = 2.5e-7\n{}[timeline]\ndays = {days}\ncampaigns = {campaigns}\n",
+         com_m_per_sqrt_day = 2.5e-7\n{}[timeline]\ndays = {days}\ncampaigns = {campaigns}\n{timeline}",
         if step {
             "[[drift.step]]\nday = 40.0\ncom_m = [[0.0, 0.0, 4.0e-5], [0.0, 0.0, 4.0e-5]]\n"
         } else {
@@ -23,6 +24,10 @@ fn scenario(days: f64, campaigns: &str, step: bool) -> Scenario {
     );
     let s = Scenario::from_toml_str(&text).unwrap_or_else(|e| panic!("{e}"));
     taiji::analysis::plan::resolve(s).unwrap().0
+}
+
+fn scenario(days: f64, campaigns: &str, step: bool) -> Scenario {
+    scenario_with(days, campaigns, step, "")
 }
 
 #[test]
@@ -81,7 +86,8 @@ fn the_campaign_after_a_step_reports_a_misfit_for_the_stepped_parameter_only() {
 
 #[test]
 fn auto_schedules_the_next_campaign_before_the_requirements_lapse_and_keeps_them() {
-    let s = scenario(120.0, "\"auto\"", false);
+    // No revisit interval: the trend alone schedules.
+    let s = scenario_with(120.0, "\"auto\"", false, "max_interval_days = 120\n");
     let m = mission::run(&s, 2, Method::Joint, Threads::available(), |_| {});
     let days: Vec<f64> = m.campaigns.iter().map(|c| c.day).collect();
     // After the first campaign only the drift model's rate prior bounds r's rate:
@@ -99,6 +105,33 @@ fn auto_schedules_the_next_campaign_before_the_requirements_lapse_and_keeps_them
     assert_eq!(
         serde_json::to_value(&again.daily).unwrap(),
         serde_json::to_value(&m.daily).unwrap()
+    );
+}
+
+/// Auto with its default revisit interval (30 days): a campaign at least a month
+/// after the last, whatever the trend predicts, so the step no model has is found by
+/// the campaign after it.
+#[test]
+fn auto_revisits_within_its_interval_and_the_campaign_after_a_step_finds_it() {
+    let s = scenario(70.0, "\"auto\"", true);
+    let m = mission::run(&s, 4, Method::Joint, Threads::available(), |_| {});
+    let days: Vec<f64> = m.campaigns.iter().map(|c| c.day).collect();
+    assert_eq!(days[0], 0.0);
+    assert!(days.len() >= 3, "{days:?}");
+    for w in days.windows(2) {
+        assert!(w[1] - w[0] <= 30.0, "{days:?}");
+    }
+    let after = *days.iter().find(|d| **d >= 40.0).unwrap();
+    let found: Vec<_> = m
+        .model_misfits
+        .iter()
+        .map(|f| (f.day, f.is, f.param, f.axis))
+        .collect();
+    assert_eq!(
+        found,
+        [(after, 1, "com_offset", "z"), (after, 2, "com_offset", "z")],
+        "{days:?} {:?}",
+        m.model_misfits
     );
 }
 

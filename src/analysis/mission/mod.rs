@@ -402,7 +402,8 @@ fn next_auto(
             tl.confidence
         ));
     }
-    schedule::next_campaign(lapse, campaign_days, end.ceil())
+    let cap = end - campaign_days + tl.max_interval_days;
+    schedule::next_campaign(lapse.min(cap + campaign_days), campaign_days, end.ceil())
 }
 
 /// Every whole day from the end of the first campaign to the mission's end: each

@@ -10,6 +10,10 @@ use serde::{Deserialize, Serialize};
 pub const MAX_MISSION_DAYS: f64 = 3650.0;
 /// Most steps `[[drift.step]]` may list.
 pub const MAX_STEPS: usize = 64;
+/// `timeline.max_interval_days` by default: a campaign at least every month, about
+/// a dozen a year, so a change no drift model has (a step) is found within a month.
+pub const DEFAULT_MAX_INTERVAL_DAYS: f64 = 30.0;
+
 /// Most campaigns a timeline may list.
 pub const MAX_CAMPAIGNS: usize = 1000;
 /// The drifted β must stay within this relative distance of the file's β over the
@@ -130,6 +134,10 @@ pub struct MissionTimeline {
     pub campaigns: CampaignDays,
     /// Probability with which every in-use value must meet its requirement (auto).
     pub confidence: f64,
+    /// With "auto", the longest wait from one campaign's start to the next's [days],
+    /// whatever the trend predicts: a change no drift model has (a step) is found no
+    /// later than this. The mission's length leaves the schedule to the trend alone.
+    pub max_interval_days: f64,
 }
 
 impl Default for MissionTimeline {
@@ -138,6 +146,7 @@ impl Default for MissionTimeline {
             days: 365.0,
             campaigns: CampaignDays::Auto,
             confidence: 0.997,
+            max_interval_days: DEFAULT_MAX_INTERVAL_DAYS,
         }
     }
 }
@@ -242,6 +251,17 @@ impl MissionTimeline {
             return err(
                 "timeline.confidence",
                 &format!("must be a probability in (0.5, 1), got {}", self.confidence),
+            );
+        }
+        if !self.max_interval_days.is_finite()
+            || self.max_interval_days < 2.0 * campaign_days.max(0.5)
+        {
+            return err(
+                "timeline.max_interval_days",
+                &format!(
+                    "must be finite and at least two campaigns long (and at least a day), got {}",
+                    self.max_interval_days
+                ),
             );
         }
         if let CampaignDays::Days(d) = &self.campaigns {
@@ -355,6 +375,14 @@ mod tests {
             ("[timeline]\ndays = 0.05", "timeline.days"),
             ("[timeline]\nconfidence = 1.0", "timeline.confidence"),
             ("[timeline]\nconfidence = nan", "timeline.confidence"),
+            (
+                "[timeline]\nmax_interval_days = 0.2",
+                "timeline.max_interval_days",
+            ),
+            (
+                "[timeline]\nmax_interval_days = inf",
+                "timeline.max_interval_days",
+            ),
             ("[timeline]\ncampaigns = \"often\"", "timeline.campaigns"),
             ("[timeline]\ncampaigns = []", "timeline.campaigns"),
             ("[timeline]\ncampaigns = [10, 5]", "timeline.campaigns"),
