@@ -586,6 +586,59 @@ mod tests {
         assert!(n_lost > 1000 && n_missing > 100, "{n_lost} {n_missing}");
     }
 
+    /// The process set scores its faults from the recording's log (the supervisor);
+    /// that score must be the live one, also for faults in samples the bus lost
+    /// (`not_delivered`, not `missed`; found by tools/sanitize comparing the set's
+    /// report with `run`'s).
+    #[test]
+    fn the_score_from_the_log_is_the_live_score_also_for_samples_the_bus_lost() {
+        use crate::sim::msg::{CAUSE_IS_FLAGGED, CAUSE_TICK_MISSING, CAUSE_TICK_ORDER};
+        let s = Scenario::from_toml_str(
+            "seed = 7
+duration_s = 600.0
+[faults]
+is_dropout_rate = 0.05
+\
+             star_dropout_rate = 0.05
+missing_rate = 0.05
+upset_rate = 0.01
+\
+             outliers = 20
+stuck_channels = 2
+star_jumps = 3
+duplicate_rate = 0.05
+\
+             reorder_rate = 0.05
+garbage_headers = 5
+",
+        )
+        .unwrap();
+        let mut inj = Injector::new(&s, s.seed);
+        let mut live = FaultScore::new(&s);
+        for tick in 0..s.n_samples() {
+            let mut sample = valid_sample(tick);
+            inj.corrupt(&mut sample, &mut |r| live.push(r));
+            inj.bus_records(tick, &mut |r| live.push(r));
+            for (d, of, second) in inj.annotated_deliveries(tick) {
+                // Any rejections will do: the log carries the live detection counts.
+                let mask = match (of * 7 + tick) % 5 {
+                    0 => 1 << CAUSE_IS_FLAGGED,
+                    1 => 1 << CAUSE_TICK_MISSING,
+                    2 => 1 << CAUSE_TICK_ORDER,
+                    _ => 0,
+                };
+                live.observe(of, d, second, mask);
+            }
+        }
+        let logged = FaultScore::from_log(&s, live.records.clone(), live.detected.clone());
+        let (a, b) = (logged.summary(), live.summary());
+        assert_eq!(a, b);
+        for kind in ["is_dropout", "star_dropout"] {
+            let n = &b["by_kind"][kind]["not_delivered"];
+            assert!(n.as_u64().unwrap() > 0, "{kind}: {n}");
+        }
+    }
+
     #[test]
     fn an_upset_flips_exactly_one_bit() {
         let s = Scenario::from_toml_str("[faults]\nupset_rate = 0.5\n").unwrap();
@@ -688,16 +741,29 @@ impl FaultScore {
         }
     }
 
-    /// A score from a recorded log and its detection counts (`/faults/*`).
+    /// A score from a recorded log and its detection counts (`/faults/*`) of the run
+    /// of scenario `s` (its seed applied). What reached the estimator is not in the
+    /// log: the run's bus, a pure function of seed and tick, is replayed for it, so a
+    /// fault in a sample the bus never delivered counts as not delivered, as in the
+    /// live score.
     pub fn from_log(s: &Scenario, records: Vec<FaultRecord>, detected: Vec<u64>) -> Self {
         let mut sc = FaultScore::new(s);
-        for (r, d) in records.into_iter().zip(detected) {
+        let n = records.len().min(detected.len());
+        for r in records.into_iter().take(n) {
             sc.push(r);
-            if let Some(last) = sc.detected.last_mut() {
-                *last = d;
+        }
+        let bus = Injector::new(s, s.seed);
+        for tick in 0..s.n_samples() {
+            for (d, of, second) in bus.annotated_deliveries(tick) {
+                sc.visit(of, d, second, 0, false);
             }
-            if let Some(last) = sc.delivered.last_mut() {
-                *last = true;
+        }
+        for (i, d) in detected.into_iter().take(n).enumerate() {
+            sc.detected[i] = d;
+            // A lost sample is known (delivered, for the score) once a later tick
+            // revealed it: exactly when it was detected.
+            if sc.records[i].kind == KIND_MISSING {
+                sc.delivered[i] = d > 0;
             }
         }
         sc
@@ -722,6 +788,11 @@ impl FaultScore {
     /// header, the turn's tick), the delivery, whether it was the turn's second copy,
     /// and the estimate's `tick_rejections`.
     pub fn observe(&mut self, tick: u64, d: Delivery, second: bool, mask: u64) {
+        self.visit(tick, d, second, mask, true);
+    }
+
+    /// [`observe`](Self::observe); with `count` false it only marks what was delivered.
+    fn visit(&mut self, tick: u64, d: Delivery, second: bool, mask: u64, count: bool) {
         use crate::sim::msg::*;
         let order = 1 << CAUSE_TICK_ORDER;
         let bus = |k: u8| -> bool {
@@ -732,7 +803,7 @@ impl FaultScore {
                 _ => false,
             }
         };
-        if mask & (1 << CAUSE_TICK_MISSING) != 0 {
+        if count && mask & (1 << CAUSE_TICK_MISSING) != 0 {
             // Missing ticks before this one were noticed when this one came.
             for (_, idx) in self.by_tick.iter().filter(|(t, _)| **t < tick) {
                 for &i in idx {
@@ -749,16 +820,16 @@ impl FaultScore {
                 match k {
                     KIND_GARBAGE_HEADER if d == Delivery::Garbage => {
                         self.delivered[i] = true;
-                        self.detected[i] += u64::from(bus(k));
+                        self.detected[i] += u64::from(count && bus(k));
                     }
                     KIND_DUPLICATE | KIND_REORDER if d != Delivery::Garbage => {
                         self.delivered[i] = true;
-                        self.detected[i] += u64::from(bus(k));
+                        self.detected[i] += u64::from(count && bus(k));
                     }
                     KIND_MISSING | KIND_GARBAGE_HEADER | KIND_DUPLICATE | KIND_REORDER => {}
                     _ if d != Delivery::Garbage && !second => {
                         self.delivered[i] = true;
-                        self.detected[i] += u64::from(mask != 0);
+                        self.detected[i] += u64::from(count && mask != 0);
                     }
                     _ => {}
                 }
@@ -768,7 +839,7 @@ impl FaultScore {
             for &(a, b, i) in &self.spans {
                 if tick >= a && tick < b {
                     self.delivered[i] = true;
-                    self.detected[i] += u64::from(mask != 0);
+                    self.detected[i] += u64::from(count && mask != 0);
                 }
             }
         }
