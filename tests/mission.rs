@@ -180,7 +180,7 @@ fn timeline_writes_its_files_and_refuses_a_bad_key_with_exit_2() {
 }
 
 /// Honest prediction over 12 mission seeds (issue 51): mean (err/σ)² per group within
-/// [0.6, 1.5] over every day of a year, schedule auto, no step. About 25 s:
+/// [0.6, 1.5] over every day of a year, schedule auto, no step. About 2 minutes:
 /// `cargo test --release --test mission -- --ignored`.
 #[test]
 #[ignore]
