@@ -571,6 +571,23 @@ pub(super) fn test_config() -> EstimatorConfig {
     }
 }
 
+/// Whether the AVX2 path can run here (`simd::has_avx2`: the CPU's, or under Miri the
+/// build's target features). Where it cannot, a test of that path says so and returns,
+/// and under `CI=true` fails instead (CI's x86-64 machines have AVX2).
+#[cfg(test)]
+pub(super) fn avx2_here() -> bool {
+    if crate::simd::has_avx2() {
+        return true;
+    }
+    let why = "no AVX2 here, so the AVX2 path cannot run";
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "{why} (CI=true)"
+    );
+    std::eprintln!("SKIPPED: {why}");
+    false
+}
+
 /// Unit normal draws for the tests (xorshift64 uniforms, Box–Muller): no_std, no
 /// crate, the same numbers on every host.
 #[cfg(test)]
