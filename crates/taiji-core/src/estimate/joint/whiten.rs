@@ -619,6 +619,10 @@ mod tests {
     /// information; a filter blind to it (L = 0, the same white variance) claims less
     /// and errs less than it claims.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "300 seeds x 3000 steps; update_turn runs under Miri in the_avx2_update_is_the_portable_one_bit_for_bit and tests/miri_capi.rs"
+    )]
     fn a_turn_row_sharing_the_readout_noise_is_honest_and_gains_information() {
         let mut cfg = test_config();
         cfg.n_is = 1;
