@@ -642,6 +642,30 @@ mod tests {
         let mut bad = r;
         bad[(3, 3)] = -bad[(3, 3)];
         assert!(!cholesky_in_place(&mut bad.clone()) && bad.cholesky().is_none());
+        // And on random covariances of spread scales, some not positive definite.
+        let mut gauss = gaussian(0x853c_49e6_748f_ea9b);
+        let mut refused = 0;
+        for case in 0..2000 {
+            let b = SMatrix::<f64, 6, 6>::from_fn(|_, _| gauss());
+            let s = SVector::<f64, 6>::from_fn(|_, _| 10f64.powf(4.0 * gauss()));
+            let shift = if case % 10 == 0 { -0.5 } else { 1e-3 };
+            let spd = b * b.transpose() + SMatrix::<f64, 6, 6>::identity() * shift;
+            let r = SMatrix::<f64, 6, 6>::from_fn(|i, j| spd[(i, j)] * s[i] * s[j]);
+            let mut l = r;
+            let ok = cholesky_in_place(&mut l);
+            let want = r.cholesky().map(|c| c.l());
+            assert_eq!(ok, want.is_some(), "case {case}");
+            refused += usize::from(!ok);
+            if let Some(want) = want {
+                l.fill_upper_triangle(0.0, 1);
+                let same = l
+                    .iter()
+                    .zip(want.iter())
+                    .all(|(x, y)| x.to_bits() == y.to_bits());
+                assert!(same, "case {case}");
+            }
+        }
+        assert!((10..200).contains(&refused), "{refused} refused");
         let n = normal();
         let mut a = n.hm;
         assert!(cholesky_in_place(&mut a));
