@@ -4,7 +4,7 @@
 //! `a * b + c` into a fused multiply-add), so both paths give the same bits.
 
 /// True when this x86-64 CPU and its OS support AVX2 (the answer is cached).
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(miri)))]
 pub fn has_avx2() -> bool {
     use core::sync::atomic::{AtomicU8, Ordering};
     /// 0: not asked yet, 1: no, 2: yes.
@@ -20,13 +20,23 @@ pub fn has_avx2() -> bool {
     }
 }
 
+/// Under Miri, which cannot run `cpuid` or `xgetbv`: the build's target features
+/// answer. A plain Miri run takes the portable path; `tools/miri` runs the suite again
+/// built with `-Ctarget-feature=+avx2,+fma`, through the AVX2 path (Miri refuses a call
+/// of a `target_feature` function the build does not enable, so that run checks every
+/// such call's safety condition too).
+#[cfg(all(target_arch = "x86_64", miri))]
+pub fn has_avx2() -> bool {
+    cfg!(target_feature = "avx2")
+}
+
 /// No AVX2 off x86-64.
 #[cfg(not(target_arch = "x86_64"))]
 pub fn has_avx2() -> bool {
     false
 }
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(miri)))]
 #[allow(unused_unsafe)]
 fn detect_avx2() -> bool {
     use core::arch::x86_64::{__cpuid, __cpuid_count};
@@ -51,7 +61,7 @@ fn detect_avx2() -> bool {
 }
 
 /// XCR0, the OS's enabled register states.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(miri)))]
 #[target_feature(enable = "xsave")]
 /// # Safety
 /// The CPU must support xsave and the OS must have enabled it (OSXSAVE set).

@@ -314,6 +314,10 @@ mod tests {
     }
 
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "reads the docs and sources as files (Miri isolates the file system); text only, no unsafe"
+    )]
     fn docs_tuning_md_is_this_table() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/tuning.md");
         let fresh = page();
@@ -333,6 +337,10 @@ mod tests {
 
     /// Every entry has a unit, a line on what it does, and a guard that exists.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "reads the docs and sources as files (Miri isolates the file system); text only, no unsafe"
+    )]
     fn every_entry_says_what_it_does_and_names_a_test_that_exists() {
         let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
         let core = concat!(env!("CARGO_MANIFEST_DIR"), "/src");

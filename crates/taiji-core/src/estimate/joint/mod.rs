@@ -571,6 +571,23 @@ pub(super) fn test_config() -> EstimatorConfig {
     }
 }
 
+/// Whether the AVX2 path can run here (`simd::has_avx2`: the CPU's, or under Miri the
+/// build's target features). Where it cannot, a test of that path says so and returns,
+/// and under `CI=true` fails instead (CI's x86-64 machines have AVX2).
+#[cfg(test)]
+pub(super) fn avx2_here() -> bool {
+    if crate::simd::has_avx2() {
+        return true;
+    }
+    let why = "no AVX2 here, so the AVX2 path cannot run";
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "{why} (CI=true)"
+    );
+    std::eprintln!("SKIPPED: {why}");
+    false
+}
+
 /// Unit normal draws for the tests (xorshift64 uniforms, Box–Muller): no_std, no
 /// crate, the same numbers on every host.
 #[cfg(test)]
@@ -623,6 +640,10 @@ mod tests {
     /// of them (θ̇₀, a ramp in the attitude that turns the SRP). The linear references wait for a
     /// sample with both IS; with neither, nothing starts.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "60 updates; a start with an IS missing runs under Miri in tests/miri_capi.rs"
+    )]
     fn an_is_missing_at_the_first_tick_does_not_delay_the_attitude_integrals() {
         // Both IS alike, so `quiet`'s equal voltages agree.
         let mut cfg = test_config();
@@ -668,6 +689,10 @@ mod tests {
     /// `BRIDGE_PER_UPDATE` ticks; the estimator catches up over the next samples and
     /// then takes samples again, with every tick of the timeline accounted for.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "about 850 updates; a gap bridged over two updates runs under Miri in tests/miri_capi.rs"
+    )]
     fn an_update_after_a_long_gap_bridges_a_bounded_number_of_ticks() {
         let mut e = JointEstimator::new(test_config());
         for t in 0..100 {
@@ -727,6 +752,10 @@ mod tests {
     /// The bridge's process noise is what the line through a gap's neighbours misses:
     /// for white ω̇ of variance σ², 1.5 σ², whatever the maneuver's edges.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "2 x 10^5 steps; learn_jerk runs under Miri in a_torque_edge_moves_the_jerk_spread_by_its_clip"
+    )]
     fn the_bridge_noise_is_what_the_line_misses_edges_apart() {
         let mut e = JointEstimator::new(test_config());
         let sigma = 1e-10; // rad/s²
@@ -780,6 +809,10 @@ mod tests {
     /// ∫(dt − s)(ω̇ − ω̄) ds, its variance var_tick dt⁴ (1 − 1/M²)/12; and the star
     /// group's filter takes it, as the turn rows' do.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "10^5 steps; learn_jerk and the star filter's step run under Miri in a_torque_edge_moves_the_jerk_spread_by_its_clip and tests/miri_capi.rs"
+    )]
     fn the_walk_within_a_tick_is_what_the_mean_misses() {
         let mut e = JointEstimator::new(test_config());
         let dt = 1.0 / e.cfg.fs;
@@ -896,6 +929,10 @@ mod tests {
     /// direction), with readout noise around it, is not that; three independent motions
     /// are. And then a solve must run before the level is measured.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "4 x 10^4 steps; note_excitation runs under Miri in the_excitation_takes_every_eighth_sample"
+    )]
     fn the_level_waits_for_independent_motion_on_every_axis() {
         let mut e = JointEstimator::new(test_config());
         let noise = e.cfg.sigma_angular;
@@ -1222,6 +1259,10 @@ mod tests {
     /// below `CONVERGED_STEP` (voltages no model fits), its solution is that of 20
     /// iterations, not of fewer or more.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "3000 updates and 60 Gauss-Newton iterations; the solve runs under Miri in tests/miri_capi.rs"
+    )]
     fn finish_iterates_twenty_times_at_most() {
         let e = unsettled();
         let mut w = SolveWork::zeroed();
@@ -1244,6 +1285,10 @@ mod tests {
     /// The bound's nuisance fit is six Gauss–Newton steps of the nuisances (β and r
     /// held): on data its steps never settle on, not five, not seven.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "3000 updates and 14 Gauss-Newton steps; the normal equations and the step run under Miri in tests/miri_capi.rs"
+    )]
     fn the_nuisance_fit_takes_six_steps() {
         let e = unsettled();
         let mut w = SolveWork::zeroed();

@@ -559,12 +559,15 @@ fn column_product_blocked(col: &mut [f64], a: &[f64], bj: &[f64]) {
 /// The Cholesky factor L of `a` in its lower triangle (the upper one is left as it
 /// was), nalgebra's `Cholesky::new` step for step: the same bits, in place. False when
 /// `a` is not positive definite (a zero, negative or NaN pivot), as `new` gives `None`.
-fn cholesky_in_place(a: &mut SMatrix<f64, NP, NP>) -> bool {
-    for j in 0..NP {
+/// Also the whitening's 6 × 6 factor: nalgebra's own `Cholesky::new` on a fixed-size
+/// matrix breaks Rust's aliasing rules (Miri, Stacked Borrows: its column pair views
+/// of one array; dimforge/nalgebra#1520), so the flight core never calls it.
+pub(super) fn cholesky_in_place<const N: usize>(a: &mut SMatrix<f64, N, N>) -> bool {
+    for j in 0..N {
         for k in 0..j {
             // axpy: y = (factor x) 1 + 1 y, with factor = −L[j, k].
             let factor = -a[(j, k)];
-            for r in j..NP {
+            for r in j..N {
                 a[(r, j)] += factor * a[(r, k)];
             }
         }
@@ -575,7 +578,7 @@ fn cholesky_in_place(a: &mut SMatrix<f64, NP, NP>) -> bool {
         }
         let denom = libm::sqrt(diag);
         a[(j, j)] = denom;
-        for r in j + 1..NP {
+        for r in j + 1..N {
             a[(r, j)] /= denom;
         }
     }
@@ -614,9 +617,55 @@ mod tests {
     use super::*;
 
     /// The in-place factor and its solves give nalgebra's `Cholesky` bits, and refuse
-    /// what it refuses.
+    /// what it refuses; at the whitening's 6 × 6 too. (Not under Miri: nalgebra's
+    /// `cholesky` on a fixed-size matrix is itself what Miri refuses,
+    /// dimforge/nalgebra#1520; `whitening` and the solve run ours under Miri.)
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "nalgebra's own cholesky breaks Stacked Borrows (dimforge/nalgebra#1520); ours runs under Miri in every update's whitening and in the solve (tests/miri_capi.rs)"
+    )]
     fn the_in_place_cholesky_is_nalgebras_bit_for_bit() {
+        // The whitening's: the white covariance of the six linear residuals.
+        let b = SMatrix::<f64, 6, 6>::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 - 2.0);
+        let s = SVector::<f64, 6>::from_fn(|i, _| 10f64.powi(i as i32 % 3 - 5));
+        let spd = b * b.transpose() + SMatrix::<f64, 6, 6>::identity() * 3.0;
+        let r = SMatrix::<f64, 6, 6>::from_fn(|i, j| spd[(i, j)] * s[i] * s[j]);
+        let mut l = r;
+        assert!(cholesky_in_place(&mut l));
+        l.fill_upper_triangle(0.0, 1);
+        let want = r.cholesky().unwrap().l();
+        assert!(l
+            .iter()
+            .zip(want.iter())
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
+        let mut bad = r;
+        bad[(3, 3)] = -bad[(3, 3)];
+        assert!(!cholesky_in_place(&mut bad.clone()) && bad.cholesky().is_none());
+        // And on random covariances of spread scales, some not positive definite.
+        let mut gauss = gaussian(0x853c_49e6_748f_ea9b);
+        let mut refused = 0;
+        for case in 0..2000 {
+            let b = SMatrix::<f64, 6, 6>::from_fn(|_, _| gauss());
+            let s = SVector::<f64, 6>::from_fn(|_, _| 10f64.powf(4.0 * gauss()));
+            let shift = if case % 10 == 0 { -0.5 } else { 1e-3 };
+            let spd = b * b.transpose() + SMatrix::<f64, 6, 6>::identity() * shift;
+            let r = SMatrix::<f64, 6, 6>::from_fn(|i, j| spd[(i, j)] * s[i] * s[j]);
+            let mut l = r;
+            let ok = cholesky_in_place(&mut l);
+            let want = r.cholesky().map(|c| c.l());
+            assert_eq!(ok, want.is_some(), "case {case}");
+            refused += usize::from(!ok);
+            if let Some(want) = want {
+                l.fill_upper_triangle(0.0, 1);
+                let same = l
+                    .iter()
+                    .zip(want.iter())
+                    .all(|(x, y)| x.to_bits() == y.to_bits());
+                assert!(same, "case {case}");
+            }
+        }
+        assert!((10..200).contains(&refused), "{refused} refused");
         let n = normal();
         let mut a = n.hm;
         assert!(cholesky_in_place(&mut a));
@@ -648,6 +697,50 @@ mod tests {
         );
     }
 
+    /// One residual group's Gauss–Newton terms where the CPU has AVX2 (`add_group`'s
+    /// `unsafe` call of `add_group_avx2`) are the portable loops' bits. Natively that
+    /// compares the two compiled paths; under Miri (`tools/miri`'s run built with
+    /// `-Ctarget-feature=+avx2,+fma`) it checks the `unsafe` call.
+    #[test]
+    #[cfg_attr(
+        all(miri, not(target_feature = "avx2")),
+        ignore = "the AVX2 path needs a build with +avx2 under Miri (tools/miri runs one)"
+    )]
+    fn the_avx2_group_terms_are_the_portable_ones_bit_for_bit() {
+        if !super::super::avx2_here() {
+            return;
+        }
+        let mut gauss = gaussian(0x9e37_79b9_7f4a_7c15);
+        let mut coeffs = || {
+            let mut c = <Coeffs as bytemuck::Zeroable>::zeroed();
+            c.lin = SMatrix::from_fn(|_, _| gauss());
+            c
+        };
+        let c0 = coeffs();
+        let dc: [Coeffs; NP] = core::array::from_fn(|_| coeffs());
+        let mut gauss = gaussian(0x2545_f491_4f6c_dd1d);
+        let b = Gram::from_fn(|_, _| gauss());
+        let m = b.transpose() * b;
+        let row = SVector::<f64, 6>::from_fn(|_, _| gauss());
+        let lin = Linearised { c0: &c0, dc: &dc };
+        let mut out = [(SMatrix::<f64, NP, NP>::identity(), Par::repeat(0.5)); 2];
+        let mut sc = [<GroupScratch as bytemuck::Zeroable>::zeroed(); 2];
+        let [(h0, g0), (h1, g1)] = &mut out;
+        let [s0, s1] = &mut sc;
+        let (mut fast, mut portable) = (Sums { hm: h0, g: g0 }, Sums { hm: h1, g: g1 });
+        JointEstimator::add_group(&row, &m, 0.75, &lin, &mut fast, s0);
+        JointEstimator::add_group_portable(&row, &m, 0.75, &lin, &mut portable, s1);
+        let [(h0, g0), (h1, g1)] = &out;
+        assert!(h0.iter().all(|x| x.is_finite()) && *h0 != SMatrix::<f64, NP, NP>::identity());
+        let bits = |h: &SMatrix<f64, NP, NP>, g: &Par| {
+            h.iter()
+                .chain(g.iter())
+                .map(|x| x.to_bits())
+                .collect::<std::vec::Vec<_>>()
+        };
+        assert!(bits(h0, g0) == bits(h1, g1));
+    }
+
     /// `newton_step` with its own scratch: (δ, H⁻¹).
     fn step(hm: &SMatrix<f64, NP, NP>, g: &Par) -> Option<(Par, SMatrix<f64, NP, NP>)> {
         let (mut hs, mut hinv) = (SMatrix::zeros(), SMatrix::zeros());
@@ -668,6 +761,10 @@ mod tests {
 
     /// `mul_into` gives nalgebra's product bit for bit, zeros, signs and rounding alike.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "20 products of 38 x 38 by 30 against nalgebra's; mul_into runs under Miri in the_avx2_group_terms_are_the_portable_ones_bit_for_bit and the C ABI's solve (tests/miri_capi.rs)"
+    )]
     fn mul_into_is_nalgebras_product_bit_for_bit() {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         let mut next = move || {

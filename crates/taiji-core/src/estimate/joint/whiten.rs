@@ -224,7 +224,12 @@ impl JointEstimator {
         r: &SMatrix<f64, 6, 6>,
         h: &SVector<f64, 6>,
     ) -> Option<(SMatrix<f64, 6, 6>, SVector<f64, 6>, f64)> {
-        let l = r.cholesky()?.l();
+        // nalgebra's `r.cholesky()?.l()`, the same bits (`cholesky_in_place`).
+        let mut l = *r;
+        if !cholesky_in_place(&mut l) {
+            return None;
+        }
+        l.fill_upper_triangle(0.0, 1);
         let linv = crate::math::lu_inverse(&l)?;
         let hp = linv * h;
         let hn = hp.norm();
@@ -614,6 +619,10 @@ mod tests {
     /// information; a filter blind to it (L = 0, the same white variance) claims less
     /// and errs less than it claims.
     #[test]
+    #[cfg_attr(
+        miri,
+        ignore = "300 seeds x 3000 steps; update_turn runs under Miri in the_avx2_update_is_the_portable_one_bit_for_bit and tests/miri_capi.rs"
+    )]
     fn a_turn_row_sharing_the_readout_noise_is_honest_and_gains_information() {
         let mut cfg = test_config();
         cfg.n_is = 1;
@@ -690,6 +699,35 @@ mod tests {
         assert!((white - SMatrix::<f64, 5, 5>::identity()).abs().max() < 1e-12);
         // ... and nothing of the coloured SRP along h.
         assert!((rows * h).norm() < 1e-12 * (linv * h).norm());
+    }
+
+    /// The per-sample update where the CPU has AVX2 (`update_linear`'s `unsafe` call of
+    /// `update_linear_avx2`) leaves the state the portable loops leave, bit for bit.
+    /// Natively that compares the two compiled paths; under Miri (`tools/miri`'s run
+    /// built with `-Ctarget-feature=+avx2,+fma`) it checks the `unsafe` call.
+    #[test]
+    #[cfg_attr(
+        all(miri, not(target_feature = "avx2")),
+        ignore = "the AVX2 path needs a build with +avx2 under Miri (tools/miri runs one)"
+    )]
+    fn the_avx2_update_is_the_portable_one_bit_for_bit() {
+        if !super::super::avx2_here() {
+            return;
+        }
+        let mut gauss = gaussian(0x5851_f42d_4c95_7f2d);
+        let mut e = JointEstimator::new(test_config());
+        let dv = [[1e-3, -2e-3, 5e-4], [1.1e-3, -1.9e-3, 4e-4]];
+        let var = [1.0, 1.1, 0.9, 1.2, 0.8, 1.3, 0.7, 1.4];
+        let mut sig = || Sig::from_fn(|i, _| (1.0 + i as f64) * gauss());
+        e.update_linear_portable(&sig(), &dv, &var);
+        let (mut fast, mut portable) = (e, e);
+        for _ in 0..2 {
+            let s = sig();
+            fast.update_linear(&s, &dv, &var);
+            portable.update_linear_portable(&s, &dv, &var);
+        }
+        assert!(fast.m_filt.get(NS - 1, NS - 1).is_finite());
+        assert!(bytemuck::bytes_of(&fast) == bytemuck::bytes_of(&portable));
     }
 
     #[test]
