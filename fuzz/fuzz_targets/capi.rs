@@ -171,6 +171,8 @@ enum Work {
 enum Edit {
     Xor(u32, u8),
     Word(u32, Val),
+    /// One of the state's first 256 words: its table, tick counters and flags.
+    Head(u8, Val),
 }
 
 #[derive(Arbitrary, Debug)]
@@ -718,6 +720,13 @@ impl Host {
     }
 }
 
+/// Word `w` of a checkpoint's bytes set from `v`.
+fn set_word(ck: &mut [u8], w: usize, v: Val) {
+    let at = 8 * w;
+    let old = u64::from_le_bytes(ck[at..at + 8].try_into().unwrap());
+    ck[at..at + 8].copy_from_slice(&v.apply(old).to_le_bytes());
+}
+
 fn run(input: &Input) {
     let mut h = Host {
         mem: words(taiji_estimator_size()),
@@ -780,10 +789,9 @@ fn run(input: &Input) {
                 for e in edits {
                     match *e {
                         Edit::Xor(at, x) => ck[at as usize % n] ^= x,
-                        Edit::Word(at, v) => {
-                            let at = 8 * (at as usize % (n / 8));
-                            let old = u64::from_le_bytes(ck[at..at + 8].try_into().unwrap());
-                            ck[at..at + 8].copy_from_slice(&v.apply(old).to_le_bytes());
+                        Edit::Word(at, v) => set_word(&mut ck, at as usize % (n / 8), v),
+                        Edit::Head(k, v) => {
+                            set_word(&mut ck, snapshot::HEADER / 8 + usize::from(k), v)
                         }
                     }
                 }
