@@ -95,6 +95,11 @@ fn link_timeout() -> f64 {
 /// The default launch description (the same as `tools/launch.toml`).
 pub const DEFAULT: &str = include_str!("../../tools/launch.toml");
 
+/// The longest timeout a description may give [s] (about 32 years): the supervisor
+/// waits each as a `Duration`, which holds less than 2⁶⁴ s (a longer one would panic
+/// there).
+pub const MAX_TIMEOUT_S: f64 = 1e9;
+
 /// The recorder: optional, started with `--record` only.
 pub const RECORDER: &str = "taiji-recorder";
 
@@ -137,7 +142,7 @@ pub enum LaunchError {
 /// What is wrong with a launch description's contents.
 #[derive(Debug, thiserror::Error)]
 pub enum LaunchProblem {
-    #[error("{key} must be a positive number of seconds, not {value}")]
+    #[error("{key} must be a positive number of seconds, at most {MAX_TIMEOUT_S:e}, not {value}")]
     Timeout { key: &'static str, value: f64 },
     #[error("process {name} must be listed exactly once (found {count})")]
     RequiredCount { name: &'static str, count: usize },
@@ -178,7 +183,7 @@ impl LaunchDescription {
             ("stop_timeout_s", d.stop_timeout_s),
             ("link_timeout_s", d.link_timeout_s),
         ] {
-            if !(v.is_finite() && v > 0.0) {
+            if !(v.is_finite() && v > 0.0 && v <= MAX_TIMEOUT_S) {
                 return Err(LaunchProblem::Timeout { key, value: v });
             }
         }
@@ -339,5 +344,38 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("heartbeat_timeout_s"), "{e}");
+    }
+
+    #[test]
+    fn a_timeout_no_duration_holds_is_refused_not_a_panic_in_the_supervisor() {
+        // Found by the launch fuzz target's oracle: `heartbeat_timeout_s = 1e300` passed
+        // the check and made the supervisor's `Duration::from_secs_f64` panic.
+        for key in [
+            "heartbeat_timeout_s",
+            "ready_timeout_s",
+            "stop_timeout_s",
+            "link_timeout_s",
+        ] {
+            let text = format!("{key} = 1e300\n{DEFAULT}");
+            let text = if key == "link_timeout_s" {
+                text
+            } else {
+                // The key once: drop the default's line.
+                let line = DEFAULT.lines().find(|l| l.starts_with(key)).unwrap();
+                text.replacen(&format!("\n{line}"), "\n", 1)
+            };
+            let e = LaunchDescription::parse(&text, "x")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(&format!(
+                    "{key} must be a positive number of seconds, at most 1e9"
+                )),
+                "{e}"
+            );
+        }
+        let ok = DEFAULT.replace("stop_timeout_s = 5.0", "stop_timeout_s = 1e9");
+        let d = LaunchDescription::parse(&ok, "x").unwrap();
+        assert!(std::time::Duration::try_from_secs_f64(d.stop_timeout_s).is_ok());
     }
 }

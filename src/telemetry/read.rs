@@ -469,7 +469,7 @@ fn read(r: &Reader) -> Result<Checked, TelemetryError> {
         r.shaped_rows(l::IS_VOLTAGE[i], n, &[3, 2], truncated)?;
         r.shaped_rows(l::IS_FLAGS[i], n, &[], truncated)?;
     }
-    let faults = read_faults(r)?;
+    let faults = read_faults(r, n)?;
     Ok(Checked {
         scenario,
         seed,
@@ -656,9 +656,20 @@ impl Iterator for Samples<'_> {
     }
 }
 
-/// The `/faults/*` log, if the file has one.
+/// Fault records a campaign of `n` samples logs at most: per tick two IS dropouts, a
+/// star-tracker dropout, the start of a star-tracker jump, an upset and two bus faults
+/// (seven), with a spare, plus each outlier and stuck channel (at most `MAX_EVENTS`
+/// each). A log that says it is longer is corrupt: it is refused before anything the
+/// size of its claim is allocated.
+fn max_fault_rows(n: u64) -> u64 {
+    let events = crate::sim::scenario::faults::MAX_EVENTS as u64;
+    n.saturating_mul(8).saturating_add(2 * events)
+}
+
+/// The `/faults/*` log, if the file has one, of a recording of `n` samples.
 pub(super) fn read_faults(
     r: &Reader,
+    n: u64,
 ) -> Result<Vec<crate::sim::faults::FaultRecord>, TelemetryError> {
     if !r.has(l::FAULT_TICK) {
         return Ok(Vec::new());
@@ -669,6 +680,13 @@ pub(super) fn read_faults(
         .first()
         .copied()
         .unwrap_or(0) as u64;
+    let most = max_fault_rows(n);
+    if nf > most {
+        return Err(r.err(format!(
+            "/{} has {nf} rows, more than a campaign of {n} samples logs (at most {most})",
+            l::FAULT_TICK
+        )));
+    }
     let tick = r.ints(l::FAULT_TICK, nf)?;
     let kind = r.ints(l::FAULT_KIND, nf)?;
     let field = r.ints(l::FAULT_FIELD, nf)?;
@@ -689,4 +707,85 @@ pub(super) fn read_faults(
             sigmas: sigmas[i],
         })
         .collect())
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+    use crate::sim::msg::TruthState;
+    use crate::telemetry::{Meta, Telemetry};
+
+    /// 100 samples, with a written maneuver that fits them.
+    const TINY: &str = "name = \"tiny\"\nduration_s = 10.0\nsample_rate_hz = 10.0\n\
+        [maneuver]\nfrequency_hz = 0.1\nschedule = \"simultaneous\"\n\
+        torque_amplitude_nm = [1e-6, 1e-6, 1e-6]\n";
+
+    /// A folder of this test's own.
+    pub(in crate::telemetry) fn folder(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("taiji-read-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// A complete recording of quiet samples at `path`.
+    pub(in crate::telemetry) fn tiny_recording(path: &Path) {
+        let s = Scenario::from_toml_str(TINY).unwrap();
+        let n = s.n_samples();
+        let mut t = Telemetry::new(s.inertial_sensor.len(), s.sample_rate_hz, n);
+        for k in 0..n {
+            let mut truth = TruthState::default();
+            truth.header.tick = k;
+            truth.q_bn = [1.0, 0.0, 0.0, 0.0];
+            t.record_truth(&truth);
+            let mut x = SensorSample::default();
+            x.header.tick = k;
+            x.star.q_bn = [1.0, 0.0, 0.0, 0.0];
+            x.star.valid = 1;
+            t.record_sensor(&x);
+        }
+        t.write(path, &Meta::of(&s, 1, "joint", "run")).unwrap();
+    }
+
+    /// Declares `group/name` 10¹² rows long for each name, without writing a row
+    /// (chunked, nothing allocated on disk: the file stays small).
+    pub(in crate::telemetry) fn claim_huge(path: &Path, group: &str, names: &[&str]) {
+        let f = File::open_rw(path).unwrap();
+        let g = f.group(group).or_else(|_| f.create_group(group)).unwrap();
+        for name in names {
+            if g.link_exists(name) {
+                g.unlink(name).unwrap();
+            }
+            g.new_dataset::<u64>()
+                .chunk(1024)
+                .shape(1_000_000_000_000usize)
+                .create(*name)
+                .unwrap();
+        }
+    }
+
+    #[test]
+    fn a_fault_log_longer_than_its_campaign_can_log_is_refused_not_allocated() {
+        // Found by the telemetry fuzz target: a 64 KB file whose /faults/* claim 10¹²
+        // rows aborted the replay ("memory allocation of 8000000000000 bytes failed").
+        let d = folder("huge-faults");
+        let path = d.join("telemetry.h5");
+        tiny_recording(&path);
+        assert!(open(&path).unwrap().faults.is_empty());
+        claim_huge(
+            &path,
+            "faults",
+            &["tick", "kind", "field", "bit", "samples"],
+        );
+        let e = open(&path).err().expect("refused").to_string();
+        assert!(
+            e.contains(
+                "/faults/tick has 1000000000000 rows, more than a campaign of 100 samples logs"
+            ),
+            "{e}"
+        );
+        let e = crate::telemetry::truth::fault_log(&path).expect_err("refused");
+        assert!(e.to_string().contains("/faults/tick has"), "{e}");
+        std::fs::remove_dir_all(&d).unwrap();
+    }
 }

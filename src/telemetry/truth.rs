@@ -2,19 +2,20 @@
 //! and the fault log, for figures, fault scoring and tests (never for replay).
 
 use super::layout as l;
-use super::read::{guarded, load, open, read_faults, Reader, Recording};
+use super::read::{guarded, open, Reader, Recording};
 use super::{Telemetry, TelemetryError};
 use crate::sim::msg::Header;
 use crate::sim::scenario::Scenario;
 use std::path::Path;
 
-/// The fault log of a recording and how many samples of each fault were rejected.
+/// The fault log of a recording and how many samples of each fault were rejected. The
+/// recording is opened as for replay: its checked sample count bounds the log.
 pub fn fault_log(
     path: &Path,
 ) -> Result<(Vec<crate::sim::faults::FaultRecord>, Vec<u64>), TelemetryError> {
-    let r = load(path)?;
-    guarded(&r, |r| {
-        let recs = read_faults(r)?;
+    let mut rec = open(path)?;
+    let recs = std::mem::take(&mut rec.faults);
+    guarded(&rec.r, |r| {
         let det = if recs.is_empty() {
             Vec::new()
         } else {
@@ -44,6 +45,14 @@ pub(super) fn with_truth(
         .first()
         .copied()
         .unwrap_or(0) as u64;
+    // At most one estimate row a sample, and the final one: a longer claim is corrupt
+    // (refused before anything its size is allocated).
+    if m > n.saturating_add(1) {
+        return Err(r.err(format!(
+            "/{} has {m} rows, more than the recording's {n} samples and its final estimate",
+            l::EST_TIME
+        )));
+    }
     let mut t = Telemetry::new(ni as usize, s.sample_rate_hz, 0);
     t.torque_cmd = r.f64s(l::TORQUE_CMD, &[n, 3])?;
     t.torque = r.f64s(l::TORQUE, &[n, 3])?;
@@ -124,4 +133,29 @@ pub(super) fn with_truth(
         t.estimates.push(e);
     }
     Ok((t, s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::read::tests::{claim_huge, folder, tiny_recording};
+    use super::*;
+
+    #[test]
+    fn an_estimate_log_longer_than_its_samples_is_refused_not_allocated() {
+        // Found by the telemetry fuzz target's seeds (a fault log claiming 10¹² rows
+        // aborted the replay); the estimate log had the same unchecked claim.
+        let d = folder("huge-estimates");
+        let path = d.join("telemetry.h5");
+        tiny_recording(&path);
+        assert!(full(&path).is_ok());
+        claim_huge(&path, "estimate", &["time", "tick"]);
+        let e = full(&path).expect_err("refused").to_string();
+        assert!(
+            e.contains(
+                "/estimate/time has 1000000000000 rows, more than the recording's 100 samples"
+            ),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
 }
