@@ -394,7 +394,7 @@ fn a_whole_cycle_from_the_ground() {
         s.timeline = Some(taiji::sim::scenario::MissionTimeline {
             days: 3.0,
             campaigns: taiji::sim::scenario::CampaignDays::Days(vec![0.0, 1.0]),
-            confidence: 0.997,
+            ..Default::default()
         });
         let (s, _) = taiji::analysis::plan::resolve(s).unwrap();
         taiji::analysis::mission::run(
