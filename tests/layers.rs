@@ -92,9 +92,10 @@ fn code_of(text: &str) -> String {
     let lines: Vec<&str> = text.lines().collect();
     for (i, line) in lines.iter().enumerate() {
         if line.trim() == "#[cfg(test)]"
-            && lines
-                .get(i + 1)
-                .is_some_and(|n| n.trim_start().starts_with("mod "))
+            && lines.get(i + 1).is_some_and(|n| {
+                let n = n.trim_start();
+                n.starts_with("mod ") || n.starts_with("pub(super) mod ")
+            })
         {
             break;
         }
@@ -565,10 +566,12 @@ fn the_architecture_page_shows_the_set_from_its_table() {
 }
 
 /// Every `.rs` file under `dir`, with the lines before its unit tests (the first
-/// `#[cfg(test)]` at the start of a line).
+/// `#[cfg(test)]` at the start of a line). A crate's integration tests (its `tests/`
+/// folder) are tests, as the root's `tests/` is: not counted.
 fn code_lines(dir: &Path) -> Vec<(PathBuf, Vec<String>)> {
     let mut files = Vec::new();
     rust_files(dir, &mut files);
+    files.retain(|f| !f.components().any(|c| c.as_os_str() == "tests"));
     files.sort();
     files
         .into_iter()
