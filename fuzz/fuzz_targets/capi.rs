@@ -103,7 +103,7 @@ impl Val {
 #[derive(Arbitrary, Debug)]
 enum ConfigSrc {
     /// The table's bytes as they come.
-    Raw([u8; CONFIG_SIZE]),
+    Raw(Box<[u8; CONFIG_SIZE]>),
     /// The default campaign's table with some words overwritten.
     Base(Vec<(u8, Val)>),
 }
@@ -111,7 +111,7 @@ enum ConfigSrc {
 impl ConfigSrc {
     fn bytes(&self) -> [u8; CONFIG_SIZE] {
         match self {
-            ConfigSrc::Raw(b) => *b,
+            ConfigSrc::Raw(b) => **b,
             ConfigSrc::Base(edits) => {
                 let mut b = [0u8; CONFIG_SIZE];
                 b.copy_from_slice(bytemuck::bytes_of(&real().cfg));
@@ -491,7 +491,7 @@ impl Host {
 
     fn checkpoint(&mut self, short_by: u8, null_buf: bool) {
         let need = taiji_checkpoint_size();
-        let len = need - usize::from(short_by % 4) * usize::from(short_by / 4 % 2 == 0);
+        let len = need - usize::from(short_by % 4) * usize::from((short_by / 4).is_multiple_of(2));
         let mut buf = vec![0u8; len];
         let mut written = usize::MAX;
         let b = if null_buf {
