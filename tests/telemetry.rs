@@ -387,6 +387,46 @@ fn corrupted_recordings_are_refused_or_replayed_never_a_crash_a_panic_or_a_hang(
 }
 
 #[test]
+fn files_libhdf5_crashes_or_loops_on_are_refused_saying_what_it_did() {
+    // Two corrupt global heaps the telemetry fuzz target found (fuzz/known/): libhdf5
+    // 1.10.8 copies past a buffer (SIGSEGV) on one and loops for ever on the other. A
+    // forked child reads the file first; replay refuses it (exit 2) naming what libhdf5
+    // did, and a library caller in this very process gets the same error and lives on.
+    let known = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/known");
+    let dir = support::tmp("libhdf5_known");
+    taiji::telemetry::set_read_check_limit(std::time::Duration::from_secs(2));
+    for (file, said) in [
+        (
+            "libhdf5_global_heap_segv.h5",
+            "libhdf5 crashed (signal 11, SIGSEGV)",
+        ),
+        (
+            "libhdf5_global_heap_loop.h5",
+            "libhdf5 did not finish reading it",
+        ),
+    ] {
+        let t0 = std::time::Instant::now();
+        let o = replay(known.join(file), dir.join(file)).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{file}: {o:?}");
+        assert!(
+            err.contains(said) && !err.contains("panicked"),
+            "{file}: {err}"
+        );
+        assert!(t0.elapsed() < std::time::Duration::from_secs(60), "{file}");
+        for e in [
+            taiji::telemetry::truth::full(&known.join(file)).err(),
+            taiji::telemetry::read::open(&known.join(file)).err(),
+        ] {
+            assert!(
+                matches!(e, Some(taiji::telemetry::TelemetryError::Hdf5Failed { .. })),
+                "{file}: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_recording_with_bus_faults_replays_bit_for_bit_faults_scored_alike() {
     // Duplicates, reorders, missing samples and garbage headers: the recording holds
     // each tick once, replay delivers them as the live bus did. Upsets at 2×10⁻³ (61 in

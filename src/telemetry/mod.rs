@@ -6,11 +6,13 @@
 
 mod cloexec;
 mod columns;
+mod isolate;
 pub mod layout;
 pub mod read;
 pub mod truth;
 mod write;
 
+pub use isolate::{set_time_limit as set_read_check_limit, Failure as Hdf5Failure};
 pub use write::{Compression, CompressionParseError, Writer, CHUNK_ROWS};
 
 use crate::sim::files::FileError;
@@ -48,6 +50,10 @@ pub enum TelemetryError {
     /// The HDF5 reader gave up on the file (it panicked).
     #[error("{}: corrupt HDF5 file", path.display())]
     Corrupt { path: PathBuf },
+    /// libhdf5 crashed or hung reading the file (in the child process that reads a
+    /// recording first, so this process was not affected).
+    #[error("{}: corrupt HDF5 file: libhdf5 {how} (in the child process that reads a file first; this process is unaffected)", path.display())]
+    Hdf5Failed { path: PathBuf, how: Hdf5Failure },
     /// The HDF5 reader could not decode the file's structure while reading it.
     #[error("{}: corrupt HDF5 file (its structure could not be decoded)", path.display())]
     CorruptStructure { path: PathBuf },

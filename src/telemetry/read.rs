@@ -219,7 +219,14 @@ impl Reader {
 }
 
 /// Open `path` and check what a replay needs (reading /time and /tick in windows).
+/// Unless this file passed already, libhdf5 first reads it to the end in a child
+/// process (`isolate`): a file it crashes or hangs on is refused, naming what it did.
 pub fn open(path: &Path) -> Result<Recording, TelemetryError> {
+    super::isolate::check(path)?;
+    opened(path)
+}
+
+fn opened(path: &Path) -> Result<Recording, TelemetryError> {
     let r = load(path)?;
     let c = guarded(&r, read)?;
     Ok(Recording {
@@ -239,11 +246,12 @@ pub fn open(path: &Path) -> Result<Recording, TelemetryError> {
 
 /// [`open`] a recording that may still be being written, and follow it: until it
 /// opens with rows (the file created, its writer in SWMR mode, a first flush), it is
-/// tried again for up to `idle`; the last error is returned after that.
+/// tried again for up to `idle`; the last error is returned after that. The file is
+/// still being written (by this project's writer): it is not checked in a child first.
 pub fn open_following(path: &Path, idle: std::time::Duration) -> Result<Recording, TelemetryError> {
     let since = std::time::Instant::now();
     loop {
-        match open(path) {
+        match opened(path) {
             Ok(mut rec) => {
                 rec.follow = Some(idle);
                 return Ok(rec);
