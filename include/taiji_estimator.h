@@ -38,9 +38,16 @@
  *        up to max_gap_ticks is bridged (CAUSE_TICK_MISSING per tick, at most 8 a
  *        call: TIME above). A larger jump is
  *        refused (CAUSE_TICK_JUMP): before the first usable sample two consecutive ticks
- *        confirm it (a stream that starts late); after it, the timeline cannot be
- *        re-established and every later sample is refused too (status degraded): the
- *        campaign must be restarted. Only header.tick is read; seq, times and epoch are
+ *        confirm it (a stream that starts late: the first is refused, and the timeline
+ *        starts at it, so used + rejected counts every sample); after it, the timeline
+ *        cannot be re-established and every later sample is refused too: the campaign
+ *        must be restarted. Samples refused this way are counted by cause, not as
+ *        ticks; the status says degraded while they are more than one in
+ *        degraded_one_in of the ticks (one wild tick is outgrown, a clock that jumped
+ *        for good is soon degraded). A gap within max_gap_ticks is bridged, not
+ *        skipped: a jump of G ticks within it costs about G/7 of the samples after it
+ *        (TIME), so max_gap_ticks bounds what a clock jump can cost (10^5 ticks:
+ *        about 14 300 samples). Only header.tick is read; seq, times and epoch are
  *        the bus's.
  *
  * SOLVE  update sets TAIJI_SOLVE_DUE in *flags once every solve_every ticks (60 s of
@@ -55,13 +62,17 @@
  *        TAIJI_ERR_UPSET, reading nothing of it, when they differ; every call that
  *        writes the state reseals it. A bit flipped while the state rests between calls
  *        is therefore found before it is used: restore the last checkpoint (and replay
- *        the samples since) or init. A flip during a call is not covered. The check
+ *        the samples since) or init. The state's first 8 bytes, a magic word, are not
+ *        sealed: up to 4 bits flipped there is TAIJI_ERR_UPSET too; memory whose word
+ *        is further from it never held a state (TAIJI_ERR_STATE; init and restore write
+ *        0 there until they succeed). A flip during a call is not covered. The check
  *        and the reseal cost two passes over the state (about 65 000 instructions on a
  *        Cortex-M7, 22 000 on x86-64); docs/integrity.md has the upset campaign.
  *
  * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.
  *        finish is terminal and idempotent: it returns the same final estimate every
- *        time, and update, solve and checkpoint after it return TAIJI_ERR_FINISHED. init
+ *        time (its scratch is checked every time, null refused, and written only the
+ *        first), and update, solve and checkpoint after it return TAIJI_ERR_FINISHED. init
  *        checks the host's header (TAIJI_ABI_ARGS) and refuses another with
  *        TAIJI_ERR_VERSION; restore checks the checkpoint against the host's table.
  *
@@ -530,7 +541,7 @@ int32_t taiji_estimator_estimate(uint8_t *mem, struct TaijiEstimateMsg *out);
 // estimate (flagged `EST_FINAL`) into `out`. Terminal and idempotent: a second call
 // writes the same estimate again, and `update`, `solve` and `checkpoint` are refused
 // from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh. `work` as
-// for `solve` (a repeated finish does not touch it).
+// for `solve`, checked on every call (a repeated finish does not write it).
 //
 // # Safety
 // Pointers must be valid for their types (`work` for `work_size` bytes) or null

@@ -476,6 +476,12 @@ fn finish_is_terminal_and_idempotent() {
         assert_eq!(finish(p, &mut a), TAIJI_OK);
         assert_eq!(finish(p, &mut b), TAIJI_OK);
         assert_eq!(taiji_estimator_estimate(p, &mut c), TAIJI_OK);
+        // The scratch is checked on every call, a repeated one too (the header: null
+        // is refused).
+        assert_eq!(
+            taiji_estimator_finish(p, std::ptr::null_mut(), taiji_solve_work_size(), &mut c),
+            TAIJI_ERR_NULL
+        );
     }
     assert_eq!(a, b, "a second finish changed the estimate");
     assert_eq!(a, c);
@@ -588,6 +594,36 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
             "word {w} bit {b} flipped back"
         );
     }
+    // The magic word (the state's first 8 bytes) is outside the seal: a flip there is
+    // an upset too, not memory that never held a state.
+    for b in 0..64 {
+        mem[0] ^= 1 << b;
+        // SAFETY: as above.
+        unsafe {
+            assert_eq!(
+                taiji_estimator_estimate(p, &mut out),
+                TAIJI_ERR_UPSET,
+                "magic bit {b}"
+            );
+            assert_eq!(finish(p, &mut out), TAIJI_ERR_UPSET, "magic bit {b}");
+        }
+        mem[0] ^= 1 << b;
+    }
+    // Two bits of the magic and one of the state: still an upset; a zeroed magic word
+    // (what a failed init leaves) is no state.
+    mem[0] ^= 0b101 << 9;
+    mem[words / 3] ^= 1 << 40;
+    // SAFETY: as above.
+    assert_eq!(
+        unsafe { taiji_estimator_estimate(p, &mut out) },
+        TAIJI_ERR_UPSET
+    );
+    mem[0] = 0;
+    // SAFETY: as above.
+    assert_eq!(
+        unsafe { taiji_estimator_estimate(p, &mut out) },
+        TAIJI_ERR_STATE
+    );
 }
 
 /// The solve's scratch is the caller's: refused when null, too small or misaligned,

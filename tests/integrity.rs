@@ -318,8 +318,10 @@ fn one_wild_tick_does_not_move_the_timeline_but_a_stream_that_starts_late_is_tak
         est.step(&m);
     }
     assert_eq!(est.next_tick(), 1_000_050);
+    // The first was refused, and counted: used + rejected is every sample.
     let e = est.finish();
-    assert_eq!(e.n_used + e.n_rejected, 49);
+    assert_eq!(e.n_used + e.n_rejected, 50);
+    assert_eq!(e.rejected_by_cause[CAUSE_TICK_JUMP], 1);
 }
 
 /// The planned default maneuver (what `taiji-calib run` flies) with `faults`.

@@ -60,6 +60,9 @@ pub const TAIJI_SOLVE_DUE: u32 = 1;
 
 /// Marks initialised state ("TAIJIEST").
 const MAGIC: u64 = 0x5453_4549_4A49_4154;
+/// Bits of the magic word an upset may have flipped and still be told from memory
+/// that never held a state (`init` and `restore` write 0 there until they succeed).
+const MAGIC_FLIPS: u32 = 4;
 
 /// The caller-owned state: a magic word, the estimator, and once the campaign is
 /// finished its final estimate (so `finish` is terminal and idempotent).
@@ -202,7 +205,14 @@ fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
 fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
     let st = state_mut(mem, size_of::<State>())?;
     if st.magic != MAGIC {
-        return Err(TAIJI_ERR_STATE);
+        // A magic word a few bits from ours is an initialised state whose first word
+        // flipped: an upset. (The seal does not cover the magic word; `init` and
+        // `restore` write 0 there until they succeed.)
+        return Err(if (st.magic ^ MAGIC).count_ones() <= MAGIC_FLIPS {
+            TAIJI_ERR_UPSET
+        } else {
+            TAIJI_ERR_STATE
+        });
     }
     if digest(st) != st.seal {
         return Err(TAIJI_ERR_UPSET);
@@ -386,7 +396,7 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
 /// estimate (flagged `EST_FINAL`) into `out`. Terminal and idempotent: a second call
 /// writes the same estimate again, and `update`, `solve` and `checkpoint` are refused
 /// from then on (`TAIJI_ERR_FINISHED`); `init` or `restore` starts afresh. `work` as
-/// for `solve` (a repeated finish does not touch it).
+/// for `solve`, checked on every call (a repeated finish does not write it).
 ///
 /// # Safety
 /// Pointers must be valid for their types (`work` for `work_size` bytes) or null
@@ -403,8 +413,10 @@ pub unsafe extern "C" fn taiji_estimator_finish(
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
+        // Checked on every call, as the contract says, though a repeated finish does
+        // not use it.
+        let w = work_mut(mem, work, work_size)?;
         if st.finished == 0 {
-            let w = work_mut(mem, work, work_size)?;
             let mut m = st.est.finish_with(w);
             m.flags |= EST_FINAL;
             st.final_msg = m;

@@ -553,10 +553,14 @@ fn a_c_host_runs_a_short_recording_through_every_call_and_every_refusal() {
         let fin = out.get();
         assert_ne!(fin.flags & EST_FINAL, 0);
         assert_eq!(fin.n_used + fin.n_rejected, ticks_seen);
-        // A second finish writes the same estimate without touching the scratch (null
-        // passes), and estimate gives it too.
+        // A second finish writes the same estimate without writing the scratch, which
+        // is still checked (null is refused), and estimate gives it too.
         let again = Odd::new(EstimateMsg::default(), 1);
-        assert_eq!(finish(fin_mem, null_mut(), 0, again.ptr()), TAIJI_OK);
+        assert_eq!(
+            finish(fin_mem, null_mut(), work_size, again.ptr()),
+            TAIJI_ERR_NULL
+        );
+        assert_eq!(finish(fin_mem, w, work_size, again.ptr()), TAIJI_OK);
         assert!(same_bytes(&fin, &again.get()));
         assert!(same_bytes(&fin, &estimate(fin_mem).unwrap()));
         let s = Odd::new(ptr::read_unaligned(next.ptr()), 3);

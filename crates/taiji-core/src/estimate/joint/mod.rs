@@ -382,13 +382,16 @@ impl JointEstimator {
                 && self.jump_candidate[0] == 1
                 && self.jump_candidate[1] == tick.wrapping_sub(1);
             if !confirmed || tick == u64::MAX {
+                // Off the timeline: counted by cause (the message's status says
+                // degraded while such samples are more than one in `degraded_one_in`
+                // of the ticks), not as a tick.
                 self.jump_candidate = [1, tick];
                 self.reject(CAUSE_TICK_JUMP);
-                if self.started != START_NONE {
-                    self.status |= ST_DEGRADED;
-                }
                 return self.tick_mask;
             }
+            // The stream starts at the candidate's tick: that one was refused, so the
+            // timeline's first tick counts as rejected.
+            self.n_rejected += 1;
         } else {
             if gap as f64 > tuning::STAR_RELEARN_GAP_S * self.cfg.fs {
                 // A long gap: the star test learns its offset anew rather than
@@ -645,21 +648,12 @@ mod tests {
         ignore = "60 updates; a start with an IS missing runs under Miri in tests/miri_capi.rs"
     )]
     fn an_is_missing_at_the_first_tick_does_not_delay_the_attitude_integrals() {
-        // Both IS alike, so `quiet`'s equal voltages agree.
-        let mut cfg = test_config();
-        cfg.beta_prior[1] = cfg.beta_prior[0];
-        let mut full = JointEstimator::new(cfg);
+        let mut full = JointEstimator::new(alike());
         let mut lost = full;
         let mut none = full;
         let mut first = 0.0;
         for t in 0..20 {
-            // Voltages that move (a constant stream is refused as stuck).
-            let mut s = quiet(t);
-            for (j, pair) in s.is[0].volts.iter_mut().enumerate() {
-                pair[0] += 1e-5 * ((t * 7 + j as u64 * 3) % 11) as f64;
-                pair[1] -= 1e-5 * ((t * 5 + j as u64) % 13) as f64;
-            }
-            s.is[1].volts = s.is[0].volts;
+            let s = moving(t);
             full.update(&s);
             let (mut one, mut both) = (s, s);
             if t == 0 {
@@ -683,6 +677,72 @@ mod tests {
         let lag = full.psi[0][0] - none.psi[0][0];
         assert!((lag - dt * first).abs() < 1e-12, "{lag} {first}");
         assert_eq!(lost.n_ticks, full.n_ticks);
+    }
+
+    /// `quiet` with voltages that move (a constant stream is refused as stuck), both IS
+    /// alike (with both priors equal, they agree).
+    fn moving(t: u64) -> SensorSample {
+        let mut s = quiet(t);
+        for (j, pair) in s.is[0].volts.iter_mut().enumerate() {
+            pair[0] += 1e-5 * ((t * 7 + j as u64 * 3) % 11) as f64;
+            pair[1] -= 1e-5 * ((t * 5 + j as u64) % 13) as f64;
+        }
+        s.is[1].volts = s.is[0].volts;
+        s
+    }
+
+    fn alike() -> EstimatorConfig {
+        let mut cfg = test_config();
+        cfg.beta_prior[1] = cfg.beta_prior[0];
+        cfg
+    }
+
+    /// One wild tick (a garbage header) is refused and counted by cause; the status
+    /// says degraded only while such samples are more than one in `degraded_one_in`
+    /// of the ticks, not for the rest of the campaign. A clock that jumped for good
+    /// (every later tick off the timeline) soon outnumbers the ticks: degraded.
+    #[test]
+    #[cfg_attr(miri, ignore = "hundreds of updates")]
+    fn one_wild_tick_is_outgrown_a_clock_that_jumped_for_good_is_degraded() {
+        let cfg = alike();
+        let one_in = cfg.degraded_one_in;
+        let mut e = JointEstimator::new(cfg);
+        for t in 0..20 {
+            e.update(&moving(t));
+        }
+        let wild = e.update(&moving(1 << 40));
+        assert_eq!(wild, 1 << CAUSE_TICK_JUMP);
+        let mut jumped = e;
+        for t in 20..one_in + 30 {
+            e.update(&moving(t));
+        }
+        let m = e.message(one_in + 29);
+        assert_eq!(m.rejected_by_cause[CAUSE_TICK_JUMP], 1);
+        assert_eq!(m.n_used + m.n_rejected, one_in + 30);
+        assert_eq!(m.status & ST_DEGRADED, 0, "one wild tick left degraded");
+        for k in 1..=25 {
+            jumped.update(&moving((1 << 40) + 2 * k));
+        }
+        assert_ne!(jumped.message(20).status & ST_DEGRADED, 0);
+    }
+
+    /// A stream whose first tick is beyond `max_gap_ticks` (a recording that starts
+    /// late) starts there once a second tick confirms it: its first sample is refused,
+    /// every sample is counted as used or rejected, and it is not degraded.
+    #[test]
+    #[cfg_attr(miri, ignore = "hundreds of updates")]
+    fn a_stream_that_starts_late_accounts_for_every_sample_and_is_not_degraded() {
+        let cfg = alike();
+        let start = 10 * cfg.max_gap_ticks;
+        let n = 3 * cfg.degraded_one_in;
+        let mut e = JointEstimator::new(cfg);
+        for t in start..start + n {
+            e.update(&moving(t));
+        }
+        let m = e.message(start + n - 1);
+        assert_eq!(m.n_used + m.n_rejected, n);
+        assert_eq!(m.rejected_by_cause[CAUSE_TICK_JUMP], 1);
+        assert_eq!(m.status & ST_DEGRADED, 0);
     }
 
     /// However long the gap (up to `max_gap_ticks`), one update bridges at most

@@ -82,8 +82,11 @@ impl JointEstimator {
         m.n_used = self.n_used;
         m.n_rejected = self.n_rejected;
         let ticks = self.n_used + self.n_rejected;
+        // Samples whose tick was off the timeline are not ticks: they count against
+        // the ticks taken (a clock that jumped for good soon outnumbers them; one wild
+        // tick early on is outgrown).
         let degraded = self.n_rejected * self.cfg.degraded_one_in > ticks
-            || self.causes[CAUSE_TICK_JUMP] > 0
+            || self.causes[CAUSE_TICK_JUMP] * self.cfg.degraded_one_in > ticks.max(1)
             || self.causes[CAUSE_STAR_OUTLIER] * self.cfg.degraded_one_in > self.n_star.max(1);
         m.status = self.status | if degraded { ST_DEGRADED } else { 0 };
         m.rejected_by_cause = self.causes;
