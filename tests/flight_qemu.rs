@@ -97,6 +97,57 @@ fn the_emulated_leon3_reproduces_replay_bit_for_bit() {
     );
 }
 
+/// A bus that lost 6000 samples (10 min at 10 Hz) mid-campaign: the updates that
+/// bridge the gap, 8 ticks a call, are measured on both emulated CPUs and on the
+/// x86-64 C host: each within 16 KB of stack, and the three give the same bits.
+#[test]
+fn updates_that_bridge_a_long_gap_stay_within_16_kb_on_every_cpu() {
+    let dir = support::tmp("flight-gap");
+    let (tel, _) = record_and_replay(&dir, &scenario("flight-gap", 4242, 1500.0));
+    let gap = "5000:6000";
+    let run = |tool: &str, cpu: &[&str], out: &str| {
+        let o = Command::new(root().join(tool))
+            .env("TAIJI_CALIB_BIN", BIN)
+            .args(cpu)
+            .arg("--telemetry")
+            .arg(&tel)
+            .arg("--out")
+            .arg(dir.join(out))
+            .args(["--gap", gap])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{tool} {cpu:?} --gap {gap} failed:\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        json(&o.stdout)
+    };
+    let x86 = run("tools/c-host", &[], "c-host");
+    for (cpu, f) in [
+        ("x86-64", x86.clone()),
+        ("m7", run("tools/flight-qemu", &["--cpu", "m7"], "m7")),
+        (
+            "leon3",
+            run("tools/flight-qemu", &["--cpu", "leon3"], "leon3"),
+        ),
+    ] {
+        let fl = &f["flight"];
+        assert_eq!(fl["updates"], 9000, "{cpu}: {fl}");
+        assert_eq!(fl["gap_ticks_max"], 6000, "{cpu}: {fl}");
+        let after = fl["stack_bytes"]["update_after_gap"].as_u64().unwrap();
+        assert!(after > 1024 && after <= 16 * 1024, "{cpu}: {fl}");
+        assert_same_bits(&f, &x86, cpu);
+        assert_eq!(f["samples_used"], x86["samples_used"], "{cpu}");
+    }
+    // Every tick is used or rejected, the gap's among them.
+    let (used, rejected) = (
+        x86["samples_used"].as_u64(),
+        x86["samples_rejected"].as_u64(),
+    );
+    assert_eq!(used.unwrap() + rejected.unwrap(), 15000);
+}
+
 #[test]
 fn a_wrong_cpu_is_refused() {
     let out = Command::new(root().join("tools/flight-qemu"))

@@ -311,6 +311,10 @@ struct Figures {
     stack_checkpoint: usize,
     stack_restore: usize,
     stack_finish: usize,
+    /// The deepest update among those that bridged a gap in the ticks (0: no gap).
+    stack_update_after_gap: usize,
+    /// The longest gap in the ticks [ticks].
+    gap_ticks_max: u64,
 }
 
 /// Reads the table and initialises the estimator in `m.state`; returns the table and
@@ -373,6 +377,9 @@ fn replay<B: Board>(board: &mut B, m: &mut Memory, samples: &mut B::Input, fig: 
     let (mem, _) = m.mem();
     let n = fig.n;
     let mut done = 0u64;
+    // After a gap in the ticks the updates bridge it, BRIDGE_PER_UPDATE ticks a call
+    // (one of them the sample's own): each is measured.
+    let (mut prev, mut catch_up) = (None::<u64>, 0u64);
     while done < n {
         let k = ((n - done) as usize).min(CHUNK);
         if !samples.read_exact(&mut m.chunk[..k * SAMPLE_BYTES]) {
@@ -382,7 +389,14 @@ fn replay<B: Board>(board: &mut B, m: &mut Memory, samples: &mut B::Input, fig: 
             let s = decode_sample(&m.chunk[j * SAMPLE_BYTES..(j + 1) * SAMPLE_BYTES]);
             let i = done as usize + j;
             let (mut rejected, mut flags) = (0u64, 0u32);
-            let measure = i.is_multiple_of(1000);
+            let tick = s.header.tick;
+            if let Some(p) = prev.filter(|&p| tick > p.saturating_add(1)) {
+                let gap = tick - p - 1;
+                fig.gap_ticks_max = fig.gap_ticks_max.max(gap);
+                catch_up = gap / (taiji_core::tuning::BRIDGE_PER_UPDATE - 1) + 2;
+            }
+            prev = Some(tick);
+            let measure = i.is_multiple_of(1000) || catch_up > 0;
             let low = if measure { paint_stack(board) } else { 0 };
             let t0 = board.clock();
             // SAFETY: an initialised state, a valid sample and two outputs.
@@ -390,7 +404,12 @@ fn replay<B: Board>(board: &mut B, m: &mut Memory, samples: &mut B::Input, fig: 
             m.cost[i] = board.ticks_since(t0);
             check(board, rc, "update");
             if measure {
-                fig.stack_update = fig.stack_update.max(painted_depth(low));
+                let depth = painted_depth(low);
+                fig.stack_update = fig.stack_update.max(depth);
+                if catch_up > 0 {
+                    fig.stack_update_after_gap = fig.stack_update_after_gap.max(depth);
+                    catch_up -= 1;
+                }
             }
             if flags & TAIJI_SOLVE_DUE != 0 {
                 let low = paint_stack(board);
@@ -527,12 +546,14 @@ fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figure
         taiji_estimator_size(),
         fig.checkpoint_bytes
     );
+    let _ = writeln!(out, "    \"gap_ticks_max\": {},", fig.gap_ticks_max);
     let _ = writeln!(
         out,
-        "    \"solve_work_bytes\": {},\n    \"stack_bytes\": {{\"init\": {}, \"update\": {}, \"solve\": {}, \"checkpoint\": {}, \"restore\": {}, \"finish\": {}}}\n  }}\n}}",
+        "    \"solve_work_bytes\": {},\n    \"stack_bytes\": {{\"init\": {}, \"update\": {}, \"update_after_gap\": {}, \"solve\": {}, \"checkpoint\": {}, \"restore\": {}, \"finish\": {}}}\n  }}\n}}",
         taiji_solve_work_size(),
         fig.stack_init,
         fig.stack_update,
+        fig.stack_update_after_gap,
         fig.stack_solve,
         fig.stack_checkpoint,
         fig.stack_restore,
