@@ -6,8 +6,8 @@
 //! `truth::fault_log`). Each must give a value or an error with a message.
 //!
 //! libhdf5 is C and not instrumented for coverage. The reader's documented defences
-//! are part of what is tested: it has libhdf5 read a file to the end in a forked child
-//! first and refuses a file the child crashed or hung on (`telemetry::isolate`; the
+//! are part of what is tested: it has a forked child make the same reads first and
+//! refuses a file the child crashed or hung on (`telemetry::isolate`; the
 //! child's limit is cut to 2 s here), and it catches a panic of the HDF5 binding
 //! (`read::guarded`). A crash, hang or panic that gets past them — in this process —
 //! is a finding.

@@ -2,10 +2,10 @@
 //! corrupt global heap collection (where variable-length strings live) makes it copy
 //! past a buffer or walk its objects without end (`fuzz/known/`). Nothing that calls it
 //! can recover from that in the same process. So before this process reads a
-//! recording, a forked child reads everything a user can read from it — the metadata,
-//! every sample window, the fault log, the truth streams — and only when that child
-//! ends normally within a time limit does this process read the file itself (the same
-//! calls, on the same bytes). A crash or a hang is then the child's, and the caller
+//! recording, a forked child makes the same reads — `read::open` every sample window,
+//! `truth::fault_log` the fault log, `truth::full` every stream — and only when that
+//! child ends normally within a time limit does this process read the file itself (the
+//! same calls, on the same bytes). A crash or a hang is then the child's, and the caller
 //! gets [`TelemetryError::Hdf5Failed`] naming the file and what libhdf5 did.
 //!
 //! A file checked once is not checked again while its size, times and inode stay the
@@ -27,8 +27,9 @@ const DEFAULT_BASE_MS: u64 = 10_000;
 /// The limit grows by 1 s per MB of file: a normal read takes about 10 ms per MB here.
 const MS_PER_MB: u64 = 1_000;
 
-/// Files checked already: (device, inode, length, modification and change time in ns).
-type Key = (u64, u64, u64, i128, i128);
+/// Files checked already: (device, inode, length, modification and change time in ns,
+/// and what was read: a file read one way is not proven for another).
+type Key = (u64, u64, u64, i128, i128, &'static str);
 /// What each gave (a file libhdf5 hung on is not waited for twice).
 static CHECKED: Mutex<Vec<(Key, Result<(), Failure>)>> = Mutex::new(Vec::new());
 const REMEMBERED: usize = 32;
@@ -78,14 +79,18 @@ fn signal_name(s: i32) -> String {
     format!("signal {s}, {name}")
 }
 
-/// Check that libhdf5 reads `path` to the end in a child process, unless this file
-/// (same inode, size and times) was checked already (its outcome is kept) or this is
-/// the child.
-pub(super) fn check(path: &Path) -> Result<(), TelemetryError> {
+/// Check that `read` (the caller's own reading of `path`, its errors ignored) ends
+/// normally in a child process, unless this file (same inode, size and times) was
+/// checked already for `what` (its outcome is kept) or this is the child.
+pub(super) fn check(
+    path: &Path,
+    what: &'static str,
+    read: fn(&Path),
+) -> Result<(), TelemetryError> {
     if IN_CHILD.load(Ordering::Relaxed) {
         return Ok(());
     }
-    let Some(key) = key(path) else {
+    let Some(key) = key(path, what) else {
         return Ok(()); // unreadable: opening it reports why
     };
     let outcome = match remembered(&key) {
@@ -96,7 +101,7 @@ pub(super) fn check(path: &Path) -> Result<(), TelemetryError> {
                     .load(Ordering::Relaxed)
                     .saturating_add(key.2 / 1_000_000 * MS_PER_MB),
             );
-            let o = in_child(path, limit);
+            let o = in_child(path, read, limit);
             remember(key, o);
             o
         }
@@ -107,7 +112,7 @@ pub(super) fn check(path: &Path) -> Result<(), TelemetryError> {
     })
 }
 
-fn key(path: &Path) -> Option<Key> {
+fn key(path: &Path, what: &'static str) -> Option<Key> {
     use std::os::unix::fs::MetadataExt;
     let m = std::fs::metadata(path).ok()?;
     let ns = |s: i64, n: i64| i128::from(s) * 1_000_000_000 + i128::from(n);
@@ -117,6 +122,7 @@ fn key(path: &Path) -> Option<Key> {
         m.len(),
         ns(m.mtime(), m.mtime_nsec()),
         ns(m.ctime(), m.ctime_nsec()),
+        what,
     ))
 }
 
@@ -134,22 +140,8 @@ fn remember(key: Key, outcome: Result<(), Failure>) {
     }
 }
 
-/// Everything a user can read from the file, as `replay`, the report and the fault
-/// scoring read it; errors are the parent's to report (it reads the same again).
-fn read_everything(path: &Path) {
-    if let Ok(rec) = super::read::open(path) {
-        for s in rec.samples() {
-            if s.is_err() {
-                break;
-            }
-        }
-    }
-    let _ = super::truth::fault_log(path);
-    let _ = super::truth::full(path);
-}
-
-/// Fork, read in the child, wait for it at most `limit`.
-fn in_child(path: &Path, limit: Duration) -> Result<(), Failure> {
+/// Fork, `read` in the child, wait for it at most `limit`.
+fn in_child(path: &Path, read: fn(&Path), limit: Duration) -> Result<(), Failure> {
     // Forked while holding the binding's lock on libhdf5, so that no other thread of
     // this process is inside libhdf5 (or holds that lock) at the fork: the child's one
     // thread owns the lock and re-enters it.
@@ -157,7 +149,7 @@ fn in_child(path: &Path, limit: Duration) -> Result<(), Failure> {
     // (allocating: glibc's malloc is fork-safe), then leaves with _exit.
     let pid = hdf5::sync::sync(|| unsafe { libc::fork() });
     match pid {
-        0 => child(path),
+        0 => child(path, read),
         p if p < 0 => {
             // No process to spare: read in this process, as before the check existed.
             log::warn!(
@@ -171,7 +163,7 @@ fn in_child(path: &Path, limit: Duration) -> Result<(), Failure> {
     }
 }
 
-fn child(path: &Path) -> ! {
+fn child(path: &Path, read: fn(&Path)) -> ! {
     IN_CHILD.store(true, Ordering::Relaxed);
     // SAFETY: plain libc calls in the child's only thread: default actions for the
     // crash signals (no handler of the parent's — a sanitizer's, a fuzzer's — runs
@@ -194,7 +186,7 @@ fn child(path: &Path) -> ! {
         }
         no_sanitizer_death_callback();
     }
-    let _ = std::panic::catch_unwind(|| read_everything(path));
+    let _ = std::panic::catch_unwind(|| read(path));
     // SAFETY: ends the child at once, running no exit handler of the parent's.
     unsafe { libc::_exit(0) }
 }

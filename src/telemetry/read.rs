@@ -219,14 +219,24 @@ impl Reader {
 }
 
 /// Open `path` and check what a replay needs (reading /time and /tick in windows).
-/// Unless this file passed already, libhdf5 first reads it to the end in a child
-/// process (`isolate`): a file it crashes or hangs on is refused, naming what it did.
+/// Unless this file passed already, libhdf5 first reads its every sample window in a
+/// child process (`isolate`): a file it crashes or hangs on is refused, naming what it
+/// did.
 pub fn open(path: &Path) -> Result<Recording, TelemetryError> {
-    super::isolate::check(path)?;
+    super::isolate::check(path, "samples", |p| {
+        if let Ok(rec) = opened(p) {
+            for s in rec.samples() {
+                if s.is_err() {
+                    break;
+                }
+            }
+        }
+    })?;
     opened(path)
 }
 
-fn opened(path: &Path) -> Result<Recording, TelemetryError> {
+/// [`open`] without the check in a child (the file is checked, or still being written).
+pub(super) fn opened(path: &Path) -> Result<Recording, TelemetryError> {
     let r = load(path)?;
     let c = guarded(&r, read)?;
     Ok(Recording {

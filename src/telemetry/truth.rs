@@ -2,18 +2,27 @@
 //! and the fault log, for figures, fault scoring and tests (never for replay).
 
 use super::layout as l;
-use super::read::{guarded, open, Reader, Recording};
+use super::read::{guarded, opened, Reader, Recording};
 use super::{Telemetry, TelemetryError};
 use crate::sim::msg::Header;
 use crate::sim::scenario::Scenario;
 use std::path::Path;
 
 /// The fault log of a recording and how many samples of each fault were rejected. The
-/// recording is opened as for replay: its checked sample count bounds the log.
-pub fn fault_log(
-    path: &Path,
-) -> Result<(Vec<crate::sim::faults::FaultRecord>, Vec<u64>), TelemetryError> {
-    let mut rec = open(path)?;
+/// recording is opened as for replay: its checked sample count bounds the log. The same
+/// reads run in a child process first (`isolate`, as for [`super::read::open`]).
+pub fn fault_log(path: &Path) -> Result<FaultLog, TelemetryError> {
+    super::isolate::check(path, "fault log", |p| {
+        let _ = fault_log_of(p);
+    })?;
+    fault_log_of(path)
+}
+
+/// A recording's fault records and, per record, the samples rejected.
+pub type FaultLog = (Vec<crate::sim::faults::FaultRecord>, Vec<u64>);
+
+fn fault_log_of(path: &Path) -> Result<FaultLog, TelemetryError> {
+    let mut rec = opened(path)?;
     let recs = std::mem::take(&mut rec.faults);
     guarded(&rec.r, |r| {
         let det = if recs.is_empty() {
@@ -26,9 +35,16 @@ pub fn fault_log(
 }
 
 /// Every stream of a complete recording (truth included), in memory: for figures and
-/// tests, not replay.
+/// tests, not replay. The same reads run in a child process first (`isolate`).
 pub fn full(path: &Path) -> Result<(Telemetry, Scenario), TelemetryError> {
-    let rec = open(path)?;
+    super::isolate::check(path, "every stream", |p| {
+        let _ = full_of(p);
+    })?;
+    full_of(path)
+}
+
+fn full_of(path: &Path) -> Result<(Telemetry, Scenario), TelemetryError> {
+    let rec = opened(path)?;
     guarded(&rec.r, |r| with_truth(r, &rec))
 }
 
