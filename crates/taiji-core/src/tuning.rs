@@ -144,6 +144,10 @@ pub const RATIO_FIT_MIN: u64 = 20;
 /// Unit: ticks. Guarded by: `estimate::joint::tests::a_short_gap_is_bridged_at_once`.
 pub const BRIDGE_PER_UPDATE: u64 = 8;
 
+/// Whitening states decaying below this become 0 (no subnormal math).
+/// Unit: the state's. Guarded by: `estimate::joint::whiten::tests::decaying_states_reach_zero_without_a_subnormal_number`.
+pub const FLUSH_BELOW: f64 = 1e-280;
+
 /// Star group's share c₁ of a bridged tick's rate step (confounds β).
 /// Unit: dimensionless. Guarded by: `estimate::joint::tests::a_closed_bridge_splits_its_step_four_thirds_and_four`.
 pub const STEP_IN_STAR: f64 = 4.0 / 3.0;
@@ -407,6 +411,7 @@ mod tests {
             TRACK_RELEARN,
             RATIO_FIT_MIN,
             BRIDGE_PER_UPDATE,
+            FLUSH_BELOW,
             STEP_IN_STAR,
             STEP_IN_TURN,
             ALPHA_JERK,

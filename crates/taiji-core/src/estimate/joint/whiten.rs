@@ -594,14 +594,25 @@ impl JointEstimator {
     pub(super) fn whitening_time_update(&mut self) {
         self.turn_time_update();
         let nb = self.bank.poles();
+        // Without input (bridged ticks) the states decay geometrically; a value that
+        // reached `tuning::FLUSH_BELOW` is 0 from then on, so that no update computes
+        // with subnormal numbers (a LEON3's FPU traps on them, an x86-64 takes
+        // microcode assists).
+        let decay = |x: f64, a: f64| {
+            if x.abs() < tuning::FLUSH_BELOW {
+                0.0
+            } else {
+                x * a
+            }
+        };
         for x in self.wx.iter_mut() {
             for k in 0..nb {
-                x[k] *= self.bank.a[k];
+                x[k] = decay(x[k], self.bank.a[k]);
             }
         }
         for i in 0..nb {
             for j in 0..nb {
-                self.wp[(i, j)] *= self.bank.a[i] * self.bank.a[j];
+                self.wp[(i, j)] = decay(self.wp[(i, j)], self.bank.a[i] * self.bank.a[j]);
             }
             self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
         }
@@ -611,6 +622,33 @@ impl JointEstimator {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bridged ticks only decay the whitening filters' states (each pole's factor a
+    /// a tick): every state stays 0 or normal, and reaches 0 once below
+    /// `FLUSH_BELOW` (far above the subnormal range, 2.2×10⁻³⁰⁸, and hundreds of orders
+    /// below the states a campaign carries: its estimates are the same bits).
+    #[test]
+    #[cfg_attr(miri, ignore = "5000 time steps")]
+    fn decaying_states_reach_zero_without_a_subnormal_number() {
+        let mut e = JointEstimator::new(test_config());
+        let nb = e.bank.poles();
+        assert!(nb > 0 && e.bank.a[..nb].iter().all(|&a| a > 1e-20 && a < 1.0));
+        for x in e.wx.iter_mut() {
+            x[..nb].fill(1.0);
+        }
+        for _ in 0..5000 {
+            e.whitening_time_update();
+            for v in e.wx.iter().flat_map(|x| &x[..nb]).chain(e.wp.iter()) {
+                assert!(!v.is_subnormal(), "{v:e}");
+            }
+        }
+        // The fastest pole's states are 0 by now, exactly.
+        let fast = (0..nb)
+            .min_by(|&i, &j| e.bank.a[i].total_cmp(&e.bank.a[j]))
+            .unwrap();
+        assert!(e.wx.iter().all(|x| x[fast] == 0.0));
+        assert!(tuning::FLUSH_BELOW > 1e20 * f64::MIN_POSITIVE);
+    }
 
     /// A turn row whose white noise is mostly this tick's ω̇ readout noise (lever L)
     /// and whose attitude error that noise drives (lever z), fitted for the amplitude
