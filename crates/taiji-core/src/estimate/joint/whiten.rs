@@ -647,7 +647,7 @@ mod tests {
             .min_by(|&i, &j| e.bank.a[i].total_cmp(&e.bank.a[j]))
             .unwrap();
         assert!(e.wx.iter().all(|x| x[fast] == 0.0));
-        assert!(tuning::FLUSH_BELOW > 1e20 * f64::MIN_POSITIVE);
+        const { assert!(tuning::FLUSH_BELOW > 1e20 * f64::MIN_POSITIVE) };
     }
 
     /// A turn row whose white noise is mostly this tick's ω̇ readout noise (lever L)
