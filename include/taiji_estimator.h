@@ -471,6 +471,10 @@ struct TaijiControl {
 extern "C" {
 #endif // __cplusplus
 
+// 1 when this build seals the state (every call checks for upsets), 0 when it was
+// built for EDAC memory (feature `edac`: no check, `TAIJI_ERR_UPSET` never returned).
+uint32_t taiji_upset_check(void);
+
 // Bytes the estimator's state needs.
 size_t taiji_estimator_size(void);
 

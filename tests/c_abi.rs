@@ -89,6 +89,8 @@ fn size_and_alignment_are_queried_not_assumed() {
     assert!(taiji_checkpoint_size() < taiji_estimator_size());
     assert_eq!(taiji_abi_version(), TAIJI_ABI_VERSION);
     assert_eq!(taiji_layout_version(), taiji::sim::msg::LAYOUT_VERSION);
+    // This build seals the state (the EDAC build, feature `edac`, would say 0).
+    assert_eq!(taiji_upset_check(), 1);
 }
 
 #[test]

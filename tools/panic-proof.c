@@ -36,7 +36,8 @@ int main(int argc, char **argv) {
     rc |= taiji_estimator_checkpoint(mem, ckpt, taiji_checkpoint_size(), &written);
     rc |= taiji_estimator_finish(mem, work, work_size, &out);
     rc |= taiji_estimator_restore(mem, size, ckpt, written, &cfg);
-    printf("layout %u, abi %u, rc %d\n", taiji_layout_version(), taiji_abi_version(), rc);
+    printf("layout %u, abi %u, upset check %u, rc %d\n", taiji_layout_version(), taiji_abi_version(),
+           taiji_upset_check(), rc);
 #ifdef TAIJI_PANIC_PROBE
     printf("probe %u\n", taiji_panic_probe((size_t)argc));
 #endif

@@ -83,12 +83,15 @@ struct State {
 /// 32 on a 32-bit CPU (where the rotation is free). The seal never leaves the state,
 /// so the two need not agree.
 #[cfg(target_pointer_width = "64")]
+#[cfg_attr(feature = "edac", allow(dead_code))]
 type Word = u64;
 #[cfg(not(target_pointer_width = "64"))]
+#[cfg_attr(feature = "edac", allow(dead_code))]
 type Word = u32;
 
 /// The state's words that the seal covers (the estimator, `finished`, the final
 /// estimate: plain numbers, 8-aligned, whole words).
+#[cfg_attr(feature = "edac", allow(dead_code))]
 fn sealed_words(st: &State) -> [&[Word]; 3] {
     // Both are `repr(C)` numbers aligned to 8 with sizes in whole words (checked at
     // compile time), so the casts cannot fail; were one to, it would seal nothing
@@ -104,6 +107,7 @@ fn sealed_words(st: &State) -> [&[Word]; 3] {
 /// digest is rotated by one bit before each block. Any single flipped bit changes it;
 /// two cancel only in the same bit of blocks a multiple of the word's width apart. It
 /// runs twice a call (check, reseal), so it is kept to about a load and an XOR a word.
+#[cfg_attr(feature = "edac", allow(dead_code))]
 fn digest(st: &State) -> u64 {
     let mut d: Word = 0;
     for words in sealed_words(st) {
@@ -119,8 +123,31 @@ fn digest(st: &State) -> u64 {
     d as u64
 }
 
+#[cfg(not(feature = "edac"))]
 fn reseal(st: &mut State) {
     st.seal = digest(st);
+}
+
+/// With EDAC memory the hardware corrects what the seal would find: no seal.
+#[cfg(feature = "edac")]
+fn reseal(_: &mut State) {}
+
+/// Whether the state still matches its seal (always, without one).
+#[cfg(not(feature = "edac"))]
+fn sealed(st: &State) -> bool {
+    digest(st) == st.seal
+}
+
+#[cfg(feature = "edac")]
+fn sealed(_: &State) -> bool {
+    true
+}
+
+/// 1 when this build seals the state (every call checks for upsets), 0 when it was
+/// built for EDAC memory (feature `edac`: no check, `TAIJI_ERR_UPSET` never returned).
+#[no_mangle]
+pub extern "C" fn taiji_upset_check() -> u32 {
+    u32::from(cfg!(not(feature = "edac")))
 }
 
 /// Bytes the estimator's state needs.
@@ -214,7 +241,7 @@ fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
             TAIJI_ERR_STATE
         });
     }
-    if digest(st) != st.seal {
+    if !sealed(st) {
         return Err(TAIJI_ERR_UPSET);
     }
     if !st.est.is_sane() {

@@ -517,8 +517,15 @@ fn a_c_host_runs_a_short_recording_through_every_call_and_every_refusal() {
         }
         assert!(same_bytes(&estimate(q).unwrap(), &estimate(mem).unwrap()));
 
-        // --- a bit flipped while the state rests is found before it is used ---
-        for (word, bit) in [(1, 0), (size / 16, 62), (size / 8 - 1, 7)] {
+        // --- a bit flipped while the state rests is found before it is used (a build
+        // for EDAC memory has no seal: the hardware corrects it) ---
+        assert_eq!(taiji_upset_check(), u32::from(!cfg!(feature = "edac")));
+        let flips: &[(usize, u32)] = if cfg!(feature = "edac") {
+            &[]
+        } else {
+            &[(1, 0), (size / 16, 62), (size / 8 - 1, 7)]
+        };
+        for &(word, bit) in flips {
             let at = (q as *mut u64).add(word);
             *at ^= 1 << bit;
             assert_eq!(estimate(q).unwrap_err(), TAIJI_ERR_UPSET, "word {word}");

@@ -355,8 +355,8 @@ impl JointEstimator {
                 *w = (*w - ci * pj) * ai * aj;
             }
         }
-        for i in 0..nb {
-            self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
+        for (i, &s) in self.bank.s.iter().enumerate().take(nb) {
+            self.wp[(i, i)] += s * s;
         }
     }
 
@@ -605,16 +605,21 @@ impl JointEstimator {
                 x * a
             }
         };
+        let a = &self.bank.a;
         for x in self.wx.iter_mut() {
-            for k in 0..nb {
-                x[k] = decay(x[k], self.bank.a[k]);
+            for (v, &ak) in x.iter_mut().zip(a).take(nb) {
+                *v = decay(*v, ak);
             }
         }
-        for i in 0..nb {
-            for j in 0..nb {
-                self.wp[(i, j)] = decay(self.wp[(i, j)], self.bank.a[i] * self.bank.a[j]);
+        for (j, mut col) in self.wp.column_iter_mut().enumerate().take(nb) {
+            for (i, w) in col.iter_mut().enumerate().take(nb) {
+                // Row and column indices within the bank's arrays (a no-op clamp: the
+                // matrix is MAX_POLES square).
+                *w = decay(*w, a[i.min(MAX_POLES - 1)] * a[j.min(MAX_POLES - 1)]);
             }
-            self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
+        }
+        for (i, &s) in self.bank.s.iter().enumerate().take(nb) {
+            self.wp[(i, i)] += s * s;
         }
     }
 }
