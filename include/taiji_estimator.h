@@ -64,7 +64,11 @@
  *        TAIJI_ERR_UPSET, reading nothing of it, when they differ; every call that
  *        writes the state reseals it. A bit flipped while the state rests between calls
  *        is therefore found before it is used: restore the last checkpoint (and replay
- *        the samples since) or init. The state's first 8 bytes, a magic word, are not
+ *        the samples since) or init. A library built for RAM that corrects its own
+ *        errors (EDAC, as a BM3803's: cargo build --profile flight -p taiji-c
+ *        --features edac) has no seal: no call checks or reseals, TAIJI_ERR_UPSET is
+ *        never returned, and taiji_upset_check() returns 0 (1 in the default build).
+ *        The state's first 8 bytes, a magic word, are not
  *        sealed: up to 4 bits flipped there is TAIJI_ERR_UPSET too; memory whose word
  *        is further from it never held a state (TAIJI_ERR_STATE; init and restore write
  *        0 there until they succeed). A flip during a call is not covered. The check

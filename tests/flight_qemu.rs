@@ -148,6 +148,43 @@ fn updates_that_bridge_a_long_gap_stay_within_16_kb_on_every_cpu() {
     assert_eq!(used.unwrap() + rejected.unwrap(), 15000);
 }
 
+/// The build for EDAC RAM (`--edac`, feature `edac`: no seal) gives the default build's
+/// bits on both emulated CPUs, says it does not check for upsets, and saves each update
+/// the seal's two passes over the state.
+#[test]
+fn the_edac_build_gives_the_same_bits_without_the_seals_instructions() {
+    let dir = support::tmp("flight-edac");
+    let (tel, r) = record_and_replay(&dir, &scenario("flight-edac", 2718, 1000.0));
+    for cpu in ["m7", "leon3"] {
+        let run = |edac: bool| {
+            let out = dir.join(format!("{cpu}-{edac}"));
+            let mut c = Command::new(root().join("tools/flight-qemu"));
+            c.env("TAIJI_CALIB_BIN", BIN)
+                .args(["--cpu", cpu, "--telemetry"])
+                .arg(&tel)
+                .arg("--out")
+                .arg(&out);
+            if edac {
+                c.arg("--edac");
+            }
+            let o = c.output().unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            json(&o.stdout)
+        };
+        let (sealed, edac) = (run(false), run(true));
+        assert_same_bits(&edac, &r, cpu);
+        assert_same_bits(&sealed, &r, cpu);
+        let (fs, fe) = (&sealed["flight"], &edac["flight"]);
+        assert_eq!(
+            (fs["upset_check"].as_u64(), fe["upset_check"].as_u64()),
+            (Some(1), Some(0))
+        );
+        let p50 = |f: &serde_json::Value| f["update_instructions"]["p50"].as_u64().unwrap();
+        // The seal is over half of an update on both CPUs.
+        assert!(2 * p50(fe) < p50(fs), "{fs} {fe}");
+    }
+}
+
 #[test]
 fn a_wrong_cpu_is_refused() {
     let out = Command::new(root().join("tools/flight-qemu"))

@@ -516,6 +516,7 @@ fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figure
     };
     let _ = writeln!(out, "  \"flight\": {{");
     let _ = writeln!(out, "    \"cpu\": \"{}\",", B::CPU);
+    let _ = writeln!(out, "    \"upset_check\": {},", taiji_upset_check());
     let _ = writeln!(
         out,
         "    \"updates\": {},\n    \"solves\": {},\n    \"solves_failed\": {},",
