@@ -599,27 +599,27 @@ impl JointEstimator {
         // with subnormal numbers (a LEON3's FPU traps on them, an x86-64 takes
         // microcode assists).
         let decay = |x: f64, a: f64| {
-            if x.abs() < tuning::FLUSH_BELOW {
+            if x < tuning::FLUSH_BELOW && x > -tuning::FLUSH_BELOW {
                 0.0
             } else {
                 x * a
             }
         };
-        let a = &self.bank.a;
+        // Indices clamped to the arrays (no-ops: nb ≤ MAX_POLES), so that no bounds
+        // check is linked (tools/panic-proof).
         for x in self.wx.iter_mut() {
-            for (v, &ak) in x.iter_mut().zip(a).take(nb) {
-                *v = decay(*v, ak);
+            for k in 0..nb {
+                let k = k.min(MAX_POLES - 1);
+                x[k] = decay(x[k], self.bank.a[k]);
             }
         }
-        for (j, mut col) in self.wp.column_iter_mut().enumerate().take(nb) {
-            for (i, w) in col.iter_mut().enumerate().take(nb) {
-                // Row and column indices within the bank's arrays (a no-op clamp: the
-                // matrix is MAX_POLES square).
-                *w = decay(*w, a[i.min(MAX_POLES - 1)] * a[j.min(MAX_POLES - 1)]);
+        for i in 0..nb {
+            let i = i.min(MAX_POLES - 1);
+            for j in 0..nb {
+                let j = j.min(MAX_POLES - 1);
+                self.wp[(i, j)] = decay(self.wp[(i, j)], self.bank.a[i] * self.bank.a[j]);
             }
-        }
-        for (i, &s) in self.bank.s.iter().enumerate().take(nb) {
-            self.wp[(i, i)] += s * s;
+            self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
         }
     }
 }
