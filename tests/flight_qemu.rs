@@ -97,6 +97,26 @@ fn the_emulated_leon3_reproduces_replay_bit_for_bit() {
     );
 }
 
+/// Runs `tool` (`tools/c-host` or `tools/flight-qemu`) on the recording `tel` with
+/// `args`, output in `out`; its JSON.
+fn host_json(tool: &str, tel: &Path, out: &Path, args: &[&str]) -> serde_json::Value {
+    let o = Command::new(root().join(tool))
+        .env("TAIJI_CALIB_BIN", BIN)
+        .arg("--telemetry")
+        .arg(tel)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{tool} {args:?} failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    json(&o.stdout)
+}
+
 /// A bus that lost 6000 samples (10 min at 10 Hz) mid-campaign: the updates that
 /// bridge the gap, 8 ticks a call, are measured on both emulated CPUs and on the
 /// x86-64 C host: each within 16 KB of stack, and the three give the same bits.
@@ -106,22 +126,7 @@ fn updates_that_bridge_a_long_gap_stay_within_16_kb_on_every_cpu() {
     let (tel, _) = record_and_replay(&dir, &scenario("flight-gap", 4242, 1500.0));
     let gap = "5000:6000";
     let run = |tool: &str, cpu: &[&str], out: &str| {
-        let o = Command::new(root().join(tool))
-            .env("TAIJI_CALIB_BIN", BIN)
-            .args(cpu)
-            .arg("--telemetry")
-            .arg(&tel)
-            .arg("--out")
-            .arg(dir.join(out))
-            .args(["--gap", gap])
-            .output()
-            .unwrap();
-        assert!(
-            o.status.success(),
-            "{tool} {cpu:?} --gap {gap} failed:\n{}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        json(&o.stdout)
+        host_json(tool, &tel, &dir.join(out), &[cpu, &["--gap", gap]].concat())
     };
     let x86 = run("tools/c-host", &[], "c-host");
     for (cpu, f) in [
@@ -157,19 +162,14 @@ fn the_edac_build_gives_the_same_bits_without_the_seals_instructions() {
     let (tel, r) = record_and_replay(&dir, &scenario("flight-edac", 2718, 1000.0));
     for cpu in ["m7", "leon3"] {
         let run = |edac: bool| {
+            let flags: &[&str] = if edac { &["--edac"] } else { &[] };
             let out = dir.join(format!("{cpu}-{edac}"));
-            let mut c = Command::new(root().join("tools/flight-qemu"));
-            c.env("TAIJI_CALIB_BIN", BIN)
-                .args(["--cpu", cpu, "--telemetry"])
-                .arg(&tel)
-                .arg("--out")
-                .arg(&out);
-            if edac {
-                c.arg("--edac");
-            }
-            let o = c.output().unwrap();
-            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-            json(&o.stdout)
+            host_json(
+                "tools/flight-qemu",
+                &tel,
+                &out,
+                &[&["--cpu", cpu], flags].concat(),
+            )
         };
         let (sealed, edac) = (run(false), run(true));
         assert_same_bits(&edac, &r, cpu);
