@@ -1,7 +1,9 @@
 //! Single-event upsets in the estimator's own memory, through its C ABI:
-//!   cargo run --release --example upset_campaign -- [TRIALS] [DURATION_S] [SEED]
+//!   cargo run --release --example upset_campaign -- [TRIALS] [DURATION_S] [SEED] [between|during]
+//! `between` (the default) flips a bit between two calls; `during` in the middle of an
+//! update, a solve or `finish` (a third of the trials each), struck by a timer's signal.
 //! Prints the table of outcomes (docs/integrity.md, "Upsets in the estimator's memory").
-use taiji::analysis::upset::{run, Campaign};
+use taiji::analysis::upset::{run, Campaign, Moment};
 
 fn main() {
     let arg = |k: usize, d: f64| {
@@ -15,18 +17,38 @@ fn main() {
         arg(2, 2000.0),
         arg(3, 1.0) as u64,
     );
+    let mode = std::env::args().nth(4).unwrap_or_else(|| "between".into());
+    let moments: &[Moment] = match mode.as_str() {
+        "between" => &[Moment::Between],
+        "during" => &[Moment::Update, Moment::Solve, Moment::Finish],
+        m => {
+            eprintln!("upset_campaign: the moment is `between` or `during`, not `{m}`");
+            std::process::exit(2);
+        }
+    };
     let t0 = std::time::Instant::now();
     let c = Campaign::new(duration, 7);
+    let [u, s, f] = c.call_ns();
     println!(
-        "{} samples, state {} words; {trials} flips (seed {seed}), one random bit at a random moment",
+        "{} samples, state {} words; {trials} flips (seed {seed}), one random bit at a random moment {}",
         c.samples.len(),
-        Campaign::state_words()
+        Campaign::state_words(),
+        if mode == "between" {
+            "between two calls".to_string()
+        } else {
+            format!(
+                "in a call (timed over its kind's typical duration: update {:.1} µs, solve {:.2} ms, finish {:.1} ms)",
+                u as f64 / 1e3,
+                s as f64 / 1e6,
+                f as f64 / 1e6
+            )
+        }
     );
-    let table = run(&c, trials, seed, 2);
-    println!("| outcome | trials | largest move [σ] |\n|---|---|---|");
-    for (o, k, d) in &table {
+    let table = run(&c, trials, seed, 2, moments);
+    println!("| moment | outcome | trials | largest move [σ] |\n|---|---|---|---|");
+    for (m, o, k, d) in &table {
         println!(
-            "| {o:?} | {k} | {} |",
+            "| {m:?} | {o:?} | {k} | {} |",
             if d.is_finite() {
                 format!("{d:.3}")
             } else {

@@ -71,9 +71,16 @@
  *        The state's first 8 bytes, a magic word, are not
  *        sealed: up to 4 bits flipped there is TAIJI_ERR_UPSET too; memory whose word
  *        is further from it never held a state (TAIJI_ERR_STATE; init and restore write
- *        0 there until they succeed). A flip during a call is not covered. The check
- *        and the reseal cost two passes over the state (about 65 000 instructions on a
- *        Cortex-M7, 22 000 on x86-64); docs/integrity.md has the upset campaign.
+ *        0 there until they succeed). During a call: a flip in a word before the
+ *        call's check has read it is found by that check; a flip in the Gram matrices
+ *        (57 % of the state) during solve or finish, which only read them, is found
+ *        before the call returns (TAIJI_ERR_UPSET, no estimate leaves, the state stays
+ *        unsealed until a restore). Not covered, the window that remains: a flip during
+ *        update, or in the rest of the state during solve or finish, after the check
+ *        has read that word and before the reseal reads it again: the reseal takes it
+ *        in. The check and the reseal cost two passes over the state
+ *        (docs/validation.md#flight-cpus); docs/integrity.md has both upset campaigns,
+ *        between calls and during them.
  *
  * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.
  *        finish is terminal and idempotent: it returns the same final estimate every
@@ -139,8 +146,9 @@
 #define TAIJI_ERR_FINISHED 9
 
 // The state changed since the library last left it: a bit flipped in the caller's
-// memory between calls (an upset), or something else wrote to it. Nothing of it is
-// used; restore the last checkpoint (or init) to go on.
+// memory between calls (an upset), or in its Gram matrices during a solve or finish,
+// or something else wrote to it. Nothing of it is used and no estimate leaves;
+// restore the last checkpoint (or init) to go on.
 #define TAIJI_ERR_UPSET 10
 
 // The scratch passed to `solve` or `finish` overlaps the state: it would overwrite

@@ -1,24 +1,74 @@
-//! Single-event upsets in the estimator's own memory (src/analysis/upset.rs): a C-ABI host
-//! replays a campaign while one random bit of the state flips at a random moment
-//! between calls. No flip may abort, hang or move the final estimate by 3σ unseen; a
-//! flip is found at the next call, and the host's restore of its last checkpoint
-//! gives back the reference result bit for bit. The full 10 000-flip campaign is
-//! `cargo run --release --example upset_campaign` (docs/integrity.md).
+//! Single-event upsets in the estimator's own memory (src/analysis/upset): a C-ABI host
+//! replays a campaign while one random bit of the state flips at a random moment,
+//! between calls or in the middle of one. Between calls no flip may abort, hang or
+//! move the final estimate by 3σ unseen; a flip is found at the next call, and the
+//! host's restore of its last checkpoint gives back the reference result bit for bit.
+//! During a call none may abort or hang. The full 10 000-flip campaigns are
+//! `cargo run --release --example upset_campaign -- 10000 2000 1 between|during`
+//! (docs/integrity.md).
 
-use taiji::analysis::upset::{run, Campaign, Outcome};
+use taiji::analysis::upset::{run, Campaign, Moment, Outcome};
 
 #[test]
 fn random_upsets_are_all_found_and_repaired() {
     let c = Campaign::new(1200.0, 3);
     // Without a flip the trial reproduces the reference exactly.
     assert_eq!(c.trial(None), (Outcome::Harmless, 0.0));
-    let table = run(&c, 300, 11, 2);
-    let total: usize = table.iter().map(|r| r.1).sum();
+    let table = run(&c, 300, 11, 2, &[Moment::Between]);
+    let total: usize = table.iter().map(|r| r.2).sum();
     assert_eq!(total, 300);
-    for (o, k, d) in &table {
+    for (_, o, k, d) in &table {
         assert!(
             matches!(o, Outcome::DetectedRepaired | Outcome::Harmless),
             "{k} trials ended {o:?} (largest move {d}σ): {table:?}"
         );
     }
+}
+
+/// Flips in the middle of an update, a solve or `finish` (a timer's signal strikes the
+/// call wherever it is): none aborts or hangs, every one found is repaired to the
+/// reference's bits, and the Gram matrices' check after a solve and after `finish`
+/// finds flips there that the call's own check had already passed.
+#[test]
+fn upsets_during_calls_never_abort_or_hang_and_finish_finds_its_own() {
+    let c = Campaign::new(1200.0, 3);
+    let table = run(
+        &c,
+        240,
+        5,
+        2,
+        &[Moment::Update, Moment::Solve, Moment::Finish],
+    );
+    let count = |m: Option<Moment>, o: &[Outcome]| -> usize {
+        table
+            .iter()
+            .filter(|r| m.is_none_or(|m| r.0 == m) && o.contains(&r.1))
+            .map(|r| r.2)
+            .sum()
+    };
+    assert_eq!(count(None, &[]), 0);
+    let all = [
+        Outcome::Abort,
+        Outcome::Hang,
+        Outcome::DetectedRepaired,
+        Outcome::DetectedNotRepaired,
+        Outcome::Flagged,
+        Outcome::Harmless,
+        Outcome::Moved,
+        Outcome::UndetectedLarge,
+        Outcome::Missed,
+    ];
+    assert_eq!(count(None, &all), 240, "{table:?}");
+    let bad = [Outcome::Abort, Outcome::Hang, Outcome::DetectedNotRepaired];
+    assert_eq!(count(None, &bad), 0, "{table:?}");
+    // The timer lands its flip in the call it aims at (a missed one is no trial).
+    assert!(count(None, &[Outcome::Missed]) <= 24, "{table:?}");
+    // In `finish` (a third of the trials), every flip in the Gram matrices is found,
+    // before or after the solves read them: 57 % of the state.
+    let finish = count(Some(Moment::Finish), &all);
+    let found = count(Some(Moment::Finish), &[Outcome::DetectedRepaired]);
+    assert!(
+        finish >= 50 && found * 10 >= finish * 4,
+        "{found} of {finish} flips in finish found: {table:?}"
+    );
 }

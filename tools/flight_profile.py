@@ -3,12 +3,16 @@
 log (every translated block's instructions, every block executed) and the image's
 symbols, and prints the instructions executed per function, the most first.
 
-    tools/flight_profile.py IMAGE LOG [--nm NM] [--top N]
+    tools/flight_profile.py IMAGE LOG [--nm NM] [--top N] [--lines PATTERN]
+
+--lines PATTERN also prints, for the functions whose name holds PATTERN, the
+instructions executed per source line (llvm-addr2line: the innermost inlined frame in the project's own code).
 
 Called by `tools/flight-qemu --profile N` (LOG a FIFO); the counts are QEMU's
 instructions, as `-icount shift=0` counts them."""
 import argparse
 import bisect
+import json
 import re
 import subprocess
 import sys
@@ -37,10 +41,11 @@ def main():
     ap.add_argument("log")
     ap.add_argument("--nm", default="nm")
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--lines", default=None)
     a = ap.parse_args()
     insn = re.compile(r"^0x([0-9a-f]+):")
     trace = re.compile(r"^Trace \d+: 0x[0-9a-f]+ \[[0-9a-f]+/([0-9a-f]+)/")
-    size, runs = {}, {}
+    size, runs, pcs = {}, {}, {}
     block, n = None, 0
     with open(a.log, errors="replace") as f:
         for line in f:
@@ -58,6 +63,7 @@ def main():
                     block = int(m.group(1), 16)
                 n += 1
                 size[block] = n
+                pcs.setdefault(block, []).append(int(m.group(1), 16))
                 continue
             if not line.strip():
                 block, n = None, 0
@@ -75,6 +81,43 @@ def main():
     print("|---|---|---|")
     for name, k in sorted(per.items(), key=lambda x: -x[1])[: a.top]:
         print(f"| `{name}` | {k:,} | {100 * k / total:.1f} % |".replace(",", " "))
+    if a.lines:
+        source_lines(a, addrs, names, runs, pcs)
+
+
+def source_lines(a, addrs, names, runs, pcs):
+    """Instructions per source line inside the functions whose name holds a.lines."""
+    per_pc = {}
+    for block, k in runs.items():
+        i = bisect.bisect_right(addrs, block) - 1
+        if i < 0 or a.lines not in names[i]:
+            continue
+        for pc in pcs.get(block, []):
+            per_pc[pc] = per_pc.get(pc, 0) + k
+    if not per_pc:
+        return
+    order = sorted(per_pc)
+    out = subprocess.run(["llvm-addr2line", "-i", "--output-style=JSON", "-e", a.image]
+                         + [hex(pc) for pc in order], capture_output=True, text=True).stdout
+    recs = []
+    for line in out.splitlines():
+        r = json.loads(line) if line.strip() else []
+        recs.extend(r if isinstance(r, list) else [r])
+    per_line = {}
+    for pc, rec in zip(order, recs):
+        # The innermost frame in the project's own code (not the iterator or the
+        # arithmetic of core and nalgebra inlined into it).
+        frames = rec.get("Symbol", [])
+        own = [f for f in frames if "/crates/" in f.get("FileName", "") or "/tools/" in f.get("FileName", "")]
+        f = (own or frames or [{}])[0]
+        loc = re.sub(r".*/(crates|tools)/", r"\1/", f.get("FileName", "?")) + f":{f.get('Line', 0)}"
+        per_line[loc] = per_line.get(loc, 0) + per_pc[pc]
+    total = sum(per_line.values())
+    print(f"\n{total:,} instructions in functions matching `{a.lines}`, per source line".replace(",", " "))
+    print("| line | instructions | share |")
+    print("|---|---|---|")
+    for loc, k in sorted(per_line.items(), key=lambda x: -x[1])[: a.top * 2]:
+        print(f"| `{loc}` | {k:,} | {100 * k / total:.1f} % |".replace(",", " "))
 
 
 if __name__ == "__main__":

@@ -41,8 +41,9 @@ pub const TAIJI_ERR_SOLVE: i32 = 8;
 pub const TAIJI_ERR_FINISHED: i32 = 9;
 
 /// The state changed since the library last left it: a bit flipped in the caller's
-/// memory between calls (an upset), or something else wrote to it. Nothing of it is
-/// used; restore the last checkpoint (or init) to go on.
+/// memory between calls (an upset), or in its Gram matrices during a solve or finish,
+/// or something else wrote to it. Nothing of it is used and no estimate leaves;
+/// restore the last checkpoint (or init) to go on.
 pub const TAIJI_ERR_UPSET: i32 = 10;
 
 /// The scratch passed to `solve` or `finish` overlaps the state: it would overwrite
@@ -91,57 +92,107 @@ type Word = u64;
 #[cfg_attr(feature = "edac", allow(dead_code))]
 type Word = u32;
 
-/// The state's words that the seal covers (the estimator, `finished`, the final
-/// estimate: plain numbers, 8-aligned, whole words).
+/// Bytes as the machine words the seal folds (whole, aligned words: every part the
+/// seal covers is; were one not, it would seal nothing rather than panic).
 #[cfg_attr(feature = "edac", allow(dead_code))]
-fn sealed_words(st: &State) -> [&[Word]; 3] {
-    // Both are `repr(C)` numbers aligned to 8 with sizes in whole words (checked at
-    // compile time), so the casts cannot fail; were one to, it would seal nothing
-    // rather than panic.
-    [
-        bytemuck::try_cast_slice(bytemuck::bytes_of(&st.est)).unwrap_or(&[]),
-        bytemuck::try_cast_slice(bytemuck::bytes_of(&st.finished)).unwrap_or(&[]),
-        bytemuck::try_cast_slice(bytemuck::bytes_of(&st.final_msg)).unwrap_or(&[]),
-    ]
+fn words(b: Option<&[u8]>) -> &[Word] {
+    bytemuck::try_cast_slice(b.unwrap_or(&[])).unwrap_or(&[])
 }
 
-/// A fold of the words: each block of eight is XORed into one word, and the running
-/// digest is rotated by one bit before each block. Any single flipped bit changes it;
-/// two cancel only in the same bit of blocks a multiple of the word's width apart. It
-/// runs twice a call (check, reseal), so it is kept to about a load and an XOR a word.
+/// Folds `words` into the digest `d`: each block of eight is XORed into one word, and
+/// the running digest is rotated by one bit before each block. Any single flipped bit
+/// changes it; two cancel only in the same bit of blocks a multiple of the word's width
+/// apart. It runs twice a call (check, reseal), so it is kept to about a load and an
+/// XOR a word.
 #[cfg_attr(feature = "edac", allow(dead_code))]
-fn digest(st: &State) -> u64 {
-    let mut d: Word = 0;
-    for words in sealed_words(st) {
-        let mut chunks = words.chunks_exact(8);
-        for c in &mut chunks {
-            let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
-            d = d.rotate_left(1) ^ x;
-        }
-        for w in chunks.remainder() {
-            d = d.rotate_left(1) ^ w;
-        }
+fn fold(d: &mut Word, words: &[Word]) {
+    let mut chunks = words.chunks_exact(8);
+    for c in &mut chunks {
+        let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
+        *d = d.rotate_left(1) ^ x;
     }
-    d as u64
+    for w in chunks.remainder() {
+        *d = d.rotate_left(1) ^ w;
+    }
+}
+
+/// The digests of the state's words (the estimator, `finished`, the final estimate:
+/// plain numbers, 8-aligned, whole words): of the Gram matrices
+/// (`JointEstimator::GRAMS`), and of the rest.
+#[cfg_attr(feature = "edac", allow(dead_code))]
+fn digests(st: &State) -> (u64, u64) {
+    let e = bytemuck::bytes_of(&st.est);
+    let [g0, g1] = JointEstimator::GRAMS;
+    let (mut dg, mut dr): (Word, Word) = (0, 0);
+    fold(&mut dg, words(e.get(g0.clone())));
+    fold(&mut dg, words(e.get(g1.clone())));
+    for part in [
+        e.get(..g0.start),
+        e.get(g0.end..g1.start),
+        e.get(g1.end..),
+        Some(bytemuck::bytes_of(&st.finished)),
+        Some(bytemuck::bytes_of(&st.final_msg)),
+    ] {
+        fold(&mut dr, words(part));
+    }
+    (widen(dg), widen(dr))
+}
+
+/// A digest word as 64 bits (it is 64 bits already where `Word` is).
+#[cfg_attr(feature = "edac", allow(dead_code))]
+#[allow(clippy::unnecessary_cast)]
+fn widen(w: Word) -> u64 {
+    w as u64
+}
+
+/// The Gram matrices' digest alone.
+#[cfg_attr(feature = "edac", allow(dead_code))]
+fn grams_digest(st: &State) -> u64 {
+    let e = bytemuck::bytes_of(&st.est);
+    let mut dg: Word = 0;
+    for g in JointEstimator::GRAMS {
+        fold(&mut dg, words(e.get(g)));
+    }
+    widen(dg)
+}
+
+/// The seal of the two digests (a flip in either changes it).
+#[cfg_attr(feature = "edac", allow(dead_code))]
+fn seal_of((grams, rest): (u64, u64)) -> u64 {
+    grams.rotate_left(32) ^ rest
 }
 
 #[cfg(not(feature = "edac"))]
 fn reseal(st: &mut State) {
-    st.seal = digest(st);
+    st.seal = seal_of(digests(st));
 }
 
 /// With EDAC memory the hardware corrects what the seal would find: no seal.
 #[cfg(feature = "edac")]
 fn reseal(_: &mut State) {}
 
-/// Whether the state still matches its seal (always, without one).
+/// The Gram matrices' digest when the state still matches its seal (0 without one).
 #[cfg(not(feature = "edac"))]
-fn sealed(st: &State) -> bool {
-    digest(st) == st.seal
+fn sealed(st: &State) -> Option<u64> {
+    let d = digests(st);
+    (seal_of(d) == st.seal).then_some(d.0)
 }
 
 #[cfg(feature = "edac")]
-fn sealed(_: &State) -> bool {
+fn sealed(_: &State) -> Option<u64> {
+    Some(0)
+}
+
+/// Whether the Gram matrices still have the digest `grams` that the call's check
+/// found: `solve` and `finish` only read them, so a change is a flip during the call
+/// (always, without a seal).
+#[cfg(not(feature = "edac"))]
+fn grams_unchanged(st: &State, grams: u64) -> bool {
+    grams_digest(st) == grams
+}
+
+#[cfg(feature = "edac")]
+fn grams_unchanged(_: &State, _: u64) -> bool {
     true
 }
 
@@ -232,6 +283,11 @@ fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
 /// could have come from `init` and `update` (its table passes its check, its counts
 /// index within their arrays).
 fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
+    live_grams(mem).map(|(st, _)| st)
+}
+
+/// [`live`], and the digest of its Gram matrices that the check found.
+fn live_grams<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
     let st = state_mut(mem, size_of::<State>())?;
     if st.magic != MAGIC {
         // A magic word a few bits from ours is an initialised state whose first word
@@ -243,33 +299,39 @@ fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
             TAIJI_ERR_STATE
         });
     }
-    if !sealed(st) {
+    let Some(grams) = sealed(st) else {
         return Err(TAIJI_ERR_UPSET);
-    }
+    };
     if !st.est.is_sane() {
         return Err(TAIJI_ERR_STATE);
     }
-    Ok(st)
+    Ok((st, grams))
 }
 
 /// Runs `f` on the running campaign's state and reseals it whatever `f` returns (a
-/// failed solve has written its status).
-fn mutate(mem: *mut u8, f: impl FnOnce(&mut State) -> Result<i32, i32>) -> i32 {
+/// failed solve has written its status). `reads_grams`: `f` only reads the Gram
+/// matrices (a solve), so they must not have changed during it; if they did, a bit
+/// flipped during the call: `TAIJI_ERR_UPSET`, and the state is left unsealed, so every
+/// call refuses it until a restore.
+fn mutate(mem: *mut u8, reads_grams: bool, f: impl FnOnce(&mut State) -> Result<i32, i32>) -> i32 {
     code((|| {
-        let st = running(mem)?;
+        let (st, grams) = running(mem)?;
         let r = f(st);
+        if reads_grams && !grams_unchanged(st, grams) {
+            return Err(TAIJI_ERR_UPSET);
+        }
         reseal(st);
         r
     })())
 }
 
-/// The initialised state of a campaign still running.
-fn running<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
-    let st = live(mem)?;
+/// The initialised state of a campaign still running, and its Gram matrices' digest.
+fn running<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
+    let (st, grams) = live_grams(mem)?;
     if st.finished != 0 {
         return Err(TAIJI_ERR_FINISHED);
     }
-    Ok(st)
+    Ok((st, grams))
 }
 
 fn code(r: Result<i32, i32>) -> i32 {
@@ -344,7 +406,7 @@ pub unsafe extern "C" fn taiji_estimator_update(
     rejected: *mut u64,
     flags: *mut u32,
 ) -> i32 {
-    mutate(mem, |st| {
+    mutate(mem, false, |st| {
         if sample.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -387,7 +449,7 @@ pub unsafe extern "C" fn taiji_estimator_solve(
         Ok(w) => w,
         Err(e) => return e,
     };
-    mutate(mem, |st| {
+    mutate(mem, true, |st| {
         if st.est.solve_now_with(w) {
             Ok(TAIJI_OK)
         } else {
@@ -438,7 +500,7 @@ pub unsafe extern "C" fn taiji_estimator_finish(
     out: *mut EstimateMsg,
 ) -> i32 {
     code((|| {
-        let st = live(mem)?;
+        let (st, grams) = live_grams(mem)?;
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -447,6 +509,11 @@ pub unsafe extern "C" fn taiji_estimator_finish(
         let w = work_mut(mem, work, work_size)?;
         if st.finished == 0 {
             let mut m = st.est.finish_with(w);
+            // Its solves only read the Gram matrices: a change is a flip during the
+            // call, and no estimate leaves (the state stays unsealed until a restore).
+            if !grams_unchanged(st, grams) {
+                return Err(TAIJI_ERR_UPSET);
+            }
             m.flags |= EST_FINAL;
             st.final_msg = m;
             st.finished = 1;
@@ -472,7 +539,7 @@ pub unsafe extern "C" fn taiji_estimator_checkpoint(
     written: *mut usize,
 ) -> i32 {
     code((|| {
-        let st = running(mem)?;
+        let (st, _) = running(mem)?;
         if buf.is_null() {
             return Err(TAIJI_ERR_NULL);
         }

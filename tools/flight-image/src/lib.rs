@@ -507,6 +507,12 @@ fn print_estimates(out: &mut impl Write, cfg: &EstimatorConfig, est: &EstimateMs
 fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figures) {
     // Instructions per call: ticks over the calibrated ticks per instruction.
     let instr = |ticks: u32| (ticks as f64 / fig.ticks_per_instr).round() as u64;
+    // The sample whose update cost most (the first of equals), before the sort.
+    let max_at = costs
+        .iter()
+        .enumerate()
+        .fold((0, 0), |(bi, b), (i, &c)| if c > b { (i, c) } else { (bi, b) })
+        .0;
     costs.sort_unstable();
     let pick = |q: f64| {
         costs
@@ -524,10 +530,11 @@ fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figure
     );
     let _ = writeln!(
         out,
-        "    \"update_instructions\": {{\"p50\": {}, \"p99\": {}, \"max\": {}}},",
+        "    \"update_instructions\": {{\"p50\": {}, \"p99\": {}, \"max\": {}, \"max_at\": {}}},",
         instr(pick(0.5)),
         instr(pick(0.99)),
-        instr(costs.last().copied().unwrap_or(0))
+        instr(costs.last().copied().unwrap_or(0)),
+        max_at
     );
     let _ = writeln!(
         out,

@@ -263,6 +263,19 @@ fn finish_converged(moved: Option<[f64; 5]>) -> bool {
 }
 
 impl JointEstimator {
+    /// The bytes of the estimator that hold its Gram matrices (`m_raw` with `m_filt`,
+    /// and `m_turn`): `update` adds each sample to them, and nothing else writes them
+    /// (`solve` and `finish` read them), so the C ABI checks after a solve that they
+    /// did not change during it. Most of the state's bytes.
+    pub const GRAMS: [core::ops::Range<usize>; 2] = {
+        let raw = core::mem::offset_of!(JointEstimator, m_raw);
+        let filt = core::mem::offset_of!(JointEstimator, m_filt);
+        let turn = core::mem::offset_of!(JointEstimator, m_turn);
+        let g = core::mem::size_of::<Packed>();
+        assert!(filt == raw + N_REG * g && raw < turn && raw % 8 == 0 && turn % 8 == 0);
+        [raw..filt + g, turn..turn + 2 * g]
+    };
+
     pub fn new(cfg: EstimatorConfig) -> Self {
         let mut e = <Self as bytemuck::Zeroable>::zeroed();
         Self::init_in_place(&mut e, cfg);

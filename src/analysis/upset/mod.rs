@@ -1,12 +1,15 @@
 //! Upset campaign: single-event upsets in the estimator's own memory. A C-ABI host
 //! (the cycle of examples/c/host.c, driven from Rust through `capi`) replays a
 //! campaign; in each trial one random bit of the state's memory flips at a random
-//! moment between two calls, and the run goes on to `finish`. Every trial is
+//! moment, between two calls or in the middle of an `update`, a `solve` or `finish`
+//! (a timer's signal, `timer.rs`), and the run goes on to `finish`. Every trial is
 //! classified: an abort (panic), a hang (a call far over its bound), detected (a call
 //! returned an error code; the host then restores its last checkpoint and replays
 //! from it, as the front end's ring allows in the set), flagged (the final status is
 //! unverified), or how far the final estimate moved in units of its σ. Used by
 //! `cargo run --release --example upset_campaign -- TRIALS` and tests/upsets.rs.
+
+mod timer;
 
 use crate::analysis::fuzz::Bits;
 use crate::sim::capi::*;
@@ -39,6 +42,23 @@ pub enum Outcome {
     Moved,
     /// No error, no flag; moved by 3σ or more: a failure.
     UndetectedLarge,
+    /// A flip meant for the middle of a call never landed in one (the calls of its
+    /// kind all returned before the timer fired): not a trial.
+    Missed,
+}
+
+/// When the bit flips.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Moment {
+    /// Between two calls (before the update of sample `at`, or before `finish`).
+    Between,
+    /// In the middle of an update: the first, from sample `at` on, that the timer
+    /// strikes.
+    Update,
+    /// In the middle of a solve, the first from sample `at` on that the timer strikes.
+    Solve,
+    /// In the middle of `finish`.
+    Finish,
 }
 
 /// A call slower than this is a hang.
@@ -52,6 +72,9 @@ pub struct Flip {
     /// Word of the state's memory and bit in it.
     pub word: usize,
     pub bit: u32,
+    pub moment: Moment,
+    /// Seeds the timer's delays (uniform over the call's typical duration).
+    pub delays: u64,
 }
 
 /// The replay every trial runs: the samples, the table and the reference result.
@@ -60,6 +83,9 @@ pub struct Campaign {
     pub samples: Vec<SensorSample>,
     reference: EstimateMsg,
     checkpoints: Vec<Vec<u8>>,
+    /// The reference run's median update, median solve and `finish` [ns]: a flip
+    /// during a call is timed uniformly over its kind's.
+    call_ns: [u64; 3],
 }
 
 /// 8-aligned memory for one state.
@@ -98,23 +124,67 @@ fn init(mem: &mut [u64], cfg: &EstimatorConfig) -> i32 {
     }
 }
 
-/// One host cycle: update, and the solve when it is due. Returns the first error code.
-fn cycle(mem: &mut [u64], s: &SensorSample) -> i32 {
+/// A flip waiting for its call: the timer, the word's address, the bit and its
+/// delays' draws.
+struct Pending<'a> {
+    timer: &'a timer::Timer,
+    moment: Moment,
+    word: *mut u64,
+    bit: u32,
+    delays: Bits,
+    /// The typical duration of the call it waits for [ns].
+    span_ns: u64,
+}
+
+impl Pending<'_> {
+    /// Runs `call`, struck in its middle when this is the flip's kind of call.
+    /// Returns the call's code and whether the flip landed in it.
+    fn around(&mut self, kind: Moment, call: impl FnOnce() -> i32) -> (i32, bool) {
+        if kind != self.moment {
+            return (call(), false);
+        }
+        let delay = 1 + self.delays.below(self.span_ns.max(1));
+        self.timer.arm(self.word, self.bit, delay);
+        let rc = call();
+        (rc, self.timer.landed_in_call())
+    }
+}
+
+/// Runs `f`, through the pending flip when there is one.
+fn call(pending: &mut Option<Pending>, kind: Moment, f: impl FnOnce() -> i32) -> (i32, bool) {
+    match pending {
+        Some(pd) => pd.around(kind, f),
+        None => (f(), false),
+    }
+}
+
+/// One host cycle: update, and the solve when it is due (a pending flip strikes the
+/// call of its kind). Returns the first error code and whether the flip landed.
+fn cycle(mem: &mut [u64], s: &SensorSample, pending: &mut Option<Pending>) -> (i32, bool) {
     let p = mem.as_mut_ptr() as *mut u8;
     let mut flags = 0u32;
     // SAFETY: an 8-aligned state buffer, a valid sample and outputs.
-    let rc = unsafe { taiji_estimator_update(p, s, std::ptr::null_mut(), &mut flags) };
+    let (rc, mut landed) = call(pending, Moment::Update, || unsafe {
+        taiji_estimator_update(p, s, std::ptr::null_mut(), &mut flags)
+    });
     if rc != TAIJI_OK {
-        return rc;
+        return (rc, landed);
     }
     if flags & TAIJI_SOLVE_DUE != 0 {
+        if landed {
+            // Landed: the solve runs unstruck, as the host would run it.
+            *pending = None;
+        }
         // SAFETY: as above.
-        let rc = with_work(|w, n| unsafe { taiji_estimator_solve(p, w, n) });
+        let (rc, l) = call(pending, Moment::Solve, || {
+            with_work(|w, n| unsafe { taiji_estimator_solve(p, w, n) })
+        });
+        landed |= l;
         if rc != TAIJI_OK && rc != TAIJI_ERR_SOLVE {
-            return rc;
+            return (rc, landed);
         }
     }
-    TAIJI_OK
+    (TAIJI_OK, landed)
 }
 
 fn checkpoint(mem: &mut [u64]) -> Vec<u8> {
@@ -147,16 +217,16 @@ fn restore(mem: &mut [u64], ck: &[u8], cfg: &EstimatorConfig) -> i32 {
     }
 }
 
-fn finish(mem: &mut [u64]) -> Result<EstimateMsg, i32> {
+/// `finish` (struck in its middle by a pending flip of that kind); the estimate or the
+/// error code, and whether the flip landed.
+fn finish(mem: &mut [u64], pending: &mut Option<Pending>) -> (Result<EstimateMsg, i32>, bool) {
     let mut out = EstimateMsg::default();
     // SAFETY: an 8-aligned state buffer and an output.
     let p = mem.as_mut_ptr() as *mut u8;
-    let rc = with_work(|w, n| unsafe { taiji_estimator_finish(p, w, n, &mut out) });
-    if rc == TAIJI_OK {
-        Ok(out)
-    } else {
-        Err(rc)
-    }
+    let (rc, landed) = call(pending, Moment::Finish, || {
+        with_work(|w, n| unsafe { taiji_estimator_finish(p, w, n, &mut out) })
+    });
+    (if rc == TAIJI_OK { Ok(out) } else { Err(rc) }, landed)
 }
 
 /// Largest |estimate − reference| / σ_reference over β, k and r of both IS.
@@ -200,19 +270,46 @@ impl Campaign {
         let mut mem = memory();
         assert_eq!(init(&mut mem, &cfg), TAIJI_OK);
         let mut checkpoints = Vec::new();
+        let (mut updates, mut solves) = (Vec::new(), Vec::new());
         for (i, smp) in samples.iter().enumerate() {
             if i % CHECKPOINT_EVERY == 0 {
                 checkpoints.push(checkpoint(&mut mem));
             }
-            assert_eq!(cycle(&mut mem, smp), TAIJI_OK);
+            // Timed as the trials strike them: the update alone, then the solve.
+            let p = mem.as_mut_ptr() as *mut u8;
+            let mut flags = 0u32;
+            let t0 = Instant::now();
+            // SAFETY: an 8-aligned, initialised state, a valid sample and outputs.
+            let rc = unsafe { taiji_estimator_update(p, smp, std::ptr::null_mut(), &mut flags) };
+            updates.push(t0.elapsed().as_nanos() as u64);
+            assert_eq!(rc, TAIJI_OK);
+            if flags & TAIJI_SOLVE_DUE != 0 {
+                let t0 = Instant::now();
+                // SAFETY: as above, and the thread's scratch.
+                let rc = with_work(|w, n| unsafe { taiji_estimator_solve(p, w, n) });
+                solves.push(t0.elapsed().as_nanos() as u64);
+                assert!(rc == TAIJI_OK || rc == TAIJI_ERR_SOLVE, "solve: {rc}");
+            }
         }
-        let reference = finish(&mut mem).expect("reference finish");
+        let t0 = Instant::now();
+        let reference = finish(&mut mem, &mut None).0.expect("reference finish");
+        let finish_ns = t0.elapsed().as_nanos() as u64;
+        let median = |v: &mut Vec<u64>| {
+            v.sort_unstable();
+            v.get(v.len() / 2).copied().unwrap_or(1)
+        };
         Campaign {
             cfg,
+            call_ns: [median(&mut updates), median(&mut solves), finish_ns],
             samples,
             reference,
             checkpoints,
         }
+    }
+
+    /// The reference run's median update, median solve and `finish` [ns].
+    pub fn call_ns(&self) -> [u64; 3] {
+        self.call_ns
     }
 
     /// The words of the state's memory (where a flip can land).
@@ -249,20 +346,57 @@ impl Campaign {
             let ck = &self.checkpoints[start / CHECKPOINT_EVERY];
             assert_eq!(restore(&mut mem, ck, &self.cfg), TAIJI_OK);
         }
-        let (mut detected, mut flipped) = (false, false);
+        // This thread's timer, for a flip in the middle of a call.
+        std::thread_local! {
+            static TIMER: timer::Timer = timer::Timer::new();
+        }
+        TIMER.with(|t| self.replay(&mut mem, flip, start, t))
+    }
+
+    /// The trial's replay from sample `start` to `finish`, the flip struck as drawn.
+    fn replay(
+        &self,
+        mem: &mut [u64],
+        flip: Option<Flip>,
+        start: usize,
+        timer: &timer::Timer,
+    ) -> (Outcome, f64) {
+        let n = self.samples.len();
+        let last_checkpoint =
+            |i: usize| (i.min(n.saturating_sub(1)) / CHECKPOINT_EVERY) * CHECKPOINT_EVERY;
+        let (mut detected, mut flipped) = (false, flip.is_none());
+        let mut pending: Option<Pending> = None;
         let mut i = start;
         while i <= n {
-            if i == at && !flipped {
-                if let Some(f) = flip {
+            if let Some(f) = flip.filter(|f| i == f.at && !flipped && pending.is_none()) {
+                if f.moment == Moment::Between {
                     mem[f.word] ^= 1u64 << f.bit;
+                    flipped = true;
+                } else {
+                    let span_ns = self.call_ns[match f.moment {
+                        Moment::Update => 0,
+                        Moment::Solve => 1,
+                        _ => 2,
+                    }];
+                    pending = Some(Pending {
+                        timer,
+                        moment: f.moment,
+                        word: &mut mem[f.word] as *mut u64,
+                        bit: f.bit,
+                        delays: Bits(f.delays),
+                        span_ns,
+                    });
                 }
-                flipped = true;
             }
             let t0 = Instant::now();
-            let rc = if i < n {
-                cycle(&mut mem, &self.samples[i])
+            let (rc, landed) = if i < n {
+                cycle(mem, &self.samples[i], &mut pending)
             } else {
-                match finish(&mut mem) {
+                let (r, landed) = finish(mem, &mut pending);
+                if !flipped && !landed {
+                    return (Outcome::Missed, 0.0);
+                }
+                match r {
                     Ok(e) => {
                         if t0.elapsed() > HANG {
                             return (Outcome::Hang, f64::INFINITY);
@@ -281,9 +415,13 @@ impl Campaign {
                             d,
                         );
                     }
-                    Err(rc) => rc,
+                    Err(rc) => (rc, landed),
                 }
             };
+            if landed {
+                flipped = true;
+                pending = None;
+            }
             if t0.elapsed() > HANG {
                 return (Outcome::Hang, f64::INFINITY);
             }
@@ -292,14 +430,18 @@ impl Campaign {
                     // A second error after the repair: not repaired.
                     return (Outcome::DetectedNotRepaired, f64::INFINITY);
                 }
+                if !flipped {
+                    // An error before any flip landed: the run itself failed.
+                    return (Outcome::DetectedNotRepaired, f64::INFINITY);
+                }
                 detected = true;
                 // Scrub: the last checkpoint at or before this sample, and replay.
                 let c = last_checkpoint(i);
                 mem.iter_mut().for_each(|w| *w = 0);
                 let rc = if c == 0 {
-                    init(&mut mem, &self.cfg)
+                    init(mem, &self.cfg)
                 } else {
-                    restore(&mut mem, &self.checkpoints[c / CHECKPOINT_EVERY], &self.cfg)
+                    restore(mem, &self.checkpoints[c / CHECKPOINT_EVERY], &self.cfg)
                 };
                 if rc != TAIJI_OK {
                     return (Outcome::DetectedNotRepaired, f64::INFINITY);
@@ -313,27 +455,56 @@ impl Campaign {
     }
 }
 
-/// A flip at a random moment (before any update or before finish), word and bit.
-fn draw_flip(bits: &mut Bits, samples: usize) -> Flip {
+/// A flip at a random moment of one of the `moments` (between calls: before any
+/// update or before finish; in a call: from a random sample on, or in `finish`), word
+/// and bit.
+fn draw_flip(bits: &mut Bits, samples: usize, moments: &[Moment]) -> Flip {
+    let moment = moments
+        .get(bits.below(moments.len() as u64) as usize)
+        .copied()
+        .unwrap_or(Moment::Between);
+    let at = bits.below(samples as u64 + 1) as usize;
     Flip {
-        at: bits.below(samples as u64 + 1) as usize,
+        at: if moment == Moment::Finish {
+            samples
+        } else {
+            at
+        },
         word: bits.below(Campaign::state_words() as u64) as usize,
         bit: bits.below(64) as u32,
+        moment,
+        delays: bits.next(),
     }
 }
 
-/// Counts of every outcome over `trials` random flips, on `threads` threads.
-pub fn run(c: &Campaign, trials: usize, seed: u64, threads: usize) -> Vec<(Outcome, usize, f64)> {
+/// Counts of every outcome over `trials` random flips at the `moments` (drawn among
+/// them evenly), on `threads` threads: per moment and outcome, the trials and the
+/// largest move [σ].
+pub fn run(
+    c: &Campaign,
+    trials: usize,
+    seed: u64,
+    threads: usize,
+    moments: &[Moment],
+) -> Vec<(Moment, Outcome, usize, f64)> {
     let threads = threads.max(1);
     let mut bits = Bits(seed);
     let flips: Vec<Flip> = (0..trials)
-        .map(|_| draw_flip(&mut bits, c.samples.len()))
+        .map(|_| draw_flip(&mut bits, c.samples.len(), moments))
         .collect();
-    let results: Vec<(Outcome, f64)> = std::thread::scope(|sc| {
+    let results: Vec<(Moment, Outcome, f64)> = std::thread::scope(|sc| {
         let handles: Vec<_> = flips
             .chunks(trials.div_ceil(threads).max(1))
             .map(|chunk| {
-                sc.spawn(move || chunk.iter().map(|f| c.trial(Some(*f))).collect::<Vec<_>>())
+                sc.spawn(move || {
+                    chunk
+                        .iter()
+                        .map(|f| {
+                            let (o, d) = c.trial(Some(*f));
+                            (f.moment, o, d)
+                        })
+                        .collect::<Vec<_>>()
+                })
             })
             .collect();
         handles
@@ -341,16 +512,16 @@ pub fn run(c: &Campaign, trials: usize, seed: u64, threads: usize) -> Vec<(Outco
             .flat_map(|h| h.join().unwrap_or_default())
             .collect()
     });
-    let mut table: Vec<(Outcome, usize, f64)> = Vec::new();
-    for (o, d) in results {
-        match table.iter_mut().find(|(k, _, _)| *k == o) {
+    let mut table: Vec<(Moment, Outcome, usize, f64)> = Vec::new();
+    for (m, o, d) in results {
+        match table.iter_mut().find(|r| r.0 == m && r.1 == o) {
             Some(row) => {
-                row.1 += 1;
-                row.2 = row.2.max(d);
+                row.2 += 1;
+                row.3 = row.3.max(d);
             }
-            None => table.push((o, 1, d)),
+            None => table.push((m, o, 1, d)),
         }
     }
-    table.sort_by_key(|r| r.0);
+    table.sort_by_key(|r| (r.0, r.1));
     table
 }
