@@ -72,13 +72,14 @@
  *        sealed: up to 4 bits flipped there is TAIJI_ERR_UPSET too; memory whose word
  *        is further from it never held a state (TAIJI_ERR_STATE; init and restore write
  *        0 there until they succeed). During a call: a flip in a word before the
- *        call's check has read it is found by that check; a flip in the Gram matrices
- *        (57 % of the state) during solve or finish, which only read them, is found
- *        before the call returns (TAIJI_ERR_UPSET, no estimate leaves, the state stays
- *        unsealed until a restore). Not covered, the window that remains: a flip during
- *        update, or in the rest of the state during solve or finish, after the check
- *        has read that word and before the reseal reads it again: the reseal takes it
- *        in. The check and the reseal cost two passes over the state
+ *        call's check has read it is found by that check. estimate and checkpoint
+ *        check the state again before what they made leaves (a spoilt checkpoint is
+ *        refused by restore). A flip in the Gram matrices (57 % of the state) during
+ *        solve or finish, which only read them, is found before the call returns
+ *        (TAIJI_ERR_UPSET, no estimate leaves, the state stays unsealed until a
+ *        restore). Not covered, the window that remains: a flip during update, or in
+ *        the rest of the state during solve or finish, after the check has read that
+ *        word and before the reseal reads it again: the reseal takes it in. The check and the reseal cost two passes over the state
  *        (docs/validation.md#flight-cpus); docs/integrity.md has both upset campaigns,
  *        between calls and during them.
  *
@@ -550,6 +551,8 @@ int32_t taiji_estimator_update(uint8_t *mem,
 int32_t taiji_estimator_solve(uint8_t *mem, uint8_t *work, size_t work_size);
 
 // The current estimate (β, k, r with σ, status word, rejection counts) into `out`.
+// The state is checked again before the estimate leaves: a bit that flipped during
+// the call gives `TAIJI_ERR_UPSET` and leaves `out` untouched.
 //
 // # Safety
 // Pointers must be valid for their types or null (refused).
@@ -570,7 +573,10 @@ int32_t taiji_estimator_finish(uint8_t *mem,
                                struct TaijiEstimateMsg *out);
 
 // Writes a checkpoint of the state into `buf` (`len` ≥ `taiji_checkpoint_size()`;
-// no alignment needed); `written` (may be null) receives its size.
+// no alignment needed); `written` (may be null) receives its size. The state is
+// checked again after the copy: a bit that flipped during the call gives
+// `TAIJI_ERR_UPSET`, and `buf` is then spoilt (its first 8 bytes zeroed: `restore`
+// refuses it), so keep the previous checkpoint.
 //
 // # Safety
 // `buf` must point to `len` writable bytes; other pointers valid or null.

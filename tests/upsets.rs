@@ -72,3 +72,16 @@ fn upsets_during_calls_never_abort_or_hang_and_finish_finds_its_own() {
         "{found} of {finish} flips in finish found: {table:?}"
     );
 }
+
+/// Flips in the middle of `estimate` and `checkpoint`: each checks the state again
+/// before what it made leaves, so no corrupted estimate or checkpoint gets out (a
+/// checkpoint refused is spoilt: `restore` refuses it too).
+#[test]
+fn no_corrupted_estimate_or_checkpoint_leaves_a_call_a_bit_flipped_in() {
+    let c = Campaign::new(600.0, 3);
+    // The calls take a few microseconds here: delays within 20 µs land in most.
+    let r = taiji::analysis::upset::strike_outputs(&c, 3000, 400, 9, 20_000);
+    assert!(r.landed >= 100, "{r:?}");
+    assert_eq!(r.leaked, 0, "{r:?}");
+    assert!(r.refused > 0, "{r:?}");
+}

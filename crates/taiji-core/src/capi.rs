@@ -459,6 +459,8 @@ pub unsafe extern "C" fn taiji_estimator_solve(
 }
 
 /// The current estimate (β, k, r with σ, status word, rejection counts) into `out`.
+/// The state is checked again before the estimate leaves: a bit that flipped during
+/// the call gives `TAIJI_ERR_UPSET` and leaves `out` untouched.
 ///
 /// # Safety
 /// Pointers must be valid for their types or null (refused).
@@ -472,8 +474,14 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
         let m = if st.finished != 0 {
             st.final_msg
         } else {
+            let m = st.est.message_unsent(st.est.next_tick().saturating_sub(1));
+            // Made from what the check passed, unless a bit flipped during the call:
+            // checked again before it leaves.
+            if sealed(st).is_none() {
+                return Err(TAIJI_ERR_UPSET);
+            }
             // The message counts itself (its sequence number): reseal.
-            let m = st.est.message(st.est.next_tick().saturating_sub(1));
+            st.est.message_sent();
             reseal(st);
             m
         };
@@ -527,7 +535,10 @@ pub unsafe extern "C" fn taiji_estimator_finish(
 }
 
 /// Writes a checkpoint of the state into `buf` (`len` ≥ `taiji_checkpoint_size()`;
-/// no alignment needed); `written` (may be null) receives its size.
+/// no alignment needed); `written` (may be null) receives its size. The state is
+/// checked again after the copy: a bit that flipped during the call gives
+/// `TAIJI_ERR_UPSET`, and `buf` is then spoilt (its first 8 bytes zeroed: `restore`
+/// refuses it), so keep the previous checkpoint.
 ///
 /// # Safety
 /// `buf` must point to `len` writable bytes; other pointers valid or null.
@@ -546,6 +557,13 @@ pub unsafe extern "C" fn taiji_estimator_checkpoint(
         // SAFETY: non-null, `len` bytes the caller owns.
         let out = unsafe { core::slice::from_raw_parts_mut(buf, len) };
         let n = snapshot::write(&st.est, out).map_err(|_| TAIJI_ERR_SIZE)?;
+        // Copied from what the check passed, unless a bit flipped during the call:
+        // checked again, and a copy that may hold the flip is spoilt (its magic word
+        // zeroed, so `restore` refuses it).
+        if sealed(st).is_none() {
+            out.iter_mut().take(8).for_each(|b| *b = 0);
+            return Err(TAIJI_ERR_UPSET);
+        }
         if !written.is_null() {
             // SAFETY: non-null, caller-provided.
             unsafe { written.write_unaligned(n) };

@@ -525,3 +525,90 @@ pub fn run(
     table.sort_by_key(|r| (r.0, r.1));
     table
 }
+
+/// What flips struck in the middle of `estimate` and `checkpoint` gave: the flips that
+/// landed in a call, and the calls that let a corrupted result out (an estimate other
+/// than the unflipped state's, or a checkpoint that `restore`s to other bytes, with
+/// `TAIJI_OK`; or a spoilt checkpoint that `restore` took).
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct OutputStrikes {
+    pub landed: usize,
+    pub refused: usize,
+    pub leaked: usize,
+}
+
+/// `trials` flips, half in `estimate` and half in `checkpoint`, each on a fresh copy of
+/// the state after the campaign's first `after` samples, at a random delay within
+/// `span_ns` (about the call's duration on this machine).
+pub fn strike_outputs(
+    c: &Campaign,
+    after: usize,
+    trials: usize,
+    seed: u64,
+    span_ns: u64,
+) -> OutputStrikes {
+    let mut base = memory();
+    assert_eq!(init(&mut base, &c.cfg), TAIJI_OK);
+    for s in c.samples.iter().take(after) {
+        assert_eq!(cycle(&mut base, s, &mut None).0, TAIJI_OK);
+    }
+    let timer = timer::Timer::new();
+    let mut bits = Bits(seed);
+    let mut r = OutputStrikes::default();
+    let estimate = |mem: &mut [u64], out: &mut EstimateMsg| -> i32 {
+        // SAFETY: an 8-aligned, initialised state and an output.
+        unsafe { taiji_estimator_estimate(mem.as_mut_ptr() as *mut u8, out) }
+    };
+    let mut reference = EstimateMsg::default();
+    assert_eq!(estimate(&mut base.clone(), &mut reference), TAIJI_OK);
+    let clean = checkpoint(&mut base.clone());
+    for t in 0..trials {
+        let mut mem = base.clone();
+        let (word, bit) = (
+            bits.below(Campaign::state_words() as u64) as usize,
+            bits.below(64) as u32,
+        );
+        let delay = 1 + bits.below(span_ns.max(1));
+        let target = &mut mem[word] as *mut u64;
+        if t % 2 == 0 {
+            let mut out = EstimateMsg::default();
+            timer.arm(target, bit, delay);
+            let rc = estimate(&mut mem, &mut out);
+            if !timer.landed_in_call() {
+                continue;
+            }
+            r.landed += 1;
+            match rc {
+                TAIJI_OK if out != reference => r.leaked += 1,
+                TAIJI_OK => {}
+                _ => r.refused += 1,
+            }
+        } else {
+            let mut buf = vec![0u8; taiji_checkpoint_size()];
+            let mut n = 0usize;
+            timer.arm(target, bit, delay);
+            // SAFETY: an 8-aligned, initialised state and a buffer of the checkpoint's size.
+            let rc = unsafe {
+                taiji_estimator_checkpoint(
+                    mem.as_mut_ptr() as *mut u8,
+                    buf.as_mut_ptr(),
+                    buf.len(),
+                    &mut n,
+                )
+            };
+            if !timer.landed_in_call() {
+                continue;
+            }
+            r.landed += 1;
+            let mut back = memory();
+            let restored = restore(&mut back, &buf[..n.min(buf.len())], &c.cfg);
+            match rc {
+                TAIJI_OK if restored != TAIJI_OK || buf[..n] != clean[..] => r.leaked += 1,
+                TAIJI_OK => {}
+                _ if restored == TAIJI_OK => r.leaked += 1,
+                _ => r.refused += 1,
+            }
+        }
+    }
+    r
+}

@@ -70,13 +70,21 @@ impl JointEstimator {
         p
     }
 
-    /// The estimate message from the current solution.
+    /// The estimate message from the current solution (it counts itself: the next
+    /// one's sequence number follows).
     pub fn message(&mut self, tick: u64) -> EstimateMsg {
+        let m = self.message_unsent(tick);
+        self.seq += 1;
+        m
+    }
+
+    /// [`Self::message`] without counting it (the state is only read); `message_sent`
+    /// counts it.
+    pub fn message_unsent(&self, tick: u64) -> EstimateMsg {
         let mut m = EstimateMsg {
             header: Header::at(self.seq, tick, self.cfg.fs),
             ..Default::default()
         };
-        self.seq += 1;
         Self::fill(&self.cfg, &self.p, &self.sigma, &mut m);
         m.solved_tick = self.solved_tick;
         m.n_used = self.n_used;
@@ -94,6 +102,11 @@ impl JointEstimator {
         m.chi2_per_dof = self.chi2;
         m.sigma_inflation = self.inflation;
         m
+    }
+
+    /// Counts a message made by [`Self::message_unsent`].
+    pub fn message_sent(&mut self) {
+        self.seq += 1;
     }
 
     /// β, k, r and their σ from a parameter vector and its 1σ.
