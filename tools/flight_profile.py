@@ -76,7 +76,7 @@ def main():
     total = sum(per.values())
     if total == 0:
         sys.exit("flight_profile: no executed block in the log")
-    print(f"{total:,} instructions executed".replace(",", " "))
+    print(f"{total:,} instructions executed\n".replace(",", " "))
     print("| function | instructions | share |")
     print("|---|---|---|")
     for name, k in sorted(per.items(), key=lambda x: -x[1])[: a.top]:
@@ -110,10 +110,12 @@ def source_lines(a, addrs, names, runs, pcs):
         frames = rec.get("Symbol", [])
         own = [f for f in frames if "/crates/" in f.get("FileName", "") or "/tools/" in f.get("FileName", "")]
         f = (own or frames or [{}])[0]
-        loc = re.sub(r".*/(crates|tools)/", r"\1/", f.get("FileName", "?")) + f":{f.get('Line', 0)}"
+        loc = re.sub(r".*/crates/taiji-core/src/", "", f.get("FileName", "?"))
+        loc = re.sub(r".*/(crates|tools)/", r"\1/", loc) + f":{f.get('Line', 0)}"
         per_line[loc] = per_line.get(loc, 0) + per_pc[pc]
     total = sum(per_line.values())
-    print(f"\n{total:,} instructions in functions matching `{a.lines}`, per source line".replace(",", " "))
+    print(f"\n{total:,} instructions in functions matching `{a.lines}`, per source line (of crates/taiji-core/src)\n"
+          .replace(",", " "))
     print("| line | instructions | share |")
     print("|---|---|---|")
     for loc, k in sorted(per_line.items(), key=lambda x: -x[1])[: a.top * 2]:
