@@ -74,8 +74,9 @@
  *        0 there until they succeed). During a call: a flip in a word before the
  *        call's check has read it is found by that check. estimate and checkpoint
  *        check the state again before what they made leaves (a spoilt checkpoint is
- *        refused by restore). A flip in the Gram matrices (57 % of the state) during
- *        solve or finish, which only read them, is found before the call returns
+ *        refused by restore). A flip in the statistics (the Gram matrices and the
+ *        filters' states, 89 % of the state) during solve or finish, which only read
+ *        them, is found before the call returns
  *        (TAIJI_ERR_UPSET, no estimate leaves, the state stays unsealed until a
  *        restore). Not covered, the window that remains: a flip during update, or in
  *        the rest of the state during solve or finish, after the check has read that
@@ -147,7 +148,7 @@
 #define TAIJI_ERR_FINISHED 9
 
 // The state changed since the library last left it: a bit flipped in the caller's
-// memory between calls (an upset), or in its Gram matrices during a solve or finish,
+// memory between calls (an upset), or in its statistics during a solve or finish,
 // or something else wrote to it. Nothing of it is used and no estimate leaves;
 // restore the last checkpoint (or init) to go on.
 #define TAIJI_ERR_UPSET 10

@@ -27,8 +27,8 @@ fn random_upsets_are_all_found_and_repaired() {
 
 /// Flips in the middle of an update, a solve or `finish` (a timer's signal strikes the
 /// call wherever it is): none aborts or hangs, every one found is repaired to the
-/// reference's bits, and the Gram matrices' check after a solve and after `finish`
-/// finds flips there that the call's own check had already passed.
+/// reference's bits, and the statistics' check after a solve and after `finish` finds
+/// flips there that the call's own check had already passed.
 #[test]
 fn upsets_during_calls_never_abort_or_hang_and_finish_finds_its_own() {
     let c = Campaign::new(1200.0, 3);
@@ -63,8 +63,8 @@ fn upsets_during_calls_never_abort_or_hang_and_finish_finds_its_own() {
     assert_eq!(count(None, &bad), 0, "{table:?}");
     // The timer lands its flip in the call it aims at (a missed one is no trial).
     assert!(count(None, &[Outcome::Missed]) <= 24, "{table:?}");
-    // In `finish` (a third of the trials), every flip in the Gram matrices is found,
-    // before or after the solves read them: 57 % of the state.
+    // In `finish` (a third of the trials), every flip in the statistics is found,
+    // before or after the solves read them: nearly nine tenths of the state.
     let finish = count(Some(Moment::Finish), &all);
     let found = count(Some(Moment::Finish), &[Outcome::DetectedRepaired]);
     assert!(

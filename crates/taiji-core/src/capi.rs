@@ -41,7 +41,7 @@ pub const TAIJI_ERR_SOLVE: i32 = 8;
 pub const TAIJI_ERR_FINISHED: i32 = 9;
 
 /// The state changed since the library last left it: a bit flipped in the caller's
-/// memory between calls (an upset), or in its Gram matrices during a solve or finish,
+/// memory between calls (an upset), or in its statistics during a solve or finish,
 /// or something else wrote to it. Nothing of it is used and no estimate leaves;
 /// restore the last checkpoint (or init) to go on.
 pub const TAIJI_ERR_UPSET: i32 = 10;
@@ -117,12 +117,12 @@ fn fold(d: &mut Word, words: &[Word]) {
 }
 
 /// The digests of the state's words (the estimator, `finished`, the final estimate:
-/// plain numbers, 8-aligned, whole words): of the Gram matrices
-/// (`JointEstimator::GRAMS`), and of the rest.
+/// plain numbers, 8-aligned, whole words): of the statistics
+/// (`JointEstimator::STATISTICS`), and of the rest.
 #[cfg_attr(feature = "edac", allow(dead_code))]
 fn digests(st: &State) -> (u64, u64) {
     let e = bytemuck::bytes_of(&st.est);
-    let [g0, g1] = JointEstimator::GRAMS;
+    let [g0, g1] = JointEstimator::STATISTICS;
     let (mut dg, mut dr): (Word, Word) = (0, 0);
     fold(&mut dg, words(e.get(g0.clone())));
     fold(&mut dg, words(e.get(g1.clone())));
@@ -145,12 +145,12 @@ fn widen(w: Word) -> u64 {
     w as u64
 }
 
-/// The Gram matrices' digest alone.
+/// The statistics' digest alone.
 #[cfg_attr(feature = "edac", allow(dead_code))]
-fn grams_digest(st: &State) -> u64 {
+fn statistics_digest(st: &State) -> u64 {
     let e = bytemuck::bytes_of(&st.est);
     let mut dg: Word = 0;
-    for g in JointEstimator::GRAMS {
+    for g in JointEstimator::STATISTICS {
         fold(&mut dg, words(e.get(g)));
     }
     widen(dg)
@@ -158,8 +158,8 @@ fn grams_digest(st: &State) -> u64 {
 
 /// The seal of the two digests (a flip in either changes it).
 #[cfg_attr(feature = "edac", allow(dead_code))]
-fn seal_of((grams, rest): (u64, u64)) -> u64 {
-    grams.rotate_left(32) ^ rest
+fn seal_of((stats, rest): (u64, u64)) -> u64 {
+    stats.rotate_left(32) ^ rest
 }
 
 #[cfg(not(feature = "edac"))]
@@ -171,7 +171,7 @@ fn reseal(st: &mut State) {
 #[cfg(feature = "edac")]
 fn reseal(_: &mut State) {}
 
-/// The Gram matrices' digest when the state still matches its seal (0 without one).
+/// The statistics' digest when the state still matches its seal (0 without one).
 #[cfg(not(feature = "edac"))]
 fn sealed(st: &State) -> Option<u64> {
     let d = digests(st);
@@ -183,16 +183,16 @@ fn sealed(_: &State) -> Option<u64> {
     Some(0)
 }
 
-/// Whether the Gram matrices still have the digest `grams` that the call's check
+/// Whether the statistics still have the digest `stats` that the call's check
 /// found: `solve` and `finish` only read them, so a change is a flip during the call
 /// (always, without a seal).
 #[cfg(not(feature = "edac"))]
-fn grams_unchanged(st: &State, grams: u64) -> bool {
-    grams_digest(st) == grams
+fn statistics_unchanged(st: &State, stats: u64) -> bool {
+    statistics_digest(st) == stats
 }
 
 #[cfg(feature = "edac")]
-fn grams_unchanged(_: &State, _: u64) -> bool {
+fn statistics_unchanged(_: &State, _: u64) -> bool {
     true
 }
 
@@ -283,11 +283,11 @@ fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
 /// could have come from `init` and `update` (its table passes its check, its counts
 /// index within their arrays).
 fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
-    live_grams(mem).map(|(st, _)| st)
+    live_statistics(mem).map(|(st, _)| st)
 }
 
-/// [`live`], and the digest of its Gram matrices that the check found.
-fn live_grams<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
+/// [`live`], and the digest of its statistics that the check found.
+fn live_statistics<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
     let st = state_mut(mem, size_of::<State>())?;
     if st.magic != MAGIC {
         // A magic word a few bits from ours is an initialised state whose first word
@@ -299,25 +299,29 @@ fn live_grams<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
             TAIJI_ERR_STATE
         });
     }
-    let Some(grams) = sealed(st) else {
+    let Some(stats) = sealed(st) else {
         return Err(TAIJI_ERR_UPSET);
     };
     if !st.est.is_sane() {
         return Err(TAIJI_ERR_STATE);
     }
-    Ok((st, grams))
+    Ok((st, stats))
 }
 
 /// Runs `f` on the running campaign's state and reseals it whatever `f` returns (a
-/// failed solve has written its status). `reads_grams`: `f` only reads the Gram
-/// matrices (a solve), so they must not have changed during it; if they did, a bit
+/// failed solve has written its status). `reads_statistics`: `f` only reads the
+/// statistics (a solve), so they must not have changed during it; if they did, a bit
 /// flipped during the call: `TAIJI_ERR_UPSET`, and the state is left unsealed, so every
 /// call refuses it until a restore.
-fn mutate(mem: *mut u8, reads_grams: bool, f: impl FnOnce(&mut State) -> Result<i32, i32>) -> i32 {
+fn mutate(
+    mem: *mut u8,
+    reads_statistics: bool,
+    f: impl FnOnce(&mut State) -> Result<i32, i32>,
+) -> i32 {
     code((|| {
-        let (st, grams) = running(mem)?;
+        let (st, stats) = running(mem)?;
         let r = f(st);
-        if reads_grams && !grams_unchanged(st, grams) {
+        if reads_statistics && !statistics_unchanged(st, stats) {
             return Err(TAIJI_ERR_UPSET);
         }
         reseal(st);
@@ -325,13 +329,13 @@ fn mutate(mem: *mut u8, reads_grams: bool, f: impl FnOnce(&mut State) -> Result<
     })())
 }
 
-/// The initialised state of a campaign still running, and its Gram matrices' digest.
+/// The initialised state of a campaign still running, and its statistics' digest.
 fn running<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
-    let (st, grams) = live_grams(mem)?;
+    let (st, stats) = live_statistics(mem)?;
     if st.finished != 0 {
         return Err(TAIJI_ERR_FINISHED);
     }
-    Ok((st, grams))
+    Ok((st, stats))
 }
 
 fn code(r: Result<i32, i32>) -> i32 {
@@ -508,7 +512,7 @@ pub unsafe extern "C" fn taiji_estimator_finish(
     out: *mut EstimateMsg,
 ) -> i32 {
     code((|| {
-        let (st, grams) = live_grams(mem)?;
+        let (st, stats) = live_statistics(mem)?;
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -517,9 +521,9 @@ pub unsafe extern "C" fn taiji_estimator_finish(
         let w = work_mut(mem, work, work_size)?;
         if st.finished == 0 {
             let mut m = st.est.finish_with(w);
-            // Its solves only read the Gram matrices: a change is a flip during the
+            // Its solves only read the statistics: a change is a flip during the
             // call, and no estimate leaves (the state stays unsealed until a restore).
-            if !grams_unchanged(st, grams) {
+            if !statistics_unchanged(st, stats) {
                 return Err(TAIJI_ERR_UPSET);
             }
             m.flags |= EST_FINAL;

@@ -263,17 +263,39 @@ fn finish_converged(moved: Option<[f64; 5]>) -> bool {
 }
 
 impl JointEstimator {
-    /// The bytes of the estimator that hold its Gram matrices (`m_raw` with `m_filt`,
-    /// and `m_turn`): `update` adds each sample to them, and nothing else writes them
-    /// (`solve` and `finish` read them), so the C ABI checks after a solve that they
-    /// did not change during it. Most of the state's bytes.
-    pub const GRAMS: [core::ops::Range<usize>; 2] = {
-        let raw = core::mem::offset_of!(JointEstimator, m_raw);
-        let filt = core::mem::offset_of!(JointEstimator, m_filt);
-        let turn = core::mem::offset_of!(JointEstimator, m_turn);
-        let g = core::mem::size_of::<Packed>();
-        assert!(filt == raw + N_REG * g && raw < turn && raw % 8 == 0 && turn % 8 == 0);
-        [raw..filt + g, turn..turn + 2 * g]
+    /// The bytes of the estimator that hold its sufficient statistics: the Gram
+    /// matrices (`m_raw`, `m_filt`, `m_turn`) and the innovations filters their signals
+    /// pass through (the SRP's `bank`, `wp`, `wx`; the turn filters' `tx`, `tp`).
+    /// `update` writes them, and nothing else does (`solve` and `finish` only read
+    /// them), so the C ABI checks after a solve that they did not change during it.
+    /// Nearly nine tenths of the state's bytes.
+    pub const STATISTICS: [core::ops::Range<usize>; 2] = {
+        use core::mem::{offset_of, size_of};
+        let (raw, filt) = (offset_of!(Self, m_raw), offset_of!(Self, m_filt));
+        let (bank, wp, wx) = (
+            offset_of!(Self, bank),
+            offset_of!(Self, wp),
+            offset_of!(Self, wx),
+        );
+        let (turn, tx, tp) = (
+            offset_of!(Self, m_turn),
+            offset_of!(Self, tx),
+            offset_of!(Self, tp),
+        );
+        // Declared in this order, one after the other (`repr(C)`): nothing else lies
+        // inside the two ranges.
+        let g = size_of::<Packed>();
+        assert!(filt == raw + N_REG * g && bank == filt + g);
+        assert!(
+            wp == bank + size_of::<PowerLawBank>()
+                && wx == wp + size_of::<SMatrix<f64, MAX_POLES, MAX_POLES>>()
+        );
+        assert!(tx == turn + 2 * g && tp == tx + 2 * size_of::<SMatrix<f64, NS, 2>>());
+        assert!(raw % 8 == 0 && turn % 8 == 0 && raw < turn);
+        [
+            raw..wx + size_of::<[[f64; MAX_POLES]; NS]>(),
+            turn..tp + size_of::<[[[f64; 2]; 2]; 2]>(),
+        ]
     };
 
     pub fn new(cfg: EstimatorConfig) -> Self {
