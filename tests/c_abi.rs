@@ -631,6 +631,30 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
 /// The solve's scratch is the caller's: refused when null, too small or misaligned,
 /// and its contents do not matter (a campaign solved with 0xFF-filled scratch gives the
 /// bits of one solved with zeroed scratch).
+/// `estimate` counts its message and updates the seal for the sequence number's word
+/// alone: the state stays sealed through any number of them between updates.
+#[test]
+fn estimates_count_themselves_and_leave_the_state_sealed() {
+    let mut mem = memory();
+    let p = init(&mut mem);
+    let mut last = None;
+    for k in 0..200u64 {
+        let mut flags = 0u32;
+        // SAFETY: an initialised state, a valid sample and an output.
+        let rc = unsafe { taiji_estimator_update(p, &quiet(k), std::ptr::null_mut(), &mut flags) };
+        assert_eq!(rc, TAIJI_OK, "update after {k} estimates");
+        for _ in 0..(k % 3) {
+            let mut m = EstimateMsg::default();
+            // SAFETY: as above.
+            assert_eq!(unsafe { taiji_estimator_estimate(p, &mut m) }, TAIJI_OK);
+            if let Some(seq) = last {
+                assert_eq!(m.header.seq, seq + 1);
+            }
+            last = Some(m.header.seq);
+        }
+    }
+}
+
 #[test]
 fn the_solve_work_memory_is_checked_and_its_contents_do_not_matter() {
     let c = taiji::analysis::upset::Campaign::new(200.0, 3);

@@ -95,106 +95,183 @@ type Word = u32;
 /// Bytes as the machine words the seal folds (whole, aligned words: every part the
 /// seal covers is; were one not, it would seal nothing rather than panic).
 #[cfg_attr(feature = "edac", allow(dead_code))]
+#[inline(always)]
 fn words(b: Option<&[u8]>) -> &[Word] {
     bytemuck::try_cast_slice(b.unwrap_or(&[])).unwrap_or(&[])
 }
 
 /// Folds `words` into the digest `d`: each block of eight is XORed into one word, and
-/// the running digest is rotated by one bit before each block. Any single flipped bit
-/// changes it; two cancel only in the same bit of blocks a multiple of the word's width
-/// apart. It runs twice a call (check, reseal), so it is kept to about a load and an
-/// XOR a word.
+/// the running digest is rotated by one bit before each block (and before each word
+/// of a part's last, shorter block). Any single flipped bit changes it. It is linear:
+/// the digest is the XOR of every word rotated by the number of steps that follow its
+/// own, so two flips cancel only when their bits line up after those rotations (the
+/// same bit in one block; bit i in one block and bit i + 1 in the next, and so on),
+/// which is what a single-event upset does not do. It runs about twice a call (check,
+/// reseal), so it is kept to about a load and an XOR a word.
 #[cfg_attr(feature = "edac", allow(dead_code))]
-fn fold(d: &mut Word, words: &[Word]) {
+#[inline(always)]
+fn fold(d: Word, words: &[Word]) -> Word {
+    let mut d = d;
     let mut chunks = words.chunks_exact(8);
     for c in &mut chunks {
         let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
-        *d = d.rotate_left(1) ^ x;
+        d = d.rotate_left(1) ^ x;
     }
     for w in chunks.remainder() {
-        *d = d.rotate_left(1) ^ w;
+        d = d.rotate_left(1) ^ w;
+    }
+    d
+}
+
+/// The fold's steps over `n` words (one a block of eight, one a word of the rest).
+#[cfg_attr(feature = "edac", allow(dead_code))]
+const fn steps(n: usize) -> usize {
+    n / 8 + n % 8
+}
+
+/// The digests the seal is made of: of the estimator's statistics
+/// (`JointEstimator::STATISTICS`, which `solve` and `finish` only read), and of the
+/// rest of what it covers.
+#[cfg_attr(feature = "edac", allow(dead_code))]
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Digests {
+    stats: Word,
+    rest: Word,
+}
+
+impl Digests {
+    /// The seal: both digests in one word (a flip in either changes it).
+    #[cfg_attr(feature = "edac", allow(dead_code))]
+    #[allow(clippy::unnecessary_cast)]
+    fn seal(self) -> u64 {
+        (self.stats as u64).rotate_left(32) ^ self.rest as u64
     }
 }
 
-/// The digests of the state's words (the estimator, `finished`, the final estimate:
-/// plain numbers, 8-aligned, whole words): of the statistics
-/// (`JointEstimator::STATISTICS`), and of the rest.
+/// The parts of the state the seal covers that are not statistics, in the order the
+/// rest's digest folds them: the estimator around its statistics, `finished`, the
+/// final estimate (plain numbers, 8-aligned, whole words).
 #[cfg_attr(feature = "edac", allow(dead_code))]
-fn digests(st: &State) -> (u64, u64) {
+fn rest_parts(st: &State) -> [&[u8]; 5] {
     let e = bytemuck::bytes_of(&st.est);
-    let [g0, g1] = JointEstimator::STATISTICS;
-    let (mut dg, mut dr): (Word, Word) = (0, 0);
-    fold(&mut dg, words(e.get(g0.clone())));
-    fold(&mut dg, words(e.get(g1.clone())));
-    for part in [
-        e.get(..g0.start),
-        e.get(g0.end..g1.start),
-        e.get(g1.end..),
-        Some(bytemuck::bytes_of(&st.finished)),
-        Some(bytemuck::bytes_of(&st.final_msg)),
-    ] {
-        fold(&mut dr, words(part));
-    }
-    (widen(dg), widen(dr))
+    let [s0, s1] = JointEstimator::STATISTICS;
+    [
+        e.get(..s0.start).unwrap_or(&[]),
+        e.get(s0.end..s1.start).unwrap_or(&[]),
+        e.get(s1.end..).unwrap_or(&[]),
+        bytemuck::bytes_of(&st.finished),
+        bytemuck::bytes_of(&st.final_msg),
+    ]
 }
 
-/// A digest word as 64 bits (it is 64 bits already where `Word` is).
+/// Both digests, in one pass over the state.
 #[cfg_attr(feature = "edac", allow(dead_code))]
-#[allow(clippy::unnecessary_cast)]
-fn widen(w: Word) -> u64 {
-    w as u64
-}
-
-/// The statistics' digest alone.
-#[cfg_attr(feature = "edac", allow(dead_code))]
-fn statistics_digest(st: &State) -> u64 {
+fn digests(st: &State) -> Digests {
     let e = bytemuck::bytes_of(&st.est);
-    let mut dg: Word = 0;
-    for g in JointEstimator::STATISTICS {
-        fold(&mut dg, words(e.get(g)));
+    let mut stats: Word = 0;
+    for range in JointEstimator::STATISTICS {
+        stats = fold(stats, words(e.get(range)));
     }
-    widen(dg)
+    let mut rest: Word = 0;
+    for part in rest_parts(st) {
+        rest = fold(rest, words(Some(part)));
+    }
+    Digests { stats, rest }
 }
 
-/// The seal of the two digests (a flip in either changes it).
-#[cfg_attr(feature = "edac", allow(dead_code))]
-fn seal_of((stats, rest): (u64, u64)) -> u64 {
-    stats.rotate_left(32) ^ rest
+/// The seal after the `u64` at byte `at` of the estimator (outside its statistics)
+/// changed from `old` to what it holds now, from the digests `d` the state had before:
+/// the fold is linear, so only that word's share of the rest's digest changes, and
+/// nothing else is read (a flip elsewhere meanwhile is not taken in: the next check
+/// finds it).
+#[cfg(not(feature = "edac"))]
+fn reseal_word(st: &mut State, d: Digests, at: usize, old: u64) {
+    const W: usize = size_of::<Word>();
+    let [s0, s1] = JointEstimator::STATISTICS;
+    let parts = rest_parts(st);
+    // Where each part of the rest starts in the estimator (the last two are not in it).
+    let starts = [0, s0.end, s1.end, usize::MAX, usize::MAX];
+    let total: usize = parts.iter().map(|p| steps(p.len() / W)).sum();
+    let (mut before, mut hit) = (0usize, None);
+    for (p, &start) in parts.iter().zip(&starts) {
+        if hit.is_none() && at >= start && at.saturating_add(8) <= start.saturating_add(p.len()) {
+            hit = Some((before, start, p.len() / W));
+        }
+        before += steps(p.len() / W);
+    }
+    let new = bytemuck::bytes_of(&st.est)
+        .get(at..at.saturating_add(8))
+        .and_then(|b| <[u8; 8]>::try_from(b).ok())
+        .map_or(old, u64::from_ne_bytes);
+    let Some((first, start, n)) = hit else {
+        st.seal = digests(st).seal();
+        return;
+    };
+    let word = |b: Option<&[u8]>| {
+        b.and_then(|b| <[u8; W]>::try_from(b).ok())
+            .map_or(0, Word::from_ne_bytes)
+    };
+    let full = n / 8 * 8;
+    let mut rest = d.rest;
+    let (old, new) = (old.to_ne_bytes(), new.to_ne_bytes());
+    for j in 0..8 / W {
+        let delta = word(old.get(j * W..(j + 1) * W)) ^ word(new.get(j * W..(j + 1) * W));
+        let i = (at - start) / W + j;
+        let step = first
+            + if i < full {
+                i / 8
+            } else {
+                full / 8 + (i - full)
+            };
+        let rot = (total.saturating_sub(1 + step) % Word::BITS as usize) as u32;
+        rest ^= delta.rotate_left(rot);
+    }
+    st.seal = Digests { rest, ..d }.seal();
 }
 
 #[cfg(not(feature = "edac"))]
 fn reseal(st: &mut State) {
-    st.seal = seal_of(digests(st));
+    st.seal = digests(st).seal();
 }
 
 /// With EDAC memory the hardware corrects what the seal would find: no seal.
 #[cfg(feature = "edac")]
 fn reseal(_: &mut State) {}
 
-/// The statistics' digest when the state still matches its seal (0 without one).
+/// The digests when the state still matches its seal.
 #[cfg(not(feature = "edac"))]
-fn sealed(st: &State) -> Option<u64> {
+fn sealed(st: &State) -> Option<Digests> {
     let d = digests(st);
-    (seal_of(d) == st.seal).then_some(d.0)
+    (d.seal() == st.seal).then_some(d)
 }
 
+/// Without a seal: always, and digests of nothing.
 #[cfg(feature = "edac")]
-fn sealed(_: &State) -> Option<u64> {
-    Some(0)
+fn sealed(_: &State) -> Option<Digests> {
+    Some(Digests { stats: 0, rest: 0 })
 }
 
-/// Whether the statistics still have the digest `stats` that the call's check
-/// found: `solve` and `finish` only read them, so a change is a flip during the call
-/// (always, without a seal).
+/// After a call's work: whether its statistics still have the digest `before` that
+/// its check found (when it only read them), and the seal, both from one pass.
+/// `Err(TAIJI_ERR_UPSET)` when they changed: a bit flipped during the call, and the
+/// state is left unsealed, so every call refuses it until a restore.
 #[cfg(not(feature = "edac"))]
-fn statistics_unchanged(st: &State, stats: u64) -> bool {
-    statistics_digest(st) == stats
+fn reseal_checking(st: &mut State, before: Option<Digests>) -> Result<(), i32> {
+    let d = digests(st);
+    if before.is_some_and(|b| b.stats != d.stats) {
+        return Err(TAIJI_ERR_UPSET);
+    }
+    st.seal = d.seal();
+    Ok(())
 }
 
 #[cfg(feature = "edac")]
-fn statistics_unchanged(_: &State, _: u64) -> bool {
-    true
+fn reseal_checking(_: &mut State, _: Option<Digests>) -> Result<(), i32> {
+    Ok(())
 }
+
+#[cfg(feature = "edac")]
+fn reseal_word(_: &mut State, _: Digests, _: usize, _: u64) {}
 
 /// 1 when this build seals the state (every call checks for upsets), 0 when it was
 /// built for EDAC memory (feature `edac`: no check, `TAIJI_ERR_UPSET` never returned).
@@ -282,12 +359,7 @@ fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
 /// The initialised state behind `mem`, or why not: the magic word, and a state that
 /// could have come from `init` and `update` (its table passes its check, its counts
 /// index within their arrays).
-fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
-    live_statistics(mem).map(|(st, _)| st)
-}
-
-/// [`live`], and the digest of its statistics that the check found.
-fn live_statistics<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
+fn live<'a>(mem: *mut u8) -> Result<(&'a mut State, Digests), i32> {
     let st = state_mut(mem, size_of::<State>())?;
     if st.magic != MAGIC {
         // A magic word a few bits from ours is an initialised state whose first word
@@ -299,43 +371,39 @@ fn live_statistics<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
             TAIJI_ERR_STATE
         });
     }
-    let Some(stats) = sealed(st) else {
+    let Some(d) = sealed(st) else {
         return Err(TAIJI_ERR_UPSET);
     };
     if !st.est.is_sane() {
         return Err(TAIJI_ERR_STATE);
     }
-    Ok((st, stats))
+    Ok((st, d))
 }
 
 /// Runs `f` on the running campaign's state and reseals it whatever `f` returns (a
 /// failed solve has written its status). `reads_statistics`: `f` only reads the
-/// statistics (a solve), so they must not have changed during it; if they did, a bit
-/// flipped during the call: `TAIJI_ERR_UPSET`, and the state is left unsealed, so every
-/// call refuses it until a restore.
+/// statistics (a solve), so the pass that reseals also checks they did not change
+/// during it (`reseal_checking`).
 fn mutate(
     mem: *mut u8,
     reads_statistics: bool,
     f: impl FnOnce(&mut State) -> Result<i32, i32>,
 ) -> i32 {
     code((|| {
-        let (st, stats) = running(mem)?;
+        let (st, d) = running(mem)?;
         let r = f(st);
-        if reads_statistics && !statistics_unchanged(st, stats) {
-            return Err(TAIJI_ERR_UPSET);
-        }
-        reseal(st);
+        reseal_checking(st, reads_statistics.then_some(d))?;
         r
     })())
 }
 
-/// The initialised state of a campaign still running, and its statistics' digest.
-fn running<'a>(mem: *mut u8) -> Result<(&'a mut State, u64), i32> {
-    let (st, stats) = live_statistics(mem)?;
+/// The initialised state of a campaign still running, and its digests.
+fn running<'a>(mem: *mut u8) -> Result<(&'a mut State, Digests), i32> {
+    let (st, d) = live(mem)?;
     if st.finished != 0 {
         return Err(TAIJI_ERR_FINISHED);
     }
-    Ok((st, stats))
+    Ok((st, d))
 }
 
 fn code(r: Result<i32, i32>) -> i32 {
@@ -471,28 +539,41 @@ pub unsafe extern "C" fn taiji_estimator_solve(
 #[no_mangle]
 pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut EstimateMsg) -> i32 {
     code((|| {
-        let st = live(mem)?;
+        let (st, _) = live(mem)?;
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
+        let live_msg = || st.est.message_unsent(st.est.next_tick().saturating_sub(1));
         let m = if st.finished != 0 {
             st.final_msg
         } else {
-            let m = st.est.message_unsent(st.est.next_tick().saturating_sub(1));
-            // Made from what the check passed, unless a bit flipped during the call:
-            // checked again before it leaves.
-            if sealed(st).is_none() {
-                return Err(TAIJI_ERR_UPSET);
-            }
-            // The message counts itself (its sequence number): reseal.
-            st.est.message_sent();
-            reseal(st);
-            m
+            live_msg()
         };
+        // Made from what the check passed, unless a bit flipped during the call:
+        // checked again before it leaves.
+        let Some(d) = sealed(st) else {
+            return Err(TAIJI_ERR_UPSET);
+        };
+        if st.finished == 0 {
+            // The message counts itself (its sequence number): that word's share of
+            // the seal alone, from the digests just checked.
+            let at = JointEstimator::SEQ_OFFSET;
+            let old = est_u64(st, at);
+            st.est.message_sent();
+            reseal_word(st, d, at, old);
+        }
         // SAFETY: non-null, caller-provided.
         unsafe { out.write_unaligned(m) };
         Ok(TAIJI_OK)
     })())
+}
+
+/// The `u64` at byte `at` of the estimator (0 past its end).
+fn est_u64(st: &State, at: usize) -> u64 {
+    bytemuck::bytes_of(&st.est)
+        .get(at..at.saturating_add(8))
+        .and_then(|b| <[u8; 8]>::try_from(b).ok())
+        .map_or(0, u64::from_ne_bytes)
 }
 
 /// End of campaign: runs a due solve, iterates to convergence and writes the final
@@ -512,26 +593,30 @@ pub unsafe extern "C" fn taiji_estimator_finish(
     out: *mut EstimateMsg,
 ) -> i32 {
     code((|| {
-        let (st, stats) = live_statistics(mem)?;
+        let (st, d) = live(mem)?;
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
         // Checked on every call, as the contract says, though a repeated finish does
         // not use it.
         let w = work_mut(mem, work, work_size)?;
-        if st.finished == 0 {
+        let m = if st.finished == 0 {
             let mut m = st.est.finish_with(w);
-            // Its solves only read the statistics: a change is a flip during the
-            // call, and no estimate leaves (the state stays unsealed until a restore).
-            if !statistics_unchanged(st, stats) {
-                return Err(TAIJI_ERR_UPSET);
-            }
             m.flags |= EST_FINAL;
             st.final_msg = m;
             st.finished = 1;
-            reseal(st);
-        }
-        let m = st.final_msg;
+            // Its solves only read the statistics: a change is a flip during the
+            // call, and no estimate leaves (the state stays unsealed until a restore).
+            reseal_checking(st, Some(d))?;
+            m
+        } else {
+            let m = st.final_msg;
+            // Checked again before it leaves.
+            if sealed(st).is_none() {
+                return Err(TAIJI_ERR_UPSET);
+            }
+            m
+        };
         // SAFETY: non-null, caller-provided.
         unsafe { out.write_unaligned(m) };
         Ok(TAIJI_OK)

@@ -144,9 +144,7 @@ impl Pending<'_> {
             return (call(), false);
         }
         let delay = 1 + self.delays.below(self.span_ns.max(1));
-        self.timer.arm(self.word, self.bit, delay);
-        let rc = call();
-        (rc, self.timer.landed_in_call())
+        self.timer.strike(self.word, self.bit, delay, call)
     }
 }
 
@@ -572,9 +570,12 @@ pub fn strike_outputs(
         let target = &mut mem[word] as *mut u64;
         if t % 2 == 0 {
             let mut out = EstimateMsg::default();
-            timer.arm(target, bit, delay);
-            let rc = estimate(&mut mem, &mut out);
-            if !timer.landed_in_call() {
+            let p = mem.as_mut_ptr() as *mut u8;
+            // SAFETY: an 8-aligned, initialised state and an output.
+            let (rc, landed) = timer.strike(target, bit, delay, || unsafe {
+                taiji_estimator_estimate(p, &mut out)
+            });
+            if !landed {
                 continue;
             }
             r.landed += 1;
@@ -586,22 +587,27 @@ pub fn strike_outputs(
         } else {
             let mut buf = vec![0u8; taiji_checkpoint_size()];
             let mut n = 0usize;
-            timer.arm(target, bit, delay);
+            let (p, b, len) = (mem.as_mut_ptr() as *mut u8, buf.as_mut_ptr(), buf.len());
             // SAFETY: an 8-aligned, initialised state and a buffer of the checkpoint's size.
-            let rc = unsafe {
-                taiji_estimator_checkpoint(
-                    mem.as_mut_ptr() as *mut u8,
-                    buf.as_mut_ptr(),
-                    buf.len(),
-                    &mut n,
-                )
-            };
-            if !timer.landed_in_call() {
+            let (rc, landed) = timer.strike(target, bit, delay, || unsafe {
+                taiji_estimator_checkpoint(p, b, len, &mut n)
+            });
+            if !landed {
                 continue;
             }
             r.landed += 1;
+            // What a host that ignored the code would restore: the whole buffer
+            // (`written` is set on success only).
             let mut back = memory();
-            let restored = restore(&mut back, &buf[..n.min(buf.len())], &c.cfg);
+            let restored = restore(
+                &mut back,
+                if rc == TAIJI_OK {
+                    &buf[..n.min(len)]
+                } else {
+                    &buf
+                },
+                &c.cfg,
+            );
             match rc {
                 TAIJI_OK if restored != TAIJI_OK || buf[..n] != clean[..] => r.leaked += 1,
                 TAIJI_OK => {}

@@ -1,18 +1,23 @@
 //! A flip in the middle of a call: a one-shot POSIX timer on `CLOCK_MONOTONIC`,
 //! signalled to the calling thread alone (`SIGEV_THREAD_ID`), whose handler flips one
-//! bit of the state's memory wherever the call has got to. The kernel's high-resolution
-//! timers fire within microseconds of the delay; the call is interrupted at whatever
-//! instruction it is running, as an upset strikes.
+//! bit of the state's memory wherever the call has got to. The handler flips only while
+//! the call runs: a signal that comes before it starts (a delay shorter than the
+//! syscall that arms the timer) or after it returned flips nothing, and the trial tries
+//! the next call. The kernel's high-resolution timers fire within microseconds of the
+//! delay; the call is interrupted at whatever instruction it is running.
 
-use std::cell::Cell;
+use std::sync::atomic::{compiler_fence, AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Once;
 
 thread_local! {
-    /// The word to flip (its address) and the bit's mask; 0: nothing armed.
-    /// Const-initialised without a destructor, so the handler may read it.
-    static TARGET: Cell<(usize, u64)> = const { Cell::new((0, 0)) };
-    /// Whether the armed flip has happened.
-    static FIRED: Cell<bool> = const { Cell::new(false) };
+    // Const-initialised atomics without destructors: the handler may use them.
+    /// The word to flip (its address; 0: nothing armed) and the bit's mask.
+    static ADDR: AtomicUsize = const { AtomicUsize::new(0) };
+    static MASK: AtomicU64 = const { AtomicU64::new(0) };
+    /// Set while the struck call runs.
+    static IN_CALL: AtomicBool = const { AtomicBool::new(false) };
+    /// Whether the armed flip happened (in the call).
+    static FIRED: AtomicBool = const { AtomicBool::new(false) };
 }
 
 fn signal() -> libc::c_int {
@@ -20,27 +25,42 @@ fn signal() -> libc::c_int {
 }
 
 extern "C" fn on_signal(_: libc::c_int) {
-    let (addr, mask) = TARGET.with(|t| t.replace((0, 0)));
-    if addr != 0 {
-        // SAFETY: `arm`'s caller keeps the word alive and 8-aligned until `disarm`,
-        // and the signal goes to this thread only.
+    // Taken whether or not the call runs: a signal outside it disarms the flip.
+    let addr = ADDR.with(|a| a.swap(0, Ordering::Relaxed));
+    if addr != 0 && IN_CALL.with(|c| c.load(Ordering::Relaxed)) {
+        let mask = MASK.with(|m| m.load(Ordering::Relaxed));
+        // SAFETY: `strike`'s caller keeps the word alive and 8-aligned until it
+        // returns, and the signal goes to this thread only.
         unsafe {
             let p = addr as *mut u64;
             p.write_volatile(p.read_volatile() ^ mask);
         }
-        FIRED.with(|f| f.set(true));
+        FIRED.with(|f| f.store(true, Ordering::Relaxed));
     }
 }
 
 /// This thread's timer.
 pub(super) struct Timer(libc::timer_t);
 
+/// Ends a strike however the call ends (a panic unwinding through it included): the
+/// call is over, the timer stopped and nothing armed.
+struct Disarm<'a>(&'a Timer);
+
+impl Drop for Disarm<'_> {
+    fn drop(&mut self) {
+        compiler_fence(Ordering::SeqCst);
+        IN_CALL.with(|c| c.store(false, Ordering::Relaxed));
+        self.0.set(0);
+        ADDR.with(|a| a.store(0, Ordering::Relaxed));
+    }
+}
+
 impl Timer {
     pub(super) fn new() -> Timer {
         static HANDLER: Once = Once::new();
         HANDLER.call_once(|| {
             // SAFETY: a zeroed sigaction with a handler that only touches its
-            // thread's locals and the armed word.
+            // thread's atomics and the armed word.
             unsafe {
                 let mut sa: libc::sigaction = std::mem::zeroed();
                 sa.sa_sigaction = on_signal as *const () as usize;
@@ -81,30 +101,26 @@ impl Timer {
         assert_eq!(rc, 0, "timer_settime: {}", std::io::Error::last_os_error());
     }
 
-    /// Flips bit `bit` of `*word` in `delay_ns` (at least 1 ns) from now.
-    pub(super) fn arm(&self, word: *mut u64, bit: u32, delay_ns: u64) {
-        FIRED.with(|f| f.set(false));
-        TARGET.with(|t| t.set((word as usize, 1u64 << (bit % 64))));
+    /// Runs `call` with bit `bit` of `*word` set to flip `delay_ns` (at least 1 ns)
+    /// from now, if the call is still running then. Returns the call's result and
+    /// whether the bit flipped during it (else it did not flip at all).
+    pub(super) fn strike<R>(
+        &self,
+        word: *mut u64,
+        bit: u32,
+        delay_ns: u64,
+        call: impl FnOnce() -> R,
+    ) -> (R, bool) {
+        FIRED.with(|f| f.store(false, Ordering::Relaxed));
+        MASK.with(|m| m.store(1u64 << (bit % 64), Ordering::Relaxed));
+        ADDR.with(|a| a.store(word as usize, Ordering::Relaxed));
+        let disarm = Disarm(self);
         self.set(delay_ns.max(1));
-    }
-
-    /// Right after the call: whether the flip happened during it. The timer is
-    /// stopped; a flip that landed after the call returned (between this thread's
-    /// reading of the flag and the timer's stop) is undone, so nothing lands outside.
-    pub(super) fn landed_in_call(&self) -> bool {
-        // The target before the flag: a flip between the two reads counts as during.
-        let armed = TARGET.with(|t| t.get());
-        let during = FIRED.with(|f| f.get());
-        self.set(0);
-        TARGET.with(|t| t.set((0, 0)));
-        if !during && FIRED.with(|f| f.get()) {
-            // SAFETY: the word `arm` was given, still alive (the caller holds it).
-            unsafe {
-                let p = armed.0 as *mut u64;
-                p.write_volatile(p.read_volatile() ^ armed.1);
-            }
-        }
-        during
+        IN_CALL.with(|c| c.store(true, Ordering::Relaxed));
+        compiler_fence(Ordering::SeqCst);
+        let r = call();
+        drop(disarm);
+        (r, FIRED.with(|f| f.load(Ordering::Relaxed)))
     }
 }
 

@@ -403,6 +403,13 @@ fn replay<B: Board>(board: &mut B, m: &mut Memory, samples: &mut B::Input, fig: 
             let rc = unsafe { taiji_estimator_update(mem, &s, &mut rejected, &mut flags) };
             m.cost[i] = board.ticks_since(t0);
             check(board, rc, "update");
+            if i.is_multiple_of(1000) {
+                // The host's housekeeping reads the estimate now and then (it counts
+                // itself: the seal of its sequence number alone is updated).
+                let mut est = EstimateMsg::default();
+                // SAFETY: an initialised state and an output.
+                check(board, unsafe { taiji_estimator_estimate(mem, &mut est) }, "estimate");
+            }
             if measure {
                 let depth = painted_depth(low);
                 fig.stack_update = fig.stack_update.max(depth);

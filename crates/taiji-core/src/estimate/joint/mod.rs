@@ -298,6 +298,18 @@ impl JointEstimator {
         ]
     };
 
+    /// Byte offset of the message sequence number (`seq`, a `u64`) in the estimator:
+    /// `estimate` counts its message there and updates the seal for that word alone.
+    /// It lies outside [`Self::STATISTICS`].
+    pub const SEQ_OFFSET: usize = {
+        let at = core::mem::offset_of!(Self, seq);
+        let [a, b] = Self::STATISTICS;
+        assert!(
+            at % 8 == 0 && (at + 8 <= a.start || at >= a.end) && (at + 8 <= b.start || at >= b.end)
+        );
+        at
+    };
+
     pub fn new(cfg: EstimatorConfig) -> Self {
         let mut e = <Self as bytemuck::Zeroable>::zeroed();
         Self::init_in_place(&mut e, cfg);
