@@ -307,18 +307,7 @@ fn a_whole_cycle_from_the_ground() {
     assert_eq!((r.subtype, r.failure()), (7, None));
     let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(10));
     assert_eq!(r.failure(), Some(Failure::StartWhileRunning));
-    g.wait(
-        "campaign 1's end and standby",
-        Duration::from_secs(600),
-        |h| {
-            let ev = |id| {
-                h.iter()
-                    .filter(|t| t.service == 5 && t.u16_at(0) == id)
-                    .count()
-            };
-            ev(4) + ev(5) == 1 && ev(1) == 2
-        },
-    );
+    wait_end(&mut g, 1);
     assert!(g.heard.iter().any(|t| (t.service, t.subtype) == (3, 25)));
     let c1 = out.join("campaign-1");
     let r1 = report(&c1);
@@ -364,18 +353,7 @@ fn a_whole_cycle_from_the_ground() {
     let seed2 = taiji::analysis::mission::campaign_seed(mission_seed, 1);
     let r = g.command(8, 1, &start_args(seed2, 0.0), Duration::from_secs(120));
     assert_eq!(r.failure(), None);
-    g.wait(
-        "campaign 2's end and standby",
-        Duration::from_secs(600),
-        |h| {
-            let ev = |id| {
-                h.iter()
-                    .filter(|t| t.service == 5 && t.u16_at(0) == id)
-                    .count()
-            };
-            ev(4) + ev(5) == 2 && ev(1) == 4
-        },
-    );
+    wait_end(&mut g, 2);
     let r2 = report(&out.join("campaign-2"));
     assert_eq!(r2["priors_source"], "onboard_table");
     for (is1, is2) in r1["inertial_sensors"]

@@ -65,7 +65,7 @@ macro_rules! table_values {
             range: None,
             settable: false,
             default: None,
-            meaning: concat!("the onboard calibration table's ", $m, " (", $el, ")"),
+            meaning: concat!("the onboard calibration table's ", $m, " (", $el, ") at the last apply's epoch"),
         }
     };
 }
@@ -128,7 +128,7 @@ const fn all() -> [ParamDef; 43] {
         range: Some(EPOCH_RANGE_DAYS),
         settable: true,
         default: Some(0.0),
-        meaning: "the mission day at which function 1 starts a campaign: with [drift] its truths are that day's, and its priors the onboard table's trends predicted for it",
+        meaning: "the mission day at which function 1 starts a campaign: its truths that day's (with the scenario's drift), its priors the onboard table's trends predicted for it",
     };
     let mut q = 0;
     while q < 6 {

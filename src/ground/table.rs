@@ -711,21 +711,23 @@ mod tests {
         std::fs::remove_dir_all(&d).unwrap();
     }
 
+    /// The file of `current` (no previous table) edited by `edit` under a checksum
+    /// made anew, decoded.
+    fn resealed(current: Entry, edit: &dyn Fn(&mut serde_json::Value)) -> Result<State, String> {
+        let s = State {
+            current: Some(current),
+            previous: None,
+        };
+        let mut f: File = serde_json::from_slice(&encode(&s)).unwrap();
+        edit(&mut f.table);
+        f.sha256 = sha256_hex(&serde_json::to_vec(&f.table).unwrap());
+        decode(&serde_json::to_vec(&f).unwrap())
+    }
+
     #[test]
     fn a_file_with_a_right_checksum_but_wrong_content_is_refused() {
         let reseal = |edit: &dyn Fn(&mut serde_json::Value)| {
-            let s = State {
-                current: Some(Entry {
-                    campaign: 1,
-                    values: values(1.0),
-                    trends: None,
-                }),
-                previous: None,
-            };
-            let mut f: File = serde_json::from_slice(&encode(&s)).unwrap();
-            edit(&mut f.table);
-            f.sha256 = sha256_hex(&serde_json::to_vec(&f.table).unwrap());
-            decode(&serde_json::to_vec(&f).unwrap())
+            resealed(Entry::values_only(1, values(1.0)), edit)
         };
         assert!(reseal(&|_| {}).is_ok());
         for (edit, why) in [
@@ -855,16 +857,8 @@ mod tests {
 
     #[test]
     fn trends_that_disagree_with_the_values_or_in_a_version_1_file_are_refused() {
-        let reseal = |edit: &dyn Fn(&mut serde_json::Value)| {
-            let s = State {
-                current: Some(Entry::from_trends(1, trends())),
-                previous: None,
-            };
-            let mut f: File = serde_json::from_slice(&encode(&s)).unwrap();
-            edit(&mut f.table);
-            f.sha256 = sha256_hex(&serde_json::to_vec(&f.table).unwrap());
-            decode(&serde_json::to_vec(&f).unwrap())
-        };
+        let reseal =
+            |edit: &dyn Fn(&mut serde_json::Value)| resealed(Entry::from_trends(1, trends()), edit);
         assert!(reseal(&|_| {}).is_ok());
         for (edit, why) in [
             (
