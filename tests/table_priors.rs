@@ -8,7 +8,6 @@ mod support;
 mod tmpdir;
 use taiji::analysis::campaign::Threads;
 use taiji::analysis::crlb::{run_with_bound, Bounds};
-use taiji::analysis::mission::trend;
 use taiji::analysis::montecarlo::{run_seeds, summarise};
 use taiji::analysis::plan::{maneuver_bound, resolve};
 use taiji::analysis::report::{table_values, PriorsSource, Report};
@@ -16,6 +15,7 @@ use taiji::ground::table::{Entry, TableStore};
 use taiji::sim::estimate::Method;
 use taiji::sim::msg::TableValues;
 use taiji::sim::scenario::{k_from_beta, Scenario};
+use taiji::sim::trend;
 
 /// Seeds of the second campaigns (and of campaign 1's, for comparison).
 const SEEDS: u64 = 40;

@@ -1,5 +1,5 @@
 //! The onboard calibration table: per IS, group (β, k, r) and axis the trend of the
-//! applied campaigns' results (`analysis::mission::trend`, the timeline's: value, rate
+//! applied campaigns' results (`sim::trend`, the timeline's: value, rate
 //! per day, their covariance, the epoch of the last result and the drift model), whose
 //! prediction for a campaign's epoch is that campaign's priors
 //! (`Scenario::with_onboard_priors`); the values at the last apply's epoch (what 20,2
@@ -26,8 +26,8 @@
 //! table (`LoadProblem::BothBad`). No bytes make it panic.
 
 use super::dictionary::Failure;
-use crate::analysis::mission::trend::{self, Trend, TrendModel, Trends};
 use crate::sim::msg::TableValues;
+use crate::sim::trend::{self, Trend, TrendModel, Trends};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::io::{Read as _, Write as _};

@@ -2,7 +2,7 @@
 //! their epochs, each a whole in-process campaign (`campaign_report::run`, as
 //! `taiji-calib run`) with that epoch's truths (`[drift]`), its priors the values in
 //! use onboard; each result applied by function 3's rules (`report::table_values`) and
-//! taken into the trend filters (`trend`), whose predictions are the values in use
+//! taken into the trend filters (`sim::trend`), whose predictions are the values in use
 //! between campaigns; with `campaigns = "auto"` the next campaign falls when the
 //! requirements would lapse (`schedule`). Campaigns depend on each other through the
 //! table, so they run one after the other; each runs its simulation, its estimator,
@@ -11,7 +11,6 @@
 pub mod figures;
 pub mod output;
 pub mod schedule;
-pub mod trend;
 
 use crate::analysis::campaign::Threads;
 use crate::analysis::report::{Report, REQ_COM_M, REQ_SCALE_FACTOR_REL};
@@ -19,8 +18,8 @@ use crate::sim::drift::{History, Truths, DAY_S};
 use crate::sim::estimate::Method;
 use crate::sim::msg::TableValues;
 use crate::sim::scenario::{CampaignDays, MissionTimeline, Scenario};
+use crate::sim::trend::{self, Grid, Trends};
 use serde::Serialize;
-use trend::{Grid, Trends};
 
 /// The parameter groups, as `daily` names them.
 pub const GROUPS: [&str; 3] = ["beta", "k", "com_offset"];

@@ -4,7 +4,6 @@
 
 use super::tmtc::{Health, Tmtc};
 use super::Up;
-use crate::analysis::mission::trend;
 use crate::analysis::report::Report;
 use crate::bus::timing::monotonic_ns;
 use crate::bus::wiring::{self, BusError, Pub, Sub};
@@ -17,6 +16,7 @@ use crate::sim::msg::{
     EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus,
     NOTE_DONE, NOTE_EVENT, NOTE_STARTED, PROC_TMTC, REQ_STOP, SET_RUNNING,
 };
+use crate::sim::trend;
 use std::collections::VecDeque;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};

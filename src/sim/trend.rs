@@ -6,10 +6,9 @@
 //! use onboard, and the predicted σ that of (in use − truth). A campaign whose estimate
 //! lies beyond [`MISFIT_SIGMA`] of the prediction is a model misfit: the trend restarts
 //! from it.
-
 //!
 //! The values in use onboard are these trends, whoever flies the campaigns: the
-//! timeline (`mission::run`) and the ground's onboard calibration table
+//! timeline (`analysis::mission::run`) and the ground's onboard calibration table
 //! (`ground::table`, function 3) take a campaign's result in with [`take_in`] and start
 //! the next campaign from [`predicted`], the same code for the same bits.
 
