@@ -307,18 +307,7 @@ fn a_whole_cycle_from_the_ground() {
     assert_eq!((r.subtype, r.failure()), (7, None));
     let r = g.command(8, 1, &start_args(seed, 0.0), Duration::from_secs(10));
     assert_eq!(r.failure(), Some(Failure::StartWhileRunning));
-    g.wait(
-        "campaign 1's end and standby",
-        Duration::from_secs(600),
-        |h| {
-            let ev = |id| {
-                h.iter()
-                    .filter(|t| t.service == 5 && t.u16_at(0) == id)
-                    .count()
-            };
-            ev(4) + ev(5) == 1 && ev(1) == 2
-        },
-    );
+    wait_end(&mut g, 1);
     assert!(g.heard.iter().any(|t| (t.service, t.subtype) == (3, 25)));
     let c1 = out.join("campaign-1");
     let r1 = report(&c1);
@@ -364,18 +353,7 @@ fn a_whole_cycle_from_the_ground() {
     let seed2 = taiji::analysis::mission::campaign_seed(mission_seed, 1);
     let r = g.command(8, 1, &start_args(seed2, 0.0), Duration::from_secs(120));
     assert_eq!(r.failure(), None);
-    g.wait(
-        "campaign 2's end and standby",
-        Duration::from_secs(600),
-        |h| {
-            let ev = |id| {
-                h.iter()
-                    .filter(|t| t.service == 5 && t.u16_at(0) == id)
-                    .count()
-            };
-            ev(4) + ev(5) == 2 && ev(1) == 4
-        },
-    );
+    wait_end(&mut g, 2);
     let r2 = report(&out.join("campaign-2"));
     assert_eq!(r2["priors_source"], "onboard_table");
     for (is1, is2) in r1["inertial_sensors"]
@@ -485,6 +463,142 @@ fn a_whole_cycle_from_the_ground() {
     signal(child.id() as i32, libc::SIGTERM);
     let (st, _, stderr) = child.wait(Duration::from_secs(30));
     assert_eq!(st.code(), Some(130), "{stderr}");
+}
+
+/// A drifting mission's campaigns, short: the drift of scenarios/mission_drift.toml
+/// without its step, three campaigns of 3000 s on days 2.5, 29 and 36.
+const DRIFTING: &str = "name = \"drift-short\"\nseed = 11\nduration_s = 3000.0\n\n[drift]\nbeta_rel_per_day = 1.5e-6\nbeta_rel_per_sqrt_day = 4.0e-7\ncom_m_per_day = [[0.9e-6, -1.1e-6, 0.4e-6], [0.7e-6, 1.3e-6, 0.2e-6]]\ncom_m_per_sqrt_day = 2.5e-7\n\n[timeline]\ndays = 40.0\ncampaigns = [2.5, 29.0, 36.0]\n";
+
+/// Wait for the end of campaign `n` (its requirement event) and standby after it
+/// (mode_changed twice per campaign).
+fn wait_end(g: &mut Ground, n: usize) {
+    g.wait(
+        &format!("campaign {n}'s end and standby"),
+        Duration::from_secs(600),
+        |h| {
+            let ev = |id| {
+                h.iter()
+                    .filter(|t| t.service == 5 && t.u16_at(0) == id)
+                    .count()
+            };
+            ev(4) + ev(5) == n && ev(1) == 2 * n
+        },
+    );
+}
+
+/// Issue 51: a drifting mission over the ground link. The timeline of the scenario
+/// (mission seed 11, the file's, as the set's) flies campaigns on days 2.5, 29 and 36;
+/// the set flies set epoch 2.5, start (campaign 1's seed), apply, set epoch 29, start
+/// (campaign 2's seed), apply, set epoch 36, start (campaign 3's). Every campaign
+/// equals the timeline's bit for bit: estimates and σ, status, the drifted truths it
+/// is judged against, and its priors (from campaign 2 on the trends' prediction for its
+/// day: campaign 3's are not campaign 2's estimate, the rate moved them).
+#[test]
+fn a_drifting_timeline_over_the_link_equals_the_timeline() {
+    let _serial = serial();
+    let dir = support::tmp("drift");
+    let sc = support::write_scenario(&dir, DRIFTING);
+    let timeline = {
+        let s = Scenario::load(&sc).unwrap();
+        let (s, _) = taiji::analysis::plan::resolve(s).unwrap();
+        taiji::analysis::mission::run(
+            &s,
+            s.seed,
+            taiji::sim::estimate::Method::Joint,
+            taiji::analysis::campaign::Threads::available(),
+            |_| {},
+        )
+    };
+    let flown: Vec<_> = timeline
+        .campaigns
+        .iter()
+        .map(|c| (c.day, c.seed, c.applied))
+        .collect();
+    assert_eq!(flown.len(), 3, "{flown:?}");
+    assert!(
+        flown[0].2 && flown[1].2,
+        "campaigns 1 and 2 applied: {flown:?}"
+    );
+    let out = dir.join("out");
+    let pfx = prefix("gdrift");
+    let port = free_port();
+    let child = launch(&sc, &out, &pfx, port);
+    let key = wait_key(&out);
+    let mut g = Ground::new(&format!("127.0.0.1:{port}"), &key, 100);
+    ping_until_up(&mut g);
+    let epoch = |d: f64| {
+        taiji::ground::requests::value_list(&[(
+            taiji::ground::parameters::PAR_CAMPAIGN_EPOCH_DAY,
+            d.to_bits(),
+        )])
+        .unwrap()
+    };
+    // An epoch out of range is refused, and changes nothing.
+    let r = g.command(20, 3, &epoch(-1.0), Duration::from_secs(10));
+    assert_eq!(r.failure(), Some(Failure::OutOfRange));
+    let mut reports = Vec::new();
+    for (n, (day, seed, _)) in flown.iter().enumerate() {
+        let r = g.command(20, 3, &epoch(*day), Duration::from_secs(10));
+        assert_eq!((r.subtype, r.failure()), (7, None));
+        let r = g.command(8, 1, &start_args(*seed, 0.0), Duration::from_secs(120));
+        assert_eq!((r.subtype, r.failure()), (7, None));
+        wait_end(&mut g, n + 1);
+        let rep = report(&out.join(format!("campaign-{}", n + 1)));
+        if n + 1 < flown.len() {
+            let r = g.command(8, 1, &function(3, &[]), Duration::from_secs(10));
+            assert_eq!(
+                (r.subtype, r.failure()),
+                (7, None),
+                "{}",
+                rep["requirements"]
+            );
+        }
+        reports.push(rep);
+    }
+    let r = g.command(8, 1, &function(5, &[]), Duration::from_secs(10));
+    assert_eq!(r.failure(), None);
+    let (status, _, stderr) = child.wait(Duration::from_secs(30));
+    assert_eq!(status.code(), Some(0), "{stderr}");
+    let quantity = |r: &serde_json::Value, what: &str| -> Vec<serde_json::Value> {
+        r["inertial_sensors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|is| ["beta", "k", "com_offset"].map(|q| is[q][what].clone()))
+            .collect()
+    };
+    for (c, r) in timeline.campaigns.iter().zip(&reports) {
+        let v = serde_json::to_value(c.report.as_ref().unwrap()).unwrap();
+        let day = c.day;
+        assert_eq!(estimates(&v), estimates(r), "campaign on day {day}");
+        assert_eq!(
+            v["estimator_status"]["bits"], r["estimator_status"]["bits"],
+            "day {day}"
+        );
+        for what in ["truth", "prior"] {
+            assert_eq!(quantity(&v, what), quantity(r, what), "{what}, day {day}");
+        }
+        assert_eq!(v["priors_source"], r["priors_source"]);
+        assert_eq!(v["requirements"], r["requirements"]);
+    }
+    assert_eq!(timeline.campaigns.len(), reports.len());
+    // The drift is there: campaign 2's truths are not campaign 1's; campaign 2 starts
+    // from campaign 1's estimate (a trend of one result has no rate yet), campaign 3
+    // from the trends' prediction, moved by their rates.
+    assert_ne!(
+        quantity(&reports[0], "truth"),
+        quantity(&reports[1], "truth")
+    );
+    assert_eq!(reports[1]["priors_source"], "onboard_table");
+    assert_eq!(
+        quantity(&reports[1], "prior")[2],
+        quantity(&reports[0], "estimate")[2]
+    );
+    assert_ne!(
+        quantity(&reports[2], "prior")[2],
+        quantity(&reports[1], "estimate")[2],
+        "campaign 3 starts from the trend's prediction for its day, not campaign 2's r"
+    );
 }
 
 fn signal(pid: i32, sig: i32) {

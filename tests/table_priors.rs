@@ -11,10 +11,11 @@ use taiji::analysis::crlb::{run_with_bound, Bounds};
 use taiji::analysis::montecarlo::{run_seeds, summarise};
 use taiji::analysis::plan::{maneuver_bound, resolve};
 use taiji::analysis::report::{table_values, PriorsSource, Report};
-use taiji::ground::table::TableStore;
+use taiji::ground::table::{Entry, TableStore};
 use taiji::sim::estimate::Method;
 use taiji::sim::msg::TableValues;
 use taiji::sim::scenario::{k_from_beta, Scenario};
+use taiji::sim::trend;
 
 /// Seeds of the second campaigns (and of campaign 1's, for comparison).
 const SEEDS: u64 = 40;
@@ -64,12 +65,18 @@ fn a_campaign_from_the_onboard_table_starts_from_its_values_with_an_honest_sigma
     let dir = support::tmp("store");
     let (mut store, problem) = TableStore::open(&dir);
     assert!(problem.is_none());
-    store.apply(table_values(&r1).unwrap(), 1).unwrap();
+    // Function 3's way: the result starts the trends (no drift: constant parameters).
+    let mut trends = [[[None; 3]; 3]; 2];
+    let mid = trend::campaign_middle(0.0, s.duration_s);
+    trend::take_in(&mut trends, &s, &table_values(&r1).unwrap(), mid);
+    store.apply(Entry::from_trends(1, trends)).unwrap();
     drop(store);
     let (store, problem) = TableStore::open(&dir);
     assert!(problem.is_none());
-    let (t, campaign): (TableValues, u32) = store.current().unwrap();
-    assert_eq!(campaign, 1);
+    let campaign = store.current().map(|(_, c)| c);
+    assert_eq!(campaign, Some(1));
+    // The priors of campaign 2, a day later: the trends' prediction.
+    let t: TableValues = store.entry().unwrap().at(1.0);
 
     // Campaign 2's scenario, as the process set's stages load it (TOML, validated).
     let s2 = s.with_onboard_priors(&t);

@@ -828,4 +828,18 @@ mod tests {
             std::mem::size_of::<SensorSample>()
         );
     }
+
+    /// The ground's request has no implicit padding: the header, token, function,
+    /// `_pad`, seed, duration and epoch, in that order (the epoch added last).
+    #[test]
+    fn the_ground_request_is_packed_as_declared() {
+        use std::mem::{offset_of, size_of};
+        let h = size_of::<crate::sim::msg::Header>();
+        assert_eq!(offset_of!(GroundRequest, token), h);
+        assert_eq!(offset_of!(GroundRequest, seed), h + 16);
+        assert_eq!(offset_of!(GroundRequest, duration_s), h + 24);
+        assert_eq!(offset_of!(GroundRequest, epoch_day), h + 32);
+        assert_eq!(size_of::<GroundRequest>(), h + 40);
+        assert_eq!(size_of::<Wire<GroundRequest>>(), size_of::<GroundRequest>());
+    }
 }

@@ -95,6 +95,8 @@ pub struct Onboard {
     next_hk_ns: [u64; 2],
     min_duration_s: f64,
     max_duration_s: f64,
+    /// The epoch function 1 starts a campaign at [mission day].
+    epoch_day: f64,
     /// Per event (index = ID − 1).
     events_enabled: [bool; EVENTS.len()],
     pending: [Option<Pending>; MAX_PENDING],
@@ -157,6 +159,7 @@ impl Onboard {
             next_hk_ns: [0; 2],
             min_duration_s: default_of(par::PAR_START_MIN_DURATION_S),
             max_duration_s: default_of(par::PAR_START_MAX_DURATION_S),
+            epoch_day: default_of(par::PAR_CAMPAIGN_EPOCH_DAY),
             events_enabled: [true; EVENTS.len()],
             pending: [None; MAX_PENDING],
             next_token: token_base,
@@ -450,9 +453,9 @@ impl Onboard {
             }
         };
         self.pending[slot] = Some(p);
-        let (seed, duration_s) = match f {
-            Function::Start { seed, duration_s } => (seed, duration_s),
-            _ => (0, 0.0),
+        let (seed, duration_s, epoch_day) = match f {
+            Function::Start { seed, duration_s } => (seed, duration_s, self.epoch_day),
+            _ => (0, 0.0, 0.0),
         };
         let header = Header {
             seq: self.request_seq,
@@ -467,6 +470,7 @@ impl Onboard {
             _pad: 0,
             seed,
             duration_s,
+            epoch_day,
         }
     }
 
@@ -521,6 +525,7 @@ impl Onboard {
             par::PAR_HK2_INTERVAL_MS => self.interval_ms[1].into(),
             par::PAR_START_MIN_DURATION_S => self.min_duration_s.to_bits(),
             par::PAR_START_MAX_DURATION_S => self.max_duration_s.to_bits(),
+            par::PAR_CAMPAIGN_EPOCH_DAY => self.epoch_day.to_bits(),
             par::PAR_TABLE_CAMPAIGN => self.state.table_campaign.into(),
             par::PAR_TABLE_VALID => self.state.table_valid.min(1).into(),
             par::PAR_TABLE_FIRST..=par::PAR_TABLE_LAST => {
@@ -540,6 +545,7 @@ impl Onboard {
             }
             par::PAR_START_MIN_DURATION_S => self.min_duration_s = f64::from_bits(bits),
             par::PAR_START_MAX_DURATION_S => self.max_duration_s = f64::from_bits(bits),
+            par::PAR_CAMPAIGN_EPOCH_DAY => self.epoch_day = f64::from_bits(bits),
             _ => {}
         }
     }

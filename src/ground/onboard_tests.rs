@@ -242,7 +242,7 @@ fn every_bad_input_class_gets_its_failure_code_and_is_never_executed() {
         (Failure::UnknownSubtype, 17, 3, vec![]),
         (Failure::UnknownSubtype, 3, 25, vec![]),
         (Failure::UnknownFunction, 8, 1, vec![0, 9]),
-        (Failure::UnknownParameter, 20, 1, id_list(&[1, 5]).unwrap()),
+        (Failure::UnknownParameter, 20, 1, id_list(&[1, 6]).unwrap()),
         (Failure::UnknownParameter, 20, 3, vec![1, 0, 48, 0, 0, 0, 0]),
         (Failure::UnknownStructure, 3, 27, id_list(&[3]).unwrap()),
         (Failure::UnknownStructure, 3, 5, id_list(&[0]).unwrap()),
@@ -515,7 +515,19 @@ fn parameters_are_reported_and_set_within_their_limits() {
     let p = b.tc(8, 1, &start(120.0));
     assert_eq!(refusal(&b.send(&p).0), Failure::OutOfRange);
     let p = b.tc(8, 1, &start(100.0));
-    assert!(b.send(&p).1.is_some());
+    assert_eq!(b.send(&p).1.map(|r| r.epoch_day), Some(0.0));
+    // The campaign's epoch: range-checked, then carried by the next start.
+    for bad in [-1e-3, 3650.5, f64::NAN, f64::INFINITY] {
+        let tm = set(&mut b, &[(5, bad.to_bits())]);
+        assert_eq!(refusal(&tm), Failure::OutOfRange, "{bad}");
+    }
+    assert_eq!(get(&b.ob, 5), 0f64.to_bits());
+    let tm = set(&mut b, &[(5, 29.5f64.to_bits())]);
+    assert_eq!(types(&tm), [(1, 1), (1, 3), (1, 7)]);
+    assert_eq!(get(&b.ob, 5), 29.5f64.to_bits());
+    let p = b.tc(8, 1, &start(100.0));
+    let r = b.send(&p).1.unwrap();
+    assert_eq!((r.seed, r.duration_s, r.epoch_day), (1, 100.0, 29.5));
     assert!(PARAMETERS_READABLE
         .iter()
         .all(|&id| parameter(id).is_some()));

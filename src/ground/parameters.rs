@@ -24,6 +24,8 @@ pub const PAR_HK1_INTERVAL_MS: u16 = 1;
 pub const PAR_HK2_INTERVAL_MS: u16 = 2;
 pub const PAR_START_MIN_DURATION_S: u16 = 3;
 pub const PAR_START_MAX_DURATION_S: u16 = 4;
+/// The epoch function 1 starts a campaign at [mission day].
+pub const PAR_CAMPAIGN_EPOCH_DAY: u16 = 5;
 /// The first table value: `table_beta_is1_x`; the 36 values run in the order β, σ(β), k,
 /// σ(k), r, σ(r), each per IS and axis (is1_x … is2_z).
 pub const PAR_TABLE_FIRST: u16 = 10;
@@ -36,6 +38,8 @@ pub const PAR_TABLE_VALID: u16 = 47;
 pub const INTERVAL_RANGE_MS: (u32, u32) = (100, 3_600_000);
 const INTERVAL: Option<(f64, f64)> = Some((INTERVAL_RANGE_MS.0 as f64, INTERVAL_RANGE_MS.1 as f64));
 const DURATION: Option<(f64, f64)> = Some((1.0, 1e7));
+/// The range of a campaign's epoch [days]: a mission's longest (`timeline.days`).
+pub const EPOCH_RANGE_DAYS: (f64, f64) = (0.0, crate::sim::scenario::mission::MAX_MISSION_DAYS);
 
 /// 36 table values: `table_<quantity>_is<i>_<axis>`, read-only.
 macro_rules! table_values {
@@ -61,7 +65,7 @@ macro_rules! table_values {
             range: None,
             settable: false,
             default: None,
-            meaning: concat!("the onboard calibration table's ", $m, " (", $el, ")"),
+            meaning: concat!("the onboard calibration table's ", $m, " (", $el, ") at the last apply's epoch"),
         }
     };
 }
@@ -80,7 +84,7 @@ const TABLE: [[ParamDef; 6]; 6] = table_values!(
     (40, "r_sigma", "m", "centre-of-mass offset's 1σ")
 );
 
-const fn all() -> [ParamDef; 42] {
+const fn all() -> [ParamDef; 43] {
     let mut v = [ParamDef {
         id: PAR_HK1_INTERVAL_MS,
         name: "hk1_interval_ms",
@@ -90,7 +94,7 @@ const fn all() -> [ParamDef; 42] {
         settable: true,
         default: Some(1000.0),
         meaning: "the interval of housekeeping structure 1's periodic reports",
-    }; 42];
+    }; 43];
     v[1] = ParamDef {
         id: PAR_HK2_INTERVAL_MS,
         name: "hk2_interval_ms",
@@ -116,16 +120,26 @@ const fn all() -> [ParamDef; 42] {
         meaning: "the longest duration function 1 may ask for",
         ..v[2]
     };
+    v[4] = ParamDef {
+        id: PAR_CAMPAIGN_EPOCH_DAY,
+        name: "campaign_epoch_day",
+        kind: Kind::F64,
+        unit: "d",
+        range: Some(EPOCH_RANGE_DAYS),
+        settable: true,
+        default: Some(0.0),
+        meaning: "the mission day at which function 1 starts a campaign: its truths that day's (with the scenario's drift), its priors the onboard table's trends predicted for it",
+    };
     let mut q = 0;
     while q < 6 {
         let mut e = 0;
         while e < 6 {
-            v[4 + 6 * q + e] = TABLE[q][e];
+            v[5 + 6 * q + e] = TABLE[q][e];
             e += 1;
         }
         q += 1;
     }
-    v[40] = ParamDef {
+    v[41] = ParamDef {
         id: PAR_TABLE_CAMPAIGN,
         name: "table_campaign",
         kind: Kind::U32,
@@ -135,17 +149,17 @@ const fn all() -> [ParamDef; 42] {
         default: None,
         meaning: "the campaign whose result the onboard calibration table holds (0: none)",
     };
-    v[41] = ParamDef {
+    v[42] = ParamDef {
         id: PAR_TABLE_VALID,
         name: "table_valid",
         kind: Kind::U8,
         meaning: "1 when the onboard calibration table holds values, else 0",
-        ..v[40]
+        ..v[41]
     };
     v
 }
 
-const ALL: [ParamDef; 42] = all();
+const ALL: [ParamDef; 43] = all();
 
 /// Every parameter, by ID.
 pub const PARAMETERS: &[ParamDef] = &ALL;
@@ -212,7 +226,7 @@ mod tests {
     #[test]
     fn parameters_are_listed_once_in_order() {
         let ids: Vec<u16> = PARAMETERS.iter().map(|p| p.id).collect();
-        let want: Vec<u16> = (1..=4).chain(10..=47).collect();
+        let want: Vec<u16> = (1..=5).chain(10..=47).collect();
         assert_eq!(ids, want);
         let mut names: Vec<_> = PARAMETERS.iter().map(|p| p.name).collect();
         names.sort();
@@ -228,7 +242,13 @@ mod tests {
             assert_eq!(p.settable, p.default.is_some(), "{}", p.name);
             assert_eq!(p.settable, p.range.is_some(), "{}", p.name);
         }
-        assert!(parameter(5).is_none() && parameter(48).is_none());
+        assert!(parameter(6).is_none() && parameter(48).is_none());
+        let e = parameter(PAR_CAMPAIGN_EPOCH_DAY).unwrap();
+        assert_eq!((e.name, e.default), ("campaign_epoch_day", Some(0.0)));
+        assert!(in_range(e, 0f64.to_bits()) && in_range(e, 3650f64.to_bits()));
+        for bad in [-1e-9, 3650.5, f64::NAN, f64::INFINITY] {
+            assert!(!in_range(e, bad.to_bits()), "{bad}");
+        }
     }
 
     #[test]

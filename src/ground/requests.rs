@@ -375,7 +375,7 @@ mod tests {
             Ok(vec![47, 4])
         );
         assert_eq!(
-            parse_parameter_ids(&[1, 0, 5]),
+            parse_parameter_ids(&[1, 0, 6]),
             Err(Failure::UnknownParameter)
         );
         assert_eq!(parse_parameter_ids(&[]), Err(Failure::BadLength));

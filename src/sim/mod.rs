@@ -18,4 +18,5 @@ pub mod requirements;
 pub mod rng;
 pub mod scenario;
 pub mod stage;
+pub mod trend;
 pub mod truth_box;

@@ -298,6 +298,9 @@ pub struct GroundRequest {
     pub seed: u64,
     /// Function 1: its duration [s] (0: the scenario's).
     pub duration_s: f64,
+    /// Function 1: its epoch [mission day] (service-20 parameter
+    /// `campaign_epoch_day` when it was accepted).
+    pub epoch_day: f64,
 }
 
 /// `GroundNote::kind`: execution of request `token` started (a 1,3 report).

@@ -2,7 +2,7 @@
 //! their epochs, each a whole in-process campaign (`campaign_report::run`, as
 //! `taiji-calib run`) with that epoch's truths (`[drift]`), its priors the values in
 //! use onboard; each result applied by function 3's rules (`report::table_values`) and
-//! taken into the trend filters (`trend`), whose predictions are the values in use
+//! taken into the trend filters (`sim::trend`), whose predictions are the values in use
 //! between campaigns; with `campaigns = "auto"` the next campaign falls when the
 //! requirements would lapse (`schedule`). Campaigns depend on each other through the
 //! table, so they run one after the other; each runs its simulation, its estimator,
@@ -11,7 +11,6 @@
 pub mod figures;
 pub mod output;
 pub mod schedule;
-pub mod trend;
 
 use crate::analysis::campaign::Threads;
 use crate::analysis::report::{Report, REQ_COM_M, REQ_SCALE_FACTOR_REL};
@@ -19,8 +18,8 @@ use crate::sim::drift::{History, Truths, DAY_S};
 use crate::sim::estimate::Method;
 use crate::sim::msg::TableValues;
 use crate::sim::scenario::{CampaignDays, MissionTimeline, Scenario};
+use crate::sim::trend::{self, Grid, Trends};
 use serde::Serialize;
-use trend::{Trend, TrendModel, Update};
 
 /// The parameter groups, as `daily` names them.
 pub const GROUPS: [&str; 3] = ["beta", "k", "com_offset"];
@@ -113,15 +112,12 @@ pub struct Mission {
     pub wall_time_s: Option<f64>,
 }
 
-/// Per IS, group and axis.
-type Grid<T> = [[[T; 3]; 3]; 2];
-
 /// The values in use from one time on: the ground calibration, or the trends.
 #[derive(Debug, Clone)]
 enum InUse {
     /// Value and σ.
     Ground(Box<(Grid<f64>, Grid<f64>)>),
-    Trends(Box<Grid<Option<Trend>>>),
+    Trends(Box<Trends>),
 }
 
 impl InUse {
@@ -131,20 +127,6 @@ impl InUse {
             InUse::Ground(vs) => (vs.0[i][g][a], vs.1[i][g][a]),
             InUse::Trends(t) => t[i][g][a].map_or((f64::NAN, f64::NAN), |t| t.predict(day)),
         }
-    }
-
-    /// The table the next campaign starts from.
-    fn table(&self, n_is: usize, day: f64) -> TableValues {
-        let mut tv = TableValues::default();
-        for i in 0..n_is {
-            for a in 0..3 {
-                let v = |g| self.at(i, g, a, day);
-                (tv.beta[i][a], tv.beta_sigma[i][a]) = v(0);
-                (tv.k[i][a], tv.k_sigma[i][a]) = v(1);
-                (tv.r[i][a], tv.r_sigma[i][a]) = v(2);
-            }
-        }
-        tv
     }
 }
 
@@ -162,43 +144,6 @@ fn truths(s: &Scenario, history: Option<&History>, day: f64) -> Truths {
     match history {
         Some(h) => h.at(day),
         None => s.truths(),
-    }
-}
-
-/// (estimate, σ) of (IS i, group g, axis a) in a report.
-fn estimate(r: &Report, i: usize, g: usize, a: usize) -> (f64, f64) {
-    let is = &r.inertial_sensors[i];
-    let q = [&is.beta, &is.k, &is.com_offset][g];
-    (q.estimate[a], q.sigma[a])
-}
-
-/// The drift model of (group g) for a parameter of about `scale` (β, k: the relative
-/// figures times it; r: the rates' RMS over every IS and axis: the model's magnitude,
-/// not each axis's value).
-fn model(s: &Scenario, g: usize, scale: f64) -> TrendModel {
-    let Some(d) = &s.drift else {
-        return TrendModel {
-            walk_per_day: 0.0,
-            rate_sigma: 0.0,
-        };
-    };
-    if g == 2 {
-        let n = 3 * s.inertial_sensor.len();
-        let ms: f64 = d.com_m_per_day[..s.inertial_sensor.len()]
-            .iter()
-            .flatten()
-            .map(|v| v * v)
-            .sum::<f64>()
-            / n as f64;
-        TrendModel {
-            walk_per_day: d.com_m_per_sqrt_day.powi(2),
-            rate_sigma: ms.sqrt(),
-        }
-    } else {
-        TrendModel {
-            walk_per_day: (d.beta_rel_per_sqrt_day * scale).powi(2),
-            rate_sigma: (d.beta_rel_per_day * scale).abs(),
-        }
     }
 }
 
@@ -226,7 +171,7 @@ pub fn run(
     let mut warnings = Vec::new();
     // The values in use, from each time on (the first: the ground calibration).
     let mut in_use: Vec<(f64, InUse)> = vec![(0.0, ground(&base, seed))];
-    let mut trends: Grid<Option<Trend>> = [[[None; 3]; 3]; 2];
+    let mut trends: Trends = [[[None; 3]; 3]; 2];
     let mut next = match &tl.campaigns {
         CampaignDays::Auto => Some(0.0),
         CampaignDays::Days(d) => d.first().copied(),
@@ -237,30 +182,18 @@ pub fn run(
             break;
         }
         let n = campaigns.len();
-        let record = fly(&base, seed, n, day, &in_use, method, threads);
+        let (record, result) = fly(&base, seed, n, day, &in_use, method, threads);
         let end = day + campaign_days;
-        if let (true, Some(r)) = (record.applied, &record.report) {
-            let mid = day + 0.5 * campaign_days;
-            for (i, tg) in trends.iter_mut().enumerate().take(n_is) {
-                for (g, ta) in tg.iter_mut().enumerate() {
-                    for (a, t) in ta.iter_mut().enumerate() {
-                        let (e, sig) = estimate(r, i, g, a);
-                        match t {
-                            None => *t = Some(Trend::start(mid, e, sig, model(s, g, e))),
-                            Some(t) => {
-                                if let Update::Misfit(nu) = t.update(mid, e, sig) {
-                                    misfits.push(Misfit {
-                                        day,
-                                        is: i + 1,
-                                        param: GROUPS[g],
-                                        axis: AXES[a],
-                                        innovation_sigma: nu,
-                                    });
-                                }
-                            }
-                        }
-                    }
-                }
+        if let Some(result) = result {
+            let mid = trend::campaign_middle(day, s.duration_s);
+            for m in trend::take_in(&mut trends, s, &result, mid) {
+                misfits.push(Misfit {
+                    day,
+                    is: m.is + 1,
+                    param: GROUPS[m.group],
+                    axis: AXES[m.axis],
+                    innovation_sigma: m.innovation_sigma,
+                });
             }
             in_use.push((end, InUse::Trends(Box::new(trends))));
         }
@@ -326,7 +259,7 @@ fn ground(base: &Scenario, seed: u64) -> InUse {
 }
 
 /// Campaign `n` on `day`: its scenario (epoch, seed, priors from the values in use
-/// after the first), flown and judged by function 3.
+/// after the first), flown and judged by function 3; its result when applied.
 fn fly(
     base: &Scenario,
     seed: u64,
@@ -335,7 +268,7 @@ fn fly(
     in_use: &[(f64, InUse)],
     method: Method,
     threads: Threads,
-) -> CampaignRecord {
+) -> (CampaignRecord, Option<TableValues>) {
     let mut sc = Scenario {
         epoch_day: day,
         seed: campaign_seed(seed, n),
@@ -348,27 +281,31 @@ fn fly(
         refused: None,
         report: None,
     };
-    if let Some((_, u @ InUse::Trends(_))) = in_use.last() {
-        let table = u.table(base.inertial_sensor.len(), day);
+    if let Some((_, InUse::Trends(t))) = in_use.last() {
+        let table = trend::predicted(t, day);
         match sc.with_onboard_priors(&table).validated() {
             Ok(v) => sc = v,
             Err(e) => {
                 record.refused = Some(format!("not flown: {e}"));
-                return record;
+                return (record, None);
             }
         }
     }
+    let mut result = None;
     match crate::analysis::campaign_report::run(&sc, sc.seed, method, threads, |_| {}) {
         Ok(report) => {
             match crate::analysis::report::table_values(&report) {
-                Ok(_) => record.applied = true,
+                Ok(v) => {
+                    record.applied = true;
+                    result = Some(v);
+                }
                 Err(f) => record.refused = Some(format!("function 3 refused it: {f:?}")),
             }
             record.report = Some(report);
         }
         Err(e) => record.refused = Some(e.to_string()),
     }
-    record
+    (record, result)
 }
 
 /// With "auto": the day of the next campaign after one ending at `end`.

@@ -3,7 +3,7 @@
 //! its error taken as normal with the trend's predicted σ (zero mean: the value in use
 //! is the prediction).
 
-use super::trend::Trend;
+use crate::sim::trend::Trend;
 
 /// Resolution of the search for the last day [days].
 pub const STEP_DAYS: f64 = 1.0 / 24.0;
@@ -46,7 +46,7 @@ pub fn next_campaign(lapse_day: f64, campaign_days: f64, earliest: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analysis::mission::trend::TrendModel;
+    use crate::sim::trend::TrendModel;
 
     #[test]
     fn quantiles_are_the_normal_ones() {

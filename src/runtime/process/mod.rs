@@ -127,6 +127,13 @@ pub struct StageArgs {
     /// Seed (default: the scenario's).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// The campaign's epoch [mission day] (default 0): with `[drift]` the truths are
+    /// that day's on (the supervisor passes a ground campaign's `campaign_epoch_day`).
+    #[arg(long)]
+    pub epoch_day: Option<f64>,
+    /// Seed of the truths' history (`[drift]`'s walks; default: the seed).
+    #[arg(long)]
+    pub mission_seed: Option<u64>,
     /// The recorder's compression: each chunk shuffled and deflated at this level
     /// (1–9), or `none`.
     #[arg(long, default_value_t = crate::telemetry::Compression::DEFAULT, value_name = "none|N")]
@@ -177,14 +184,28 @@ impl StageArgs {
     /// The stage's scenario. The supervisor hands every stage the scenario with its
     /// maneuver planned (`PLANNED_SCENARIO_FILE`); a stage started by hand on a
     /// scenario without one plans it itself (deterministic: the same plan). `--seed`
-    /// is its seed then, as everywhere.
+    /// is its seed then, as everywhere; `--epoch-day` and `--mission-seed` its epoch and
+    /// its truths' history (checked as the supervisor checked them).
     pub fn scenario(&self) -> Result<Scenario, ProcessError> {
         let s = Scenario::load_or_default(self.scenario.as_deref())?;
         let (s, _) = crate::analysis::plan::resolve(s)?;
-        Ok(Scenario {
+        let s = Scenario {
             seed: self.seed.unwrap_or(s.seed),
+            epoch_day: self.epoch_day.unwrap_or(s.epoch_day),
+            mission_seed: self.mission_seed.or(s.mission_seed),
             ..s
-        })
+        };
+        if self.epoch_day.is_some() {
+            if !s.epoch_day.is_finite() || s.epoch_day < 0.0 {
+                return Err(crate::sim::scenario::ScenarioError::Key {
+                    key: "--epoch-day".into(),
+                    msg: format!("must be a mission day ≥ 0, got {}", s.epoch_day),
+                }
+                .into());
+            }
+            return Ok(s.validated()?);
+        }
+        Ok(s)
     }
 
     /// Real-time tick period [ns] (0 in accelerated mode).

@@ -40,6 +40,14 @@ pub(super) fn new_set(args: &SupervisorArgs, s: &Scenario) -> Result<Set, Superv
     if let Some(seed) = args.seed {
         scenario_args.extend(["--seed".into(), seed.to_string()]);
     }
+    // Not keys of the file: a ground campaign's epoch and its truths' history (Rust
+    // prints an f64 so that it reads back to the same bits).
+    if s.epoch_day != 0.0 {
+        scenario_args.extend(["--epoch-day".into(), s.epoch_day.to_string()]);
+    }
+    if let Some(m) = s.mission_seed {
+        scenario_args.extend(["--mission-seed".into(), m.to_string()]);
+    }
     // The estimator process is given its table, never the scenario (truths).
     let table = args.out.join(TABLE_FILE);
     EstimatorTable::of(s)

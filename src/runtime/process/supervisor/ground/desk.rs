@@ -8,7 +8,7 @@ use crate::analysis::report::Report;
 use crate::bus::timing::monotonic_ns;
 use crate::bus::wiring::{self, BusError, Pub, Sub};
 use crate::ground::dictionary::{Failure, Mode};
-use crate::ground::table::TableStore;
+use crate::ground::table::{Entry, TableStore};
 use crate::runtime::process::set::SupervisorArgs;
 use crate::runtime::process::supervisor::locks::{claim, Janitor};
 use crate::runtime::process::supervisor::{campaign, write_reports, Hold, Outcome, Prepared};
@@ -16,6 +16,7 @@ use crate::sim::msg::{
     EstimateMsg, GroundNote, GroundRequest, GroundState, Header, Progress, Request, SetStatus,
     NOTE_DONE, NOTE_EVENT, NOTE_STARTED, PROC_TMTC, REQ_STOP, SET_RUNNING,
 };
+use crate::sim::trend;
 use std::collections::VecDeque;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -55,6 +56,8 @@ const LAST_WORDS: Duration = Duration::from_millis(500);
 /// The running campaign.
 struct Running {
     n: u32,
+    /// Its epoch [mission day].
+    epoch_day: f64,
     thread: JoinHandle<Outcome>,
     /// The start request, answered once the set runs.
     start: Option<u64>,
@@ -85,8 +88,9 @@ struct Desk<'a> {
     /// The last campaign's number (0: none yet).
     campaign: u32,
     running: Option<Running>,
-    /// The last campaign's report, when it completed (function 3 applies it).
-    result: Option<(u32, Box<Report>)>,
+    /// The last campaign's number, report and epoch [mission day], when it completed
+    /// (function 3 applies it).
+    result: Option<(u32, Box<Report>, f64)>,
     stage_restarts: u32,
     /// Notes waiting for the TMTC process to be heard.
     pending: VecDeque<GroundNote>,
@@ -302,7 +306,7 @@ impl Desk<'_> {
                     self.done(t, Some(Failure::StartWhileRunning));
                 } else {
                     self.note(NOTE_STARTED, 0, t, [0; 4]);
-                    self.start(t, r.seed, r.duration_s);
+                    self.start(t, r.seed, r.duration_s, r.epoch_day);
                 }
             }
             function::STOP => {
@@ -340,18 +344,37 @@ impl Desk<'_> {
         None
     }
 
-    /// Function 3: the last campaign's result into the table.
+    /// Function 3: the last campaign's result into the table's trends (started from
+    /// it when the table has none), as the timeline takes it in.
     fn apply(&mut self) -> Result<(), Failure> {
-        let (n, report) = self.result.as_ref().ok_or(Failure::NoResult)?;
+        let (n, report, epoch_day) = self.result.as_ref().ok_or(Failure::NoResult)?;
         let n = *n;
         let values = crate::analysis::report::table_values(report)?;
-        self.table.apply(values, n).map_err(|e| e.failure())?;
+        let mut trends = self
+            .table
+            .entry()
+            .and_then(|e| e.trends)
+            .unwrap_or([[[None; 3]; 3]; 2]);
+        let mid = trend::campaign_middle(*epoch_day, report.duration_s);
+        let misfits = trend::take_in(&mut trends, &self.prepared.s, &values, mid);
+        self.table
+            .apply(Entry::from_trends(n, trends))
+            .map_err(|e| e.failure())?;
+        for m in misfits {
+            println!(
+                "Campaign {n}: IS{} {} {} lies {:.1}σ from its trend's prediction (model misfit): its trend restarts from it",
+                m.is + 1,
+                crate::analysis::mission::GROUPS[m.group],
+                crate::analysis::mission::AXES[m.axis],
+                m.innovation_sigma
+            );
+        }
         self.event(event::TABLE_APPLIED, [u64::from(n), 0, 0, 0]);
         Ok(())
     }
 
-    /// Function 1: campaign N+1 on its own thread.
-    fn start(&mut self, token: u64, seed: u64, duration_s: f64) {
+    /// Function 1: campaign N+1 on its own thread, at mission day `epoch_day`.
+    fn start(&mut self, token: u64, seed: u64, duration_s: f64, epoch_day: f64) {
         self.campaign += 1;
         let n = self.campaign;
         let mut args = self.args.clone();
@@ -359,24 +382,25 @@ impl Desk<'_> {
         args.seed = Some(seed);
         args.report_dir = None;
         let mut prepared = self.prepared.clone();
-        let table = self.table.current().map(|(v, _)| v);
+        let table = self.table.entry().map(|e| e.at(epoch_day));
         let run_args = args.clone();
         let relay =
             std::sync::Arc::new(crate::runtime::process::supervisor::watch::Relay::default());
         let hold = Hold::Held(relay.clone());
         let thread = std::thread::Builder::new()
             .name(format!("campaign-{n}"))
-            .spawn(
-                move || match prepare_campaign(&mut prepared, seed, duration_s, table) {
+            .spawn(move || {
+                match prepare_campaign(&mut prepared, seed, duration_s, epoch_day, table) {
                     Ok(()) => campaign(&run_args, &prepared, hold),
                     Err(e) => Outcome::UserError(e),
-                },
-            );
+                }
+            });
         match thread {
             Ok(thread) => {
                 self.result = None;
                 self.running = Some(Running {
                     n,
+                    epoch_day,
                     thread,
                     start: Some(token),
                     stop: None,
@@ -457,7 +481,7 @@ impl Desk<'_> {
                     let verified = u64::from(report.requirements.verified);
                     self.event(event::REQUIREMENT_MISSED, [u64::from(n), verified, 0, 0]);
                 }
-                self.result = Some((n, report));
+                self.result = Some((n, report, run.epoch_day));
             }
             Outcome::Interrupted => {
                 let why = if run.stop.is_some() {
@@ -608,14 +632,19 @@ fn latest<T: wiring::Payload>(s: &Sub<T>) -> Result<Option<T>, BusError> {
 }
 
 /// Campaign N's scenario: the file's, its duration the telecommand's (0: the file's),
-/// its maneuver planned for that file, the telecommand's seed, and its priors the
-/// onboard calibration table's once one was applied.
+/// its maneuver planned for that file, the telecommand's seed, its epoch
+/// `campaign_epoch_day`'s (with `[drift]`, the truths of that day on, their history the
+/// launch's seed's: `--seed`, else the file's, as a timeline's of that mission seed),
+/// and its priors the onboard calibration table's for that epoch once one was applied.
+/// Checked as a timeline's campaign is (`[drift]` over the epoch, the priors).
 fn prepare_campaign(
     p: &mut Prepared,
     seed: u64,
     duration_s: f64,
+    epoch_day: f64,
     table: Option<crate::sim::msg::TableValues>,
 ) -> Result<(), crate::runtime::process::set::UserError> {
+    let mission_seed = p.s.seed;
     if duration_s > 0.0 && duration_s != p.given.duration_s {
         let mut given = p.given.clone();
         given.duration_s = duration_s;
@@ -623,9 +652,12 @@ fn prepare_campaign(
         let (s, plan) = crate::analysis::plan::resolve(given.clone())?;
         (p.given, p.s, p.plan) = (given, s, plan);
     }
+    p.s.mission_seed = Some(mission_seed);
     p.s.seed = seed;
+    p.s.epoch_day = epoch_day;
     if let Some(t) = table {
         p.s = p.s.with_onboard_priors(&t);
     }
+    p.s = p.s.clone().validated()?;
     Ok(())
 }

@@ -6,9 +6,34 @@
 //! use onboard, and the predicted σ that of (in use − truth). A campaign whose estimate
 //! lies beyond [`MISFIT_SIGMA`] of the prediction is a model misfit: the trend restarts
 //! from it.
+//!
+//! The values in use onboard are these trends, whoever flies the campaigns: the
+//! timeline (`analysis::mission::run`) and the ground's onboard calibration table
+//! (`ground::table`, function 3) take a campaign's result in with [`take_in`] and start
+//! the next campaign from [`predicted`], the same code for the same bits.
+
+use crate::sim::drift::DAY_S;
+use crate::sim::msg::TableValues;
+use crate::sim::scenario::Scenario;
 
 /// Innovations beyond this many σ are model misfits.
 pub const MISFIT_SIGMA: f64 = 5.0;
+
+/// Per IS, group (β, k, r) and axis.
+pub type Grid<T> = [[[T; 3]; 3]; 2];
+
+/// Every parameter's trend (`None`: not started, or an IS the scenario lacks).
+pub type Trends = Grid<Option<Trend>>;
+
+/// A campaign's result beyond [`MISFIT_SIGMA`] of its prediction: the trend of (IS
+/// `is`, group `group`, axis `axis`, each from 0) restarted from it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Misfit {
+    pub is: usize,
+    pub group: usize,
+    pub axis: usize,
+    pub innovation_sigma: f64,
+}
 
 /// What the drift model says of one parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,6 +42,113 @@ pub struct TrendModel {
     pub walk_per_day: f64,
     /// Prior σ of the rate [unit per day] (its mean is 0).
     pub rate_sigma: f64,
+}
+
+impl TrendModel {
+    /// The drift model of `s` for group `g` (β, k, r) of a parameter of about `scale`
+    /// (β, k: the relative figures times it; r: the rates' RMS over every IS and axis:
+    /// the model's magnitude, not each axis's value). Without `[drift]`: constant
+    /// parameters (no walk, a rate of 0 for sure).
+    pub fn of(s: &Scenario, g: usize, scale: f64) -> TrendModel {
+        let Some(d) = &s.drift else {
+            return TrendModel {
+                walk_per_day: 0.0,
+                rate_sigma: 0.0,
+            };
+        };
+        if g == 2 {
+            let n_is = s.inertial_sensor.len().min(d.com_m_per_day.len());
+            let ms: f64 = d.com_m_per_day[..n_is]
+                .iter()
+                .flatten()
+                .map(|v| v * v)
+                .sum::<f64>()
+                / (3 * n_is).max(1) as f64;
+            TrendModel {
+                walk_per_day: d.com_m_per_sqrt_day.powi(2),
+                rate_sigma: ms.sqrt(),
+            }
+        } else {
+            TrendModel {
+                walk_per_day: (d.beta_rel_per_sqrt_day * scale).powi(2),
+                rate_sigma: (d.beta_rel_per_day * scale).abs(),
+            }
+        }
+    }
+}
+
+/// The day a campaign of `duration_s` that started on `day` measures: its middle (the
+/// estimate of constant parameters fits the mean of a linear drift).
+pub fn campaign_middle(day: f64, duration_s: f64) -> f64 {
+    day + 0.5 * (duration_s / DAY_S)
+}
+
+/// Takes an applied campaign's result `result` (function 3's `report::table_values`)
+/// of the campaign measuring day `mid` ([`campaign_middle`]) into the trends of the
+/// first `s.inertial_sensor.len()` IS: each parameter's trend starts from it
+/// (drift model `TrendModel::of(s, …)`), or is updated with it; the misfits, whose
+/// trends restarted.
+pub fn take_in(trends: &mut Trends, s: &Scenario, result: &TableValues, mid: f64) -> Vec<Misfit> {
+    let mut misfits = Vec::new();
+    let n_is = s.inertial_sensor.len().min(2);
+    for (i, tg) in trends.iter_mut().enumerate().take(n_is) {
+        for (g, ta) in tg.iter_mut().enumerate() {
+            let (v, sig) = [
+                (&result.beta, &result.beta_sigma),
+                (&result.k, &result.k_sigma),
+                (&result.r, &result.r_sigma),
+            ][g];
+            for (a, t) in ta.iter_mut().enumerate() {
+                let (e, sigma) = (v[i][a], sig[i][a]);
+                match t {
+                    None => *t = Some(Trend::start(mid, e, sigma, TrendModel::of(s, g, e))),
+                    Some(t) => {
+                        if let Update::Misfit(nu) = t.update(mid, e, sigma) {
+                            misfits.push(Misfit {
+                                is: i,
+                                group: g,
+                                axis: a,
+                                innovation_sigma: nu,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+    }
+    misfits
+}
+
+/// The table the trends predict for `day`: each parameter's value and σ at it
+/// ([`Trend::predict`]); a parameter without a trend is 0 (as `table_values` leaves an
+/// IS the report lacks).
+pub fn predicted(trends: &Trends, day: f64) -> TableValues {
+    table_by(trends, |t| t.predict(day))
+}
+
+/// The table at each trend's epoch (its last measurement): its value and σ there.
+pub fn at_epochs(trends: &Trends) -> TableValues {
+    table_by(trends, |t| t.predict(t.epoch_day))
+}
+
+fn table_by(trends: &Trends, f: impl Fn(&Trend) -> (f64, f64)) -> TableValues {
+    let mut tv = TableValues::default();
+    for (i, tg) in trends.iter().enumerate() {
+        for (g, ta) in tg.iter().enumerate() {
+            for (a, t) in ta.iter().enumerate() {
+                if let Some(t) = t {
+                    let (v, sigma) = f(t);
+                    let (vs, ss) = match g {
+                        0 => (&mut tv.beta, &mut tv.beta_sigma),
+                        1 => (&mut tv.k, &mut tv.k_sigma),
+                        _ => (&mut tv.r, &mut tv.r_sigma),
+                    };
+                    (vs[i][a], ss[i][a]) = (v, sigma);
+                }
+            }
+        }
+    }
+    tv
 }
 
 /// The filter's state after its last measurement, at `epoch_day`.
