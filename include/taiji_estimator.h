@@ -68,21 +68,22 @@
  *        errors (EDAC, as a BM3803's: cargo build --profile flight -p taiji-c
  *        --features edac) has no seal: no call checks or reseals, TAIJI_ERR_UPSET is
  *        never returned, and taiji_upset_check() returns 0 (1 in the default build).
- *        The state's first 8 bytes, a magic word, are not
- *        sealed: up to 4 bits flipped there is TAIJI_ERR_UPSET too; memory whose word
- *        is further from it never held a state (TAIJI_ERR_STATE; init and restore write
- *        0 there until they succeed). During a call: a flip in a word before the
- *        call's check has read it is found by that check. estimate and checkpoint
- *        check the state again before what they made leaves (a spoilt checkpoint is
- *        refused by restore). A flip in the statistics (the Gram matrices and the
- *        filters' states, 89 % of the state) during solve or finish, which only read
- *        them, is found before the call returns
- *        (TAIJI_ERR_UPSET, no estimate leaves, the state stays unsealed until a
- *        restore). Not covered, the window that remains: a flip during update, or in
- *        the rest of the state during solve or finish, after the check has read that
- *        word and before the reseal reads it again: the reseal takes it in. The check and the reseal cost two passes over the state
- *        (docs/validation.md#flight-cpus); docs/integrity.md has both upset campaigns,
- *        between calls and during them.
+ *        The state's first 8 bytes, a magic word, are not sealed: up to 4 bits
+ *        flipped there is TAIJI_ERR_UPSET too; memory whose word is further from it
+ *        never held a state (TAIJI_ERR_STATE; init and restore write 0 there until
+ *        they succeed). During a call: a flip in a word before the call's check has
+ *        read it is found by that check. estimate and checkpoint check the state again
+ *        before what they made leaves (a spoilt checkpoint is refused by restore). A
+ *        flip in the statistics (the Gram matrices and the filters' states, 89 % of
+ *        the state) during solve or finish, which only read them, is found before the
+ *        call returns (TAIJI_ERR_UPSET, no estimate leaves, the state stays unsealed
+ *        until a restore). Not covered, the window that remains: a flip during
+ *        update, or in the rest of the state during solve or finish, after the check
+ *        has read that word and before the reseal reads it: the reseal takes it in.
+ *        Each call reads the state once to check it and, if it writes, once more to
+ *        reseal it (estimate: a third time before its estimate leaves; checkpoint: a
+ *        second time after its copy); docs/validation.md#flight-cpus has the cost and
+ *        docs/integrity.md both upset campaigns, between calls and during them.
  *
  * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.
  *        finish is terminal and idempotent: it returns the same final estimate every

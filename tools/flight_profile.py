@@ -14,6 +14,7 @@ import argparse
 import bisect
 import json
 import re
+import shutil
 import subprocess
 import sys
 
@@ -61,9 +62,11 @@ def main():
             if m:
                 if block is None:
                     block = int(m.group(1), 16)
+                    # A block translated again starts its list afresh.
+                    pcs[block] = []
                 n += 1
                 size[block] = n
-                pcs.setdefault(block, []).append(int(m.group(1), 16))
+                pcs[block].append(int(m.group(1), 16))
                 continue
             if not line.strip():
                 block, n = None, 0
@@ -97,6 +100,9 @@ def source_lines(a, addrs, names, runs, pcs):
     if not per_pc:
         return
     order = sorted(per_pc)
+    if shutil.which("llvm-addr2line") is None:
+        print(f"\n(no per-line table for `{a.lines}`: it needs llvm-addr2line, Debian's package llvm)")
+        return
     out = subprocess.run(["llvm-addr2line", "-i", "--output-style=JSON", "-e", a.image]
                          + [hex(pc) for pc in order], capture_output=True, text=True).stdout
     recs = []

@@ -310,6 +310,11 @@ impl Campaign {
         self.call_ns
     }
 
+    /// The host's last checkpoint at or before sample `i` (taken before its update).
+    fn last_checkpoint(&self, i: usize) -> usize {
+        (i.min(self.samples.len().saturating_sub(1)) / CHECKPOINT_EVERY) * CHECKPOINT_EVERY
+    }
+
     /// The words of the state's memory (where a flip can land).
     pub fn state_words() -> usize {
         taiji_estimator_size() / 8
@@ -326,14 +331,10 @@ impl Campaign {
     }
 
     fn run(&self, flip: Option<Flip>) -> (Outcome, f64) {
-        let n = self.samples.len();
-        let at = flip.map_or(n + 1, |f| f.at);
-        // The host's last checkpoint at or before sample `i` (taken before its update).
-        let last_checkpoint =
-            |i: usize| (i.min(n.saturating_sub(1)) / CHECKPOINT_EVERY) * CHECKPOINT_EVERY;
+        let at = flip.map_or(self.samples.len() + 1, |f| f.at);
         // Start from the one before the flip (without a flip: from the start).
         let start = if flip.is_some() {
-            last_checkpoint(at)
+            self.last_checkpoint(at)
         } else {
             0
         };
@@ -360,8 +361,6 @@ impl Campaign {
         timer: &timer::Timer,
     ) -> (Outcome, f64) {
         let n = self.samples.len();
-        let last_checkpoint =
-            |i: usize| (i.min(n.saturating_sub(1)) / CHECKPOINT_EVERY) * CHECKPOINT_EVERY;
         let (mut detected, mut flipped) = (false, flip.is_none());
         let mut pending: Option<Pending> = None;
         let mut i = start;
@@ -434,7 +433,7 @@ impl Campaign {
                 }
                 detected = true;
                 // Scrub: the last checkpoint at or before this sample, and replay.
-                let c = last_checkpoint(i);
+                let c = self.last_checkpoint(i);
                 mem.iter_mut().for_each(|w| *w = 0);
                 let rc = if c == 0 {
                     init(mem, &self.cfg)
