@@ -408,7 +408,8 @@ fn replay<B: Board>(board: &mut B, m: &mut Memory, samples: &mut B::Input, fig: 
                 // itself: the seal of its sequence number alone is updated).
                 let mut est = EstimateMsg::default();
                 // SAFETY: an initialised state and an output.
-                check(board, unsafe { taiji_estimator_estimate(mem, &mut est) }, "estimate");
+                let rc = unsafe { taiji_estimator_estimate(mem, &mut est) };
+                check(board, rc, "estimate");
             }
             if measure {
                 let depth = painted_depth(low);
@@ -518,7 +519,10 @@ fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figure
     let max_at = costs
         .iter()
         .enumerate()
-        .fold((0, 0), |(bi, b), (i, &c)| if c > b { (i, c) } else { (bi, b) })
+        .fold(
+            (0, 0),
+            |(bi, b), (i, &c)| if c > b { (i, c) } else { (bi, b) },
+        )
         .0;
     costs.sort_unstable();
     let pick = |q: f64| {

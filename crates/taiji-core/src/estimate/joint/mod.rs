@@ -291,11 +291,14 @@ impl JointEstimator {
                 && wx == wp + size_of::<SMatrix<f64, MAX_POLES, MAX_POLES>>()
         );
         assert!(tx == turn + 2 * g && tp == tx + 2 * size_of::<SMatrix<f64, NS, 2>>());
-        assert!(raw % 8 == 0 && turn % 8 == 0 && raw < turn);
-        [
-            raw..wx + size_of::<[[f64; MAX_POLES]; NS]>(),
-            turn..tp + size_of::<[[[f64; 2]; 2]; 2]>(),
-        ]
+        let (end0, end1) = (
+            wx + size_of::<[[f64; MAX_POLES]; NS]>(),
+            tp + size_of::<[[[f64; 2]; 2]; 2]>(),
+        );
+        // Whole 8-byte words (the seal folds them), in order.
+        assert!(raw % 8 == 0 && end0 % 8 == 0 && turn % 8 == 0 && end1 % 8 == 0);
+        assert!(end0 <= turn);
+        [raw..end0, turn..end1]
     };
 
     /// Byte offset of the message sequence number (`seq`, a `u64`) in the estimator:
