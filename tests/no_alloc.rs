@@ -5,7 +5,6 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use taiji::analysis::campaign::Stages;
 use taiji::sim::estimate::Method;
-use taiji::sim::msg::SensorSample;
 use taiji::sim::scenario::Scenario;
 
 struct Counting;
@@ -42,13 +41,7 @@ fn estimator_steps_allocate_nothing() {
     let s = Scenario::default();
     let mut st = Stages::new(&s, 1, Method::Joint);
     // Produce the sensor stream first (the plant and front-end may allocate as they like).
-    let samples: Vec<SensorSample> = (0..s.n_samples())
-        .map(|tick| {
-            let cmd = st.commander.step(tick);
-            let truth = st.plant.step(tick, &cmd.torque_cmd_b);
-            st.fee.step(&truth)
-        })
-        .collect();
+    let samples = st.sensor_samples(s.n_samples());
     assert!(samples.len() >= 100_000);
     COUNTING.store(true, Ordering::SeqCst);
     let mut checksum = 0.0;

@@ -22,6 +22,18 @@ pub struct Stages {
 }
 
 impl Stages {
+    /// The sensor samples of `n` ticks from the commander, the plant and the front end,
+    /// stepped in turn (no faults, no estimator).
+    pub fn sensor_samples(&mut self, n: u64) -> Vec<SensorSample> {
+        (0..n)
+            .map(|t| {
+                let cmd = self.commander.step(t);
+                let truth = self.plant.step(t, &cmd.torque_cmd_b);
+                self.fee.step(&truth)
+            })
+            .collect()
+    }
+
     pub fn new(s: &Scenario, seed: u64, method: Method) -> Self {
         let priors = s.priors();
         Stages {

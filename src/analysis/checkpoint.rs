@@ -308,13 +308,7 @@ mod tests {
             let d = dir(method.name());
             let path = d.join("est.ckpt");
             let mut ck = Checkpointer::new(&path, &st.estimator).unwrap();
-            let samples: Vec<_> = (0..s.n_samples())
-                .map(|t| {
-                    let c = st.commander.step(t);
-                    let truth = st.plant.step(t, &c.torque_cmd_b);
-                    st.fee.step(&truth)
-                })
-                .collect();
+            let samples = st.sensor_samples(s.n_samples());
             for (t, x) in samples.iter().enumerate().take(700) {
                 st.estimator.step(x);
                 if t == 599 {

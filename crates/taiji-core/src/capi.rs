@@ -199,14 +199,11 @@ fn reseal_word(st: &mut State, d: Digests, at: usize, old: u64) {
         }
         before += steps(p.len() / W);
     }
-    let new = bytemuck::bytes_of(&st.est)
-        .get(at..at.saturating_add(8))
-        .and_then(|b| <[u8; 8]>::try_from(b).ok())
-        .map_or(old, u64::from_ne_bytes);
     let Some((first, start, n)) = hit else {
         st.seal = digests(st).seal();
         return;
     };
+    let new = est_u64(st, at);
     let word = |b: Option<&[u8]>| {
         b.and_then(|b| <[u8; W]>::try_from(b).ok())
             .map_or(0, Word::from_ne_bytes)
@@ -543,11 +540,10 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
-        let live_msg = || st.est.message_unsent(st.est.next_tick().saturating_sub(1));
         let m = if st.finished != 0 {
             st.final_msg
         } else {
-            live_msg()
+            st.est.message_unsent(st.est.next_tick().saturating_sub(1))
         };
         // Made from what the check passed, unless a bit flipped during the call:
         // checked again before it leaves.

@@ -258,13 +258,7 @@ impl Campaign {
             .unwrap_or_else(|e| panic!("{e}"));
         let cfg = s.estimator_config(&s.priors());
         let mut st = crate::analysis::campaign::Stages::new(&s, seed, Method::Joint);
-        let samples: Vec<SensorSample> = (0..s.n_samples())
-            .map(|t| {
-                let cmd = st.commander.step(t);
-                let truth = st.plant.step(t, &cmd.torque_cmd_b);
-                st.fee.step(&truth)
-            })
-            .collect();
+        let samples = st.sensor_samples(s.n_samples());
         let mut mem = memory();
         assert_eq!(init(&mut mem, &cfg), TAIJI_OK);
         let mut checkpoints = Vec::new();
