@@ -49,10 +49,10 @@ fn main() {
     for (m, o, k, d) in &table {
         println!(
             "| {m:?} | {o:?} | {k} | {} |",
-            if d.is_finite() {
-                format!("{d:.3}")
-            } else {
-                "—".into()
+            match d {
+                d if !d.is_finite() => "—".to_string(),
+                d if *d >= 1e4 => format!("{d:.1e}"),
+                d => format!("{d:.3}"),
             }
         );
     }
