@@ -15,7 +15,7 @@ use std::time::Duration;
 
 /// `TJCKPT` and the state's version (`snapshot::STATE_VERSION`, two digits): a
 /// checkpoint of a build whose state means something else is refused, not resumed.
-const MAGIC: [u8; 8] = *b"TJCKPT04";
+const MAGIC: [u8; 8] = *b"TJCKPT05";
 
 /// A checkpoint that could not be written or read; the message names the file.
 #[derive(Debug, thiserror::Error)]
@@ -353,10 +353,10 @@ mod tests {
         assert!(load(&path).err().unwrap().to_string().contains("magic"));
         // An older build's (its state means something else): refused, saying so.
         let mut older = good.clone();
-        older[..8].copy_from_slice(b"TJCKPT03");
+        older[..8].copy_from_slice(b"TJCKPT04");
         std::fs::write(&path, &older).unwrap();
         let e = load(&path).err().unwrap().to_string();
-        assert!(e.contains("state version 03, this build's 4"), "{e}");
+        assert!(e.contains("state version 04, this build's 5"), "{e}");
     }
 
     /// The magic's two digits are the state's version.

@@ -250,9 +250,9 @@ fn bound_of(s: &Scenario, est: &JointEstimator) -> Option<Crlb> {
     beta[..n].copy_from_slice(&t.beta[..n]);
     r[..n].copy_from_slice(&t.com_offset_m[..n]);
     // Nuisances at their noise-free best fit, β and r at the truth.
+    let mut est = *est;
     let p = est.params_with(&beta, &r);
     let p = est.nuisance_fit(p);
-    let mut est = *est;
     est.fix_srp_level_at(&p);
     let p = est.nuisance_fit(p);
     let sigma = est.fisher_sigma(&p)?;

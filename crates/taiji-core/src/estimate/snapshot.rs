@@ -23,7 +23,8 @@ pub const HEADER: usize = 32;
 /// drift filter in the turn).
 /// 4: the turn rows' levers on the attitude error signed (`turn_z`; 3 held them
 /// squared), for the covariance of the rows' white noise with the attitude's step.
-pub const STATE_VERSION: u32 = 4;
+/// 5: Gram updates deferred (`pend`: the samples waiting for each Gram matrix).
+pub const STATE_VERSION: u32 = 5;
 
 /// The checkpoint's version word.
 const VERSION: u64 = LAYOUT_VERSION as u64 | (STATE_VERSION as u64) << 32;

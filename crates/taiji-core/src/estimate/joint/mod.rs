@@ -42,6 +42,7 @@ pub use crate::tuning::{PRIOR_BETA_REL, PRIOR_COM_M};
 use nalgebra::{Matrix3, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod bridge;
+mod defer;
 mod gates;
 mod layout;
 mod model;
@@ -51,6 +52,7 @@ mod solve;
 mod star;
 mod whiten;
 
+use defer::*;
 use gates::*;
 use layout::*;
 pub use layout::{NP, NS, P_BETA, P_R};
@@ -199,6 +201,14 @@ pub struct JointEstimator {
     lone_track: [Track; 6],
     /// Star-tracker test: attitude residual at the prior β, per axis [rad].
     star_track: [Track; 3],
+    /// Gram updates waiting (`defer`): per matrix (`T_RAW`, `T_FILT`, `T_TURN` + row),
+    /// the signals of up to `PEND` linear samples and how many, the raw Gram's regime
+    /// of each, and the linear samples taken (whose turn it is to be brought up to
+    /// date: `pend_turn` mod `TARGETS`).
+    pend: [[Sig; PEND]; TARGETS],
+    pend_n: [u64; TARGETS],
+    pend_reg: [u64; PEND],
+    pend_turn: u64,
 }
 
 /// Nothing taken yet.
@@ -371,6 +381,8 @@ impl JointEstimator {
             && self.started <= START_ANGULAR
             && self.q_ref_set <= 1
             && self.solve_due[0] <= 1 + tuning::FOLLOW_UPS
+            && self.pend_n.iter().all(|&n| n <= PEND as u64)
+            && self.pend_reg.iter().all(|&r| r < N_REG as u64)
     }
 
     /// Every tick below this one has been processed or bridged.
@@ -1400,7 +1412,10 @@ mod tests {
         ignore = "3000 updates and 14 Gauss-Newton steps; the normal equations and the step run under Miri in tests/miri_capi.rs"
     )]
     fn the_nuisance_fit_takes_six_steps() {
-        let e = unsettled();
+        let mut e = unsettled();
+        let p = e.params_with(&e.cfg.beta_prior, &e.cfg.com_prior_m);
+        let fitted = e.nuisance_fit(p);
+        let e = e;
         let mut w = SolveWork::zeroed();
         // One step, as `nuisance_fit` takes it.
         let mut step = |mut p: Par| {
@@ -1417,8 +1432,7 @@ mod tests {
             p += JointEstimator::newton_step(&n.hm, &n.g, hs, hinv).expect("a step");
             p
         };
-        let mut p = e.params_with(&e.cfg.beta_prior, &e.cfg.com_prior_m);
-        let fitted = e.nuisance_fit(p);
+        let mut p = p;
         let mut steps = [p; 8];
         for s in steps.iter_mut() {
             *s = p;

@@ -9,7 +9,8 @@ impl JointEstimator {
     /// Cramér–Rao bound when `p` is the truth and the statistics were accumulated from
     /// noise-free signals.
     /// (Analysis, not flight: its scratch is on the stack.)
-    pub fn fisher_sigma(&self, p: &Par) -> Option<Par> {
+    pub fn fisher_sigma(&mut self, p: &Par) -> Option<Par> {
+        self.flush_grams();
         let mut w = SolveWork::zeroed();
         self.normal_equations(p, false, &mut w);
         Self::newton_step(&w.n.hm, &w.n.g, &mut w.hs, &mut w.hinv)?;
@@ -18,7 +19,8 @@ impl JointEstimator {
 
     /// Fit the nuisances (θ0, θ̇0, b', α') with β and r held at their values in `p`,
     /// without priors: the reference point of the Cramér–Rao bound.
-    pub fn nuisance_fit(&self, mut p: Par) -> Par {
+    pub fn nuisance_fit(&mut self, mut p: Par) -> Par {
+        self.flush_grams();
         let mut w = SolveWork::zeroed();
         for _ in 0..tuning::NUISANCE_ITERATIONS {
             self.normal_equations(&p, false, &mut w);

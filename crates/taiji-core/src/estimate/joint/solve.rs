@@ -134,6 +134,10 @@ impl JointEstimator {
     /// enters with its weight (1, or 1/(χ²/dof) when its noise proved larger than
     /// modelled).
     pub(super) fn normal_equations(&self, p: &Par, priors: bool, w: &mut SolveWork) {
+        debug_assert!(
+            self.grams_flushed(),
+            "the Grams are read with samples waiting"
+        );
         let SolveWork {
             c0,
             cp,
@@ -382,6 +386,7 @@ impl JointEstimator {
         priors: bool,
         w: &mut SolveWork,
     ) -> Option<[f64; 5]> {
+        self.flush_grams();
         let mut moved = f64::INFINITY;
         let mut before = f64::INFINITY;
         let mut earlier = f64::INFINITY;

@@ -4,10 +4,10 @@
 
 use super::*;
 
-/// Symmetric rank-one update of the upper triangle: m += w v vᵀ. The hot loop of
-/// every sample: columns as slices (no index checks) so that the compiler vectorises
-/// it; each element gets the same one product and sum as before.
-#[inline(always)]
+/// Symmetric rank-one update of the upper triangle: m += w v vᵀ, a column whose
+/// multiplier is zero skipped. What a Gram matrix took sample by sample before its
+/// updates were deferred (`defer::rank_n` gives the same bits, a test shows).
+#[cfg(test)]
 pub(super) fn rank1_packed(m: &mut Packed, v: &Sig, w: f64) {
     let v = v.as_slice();
     for (j, &vj) in v.iter().enumerate() {
@@ -17,42 +17,6 @@ pub(super) fn rank1_packed(m: &mut Packed, v: &Sig, w: f64) {
         }
         for (mij, vi) in m.column_mut(j).iter_mut().zip(v) {
             *mij += vi * vj;
-        }
-    }
-}
-
-/// `rank1_packed(m0, a, 1)` and `rank1_packed(m1, b, 1)` in one pass over the columns
-/// (the turn filters' two Grams): each element the same product and sum, the loops'
-/// overhead shared (a whole `run` 4 % faster). A column whose multiplier is zero in
-/// one of them is skipped there, as `rank1_packed` skips it.
-#[inline(always)]
-pub(super) fn rank1_pair(m0: &mut Packed, m1: &mut Packed, a: &Sig, b: &Sig) {
-    let (a, b) = (a.as_slice(), b.as_slice());
-    for (j, (&aj, &bj)) in a.iter().zip(b).enumerate() {
-        match (aj == 0.0, bj == 0.0) {
-            (true, true) => {}
-            (false, true) => {
-                for (mij, ai) in m0.column_mut(j).iter_mut().zip(a) {
-                    *mij += ai * aj;
-                }
-            }
-            (true, false) => {
-                for (mij, bi) in m1.column_mut(j).iter_mut().zip(b) {
-                    *mij += bi * bj;
-                }
-            }
-            (false, false) => {
-                for (((x, y), ai), bi) in m0
-                    .column_mut(j)
-                    .iter_mut()
-                    .zip(m1.column_mut(j).iter_mut())
-                    .zip(a)
-                    .zip(b)
-                {
-                    *x += ai * aj;
-                    *y += bi * bj;
-                }
-            }
         }
     }
 }
@@ -287,6 +251,7 @@ impl JointEstimator {
     pub(super) fn update_linear_portable(&mut self, s: &Sig, dv: &[[f64; 3]; 2], var: &[f64; 8]) {
         let s = *s;
         let cm_var = var[5];
+        self.flush_due();
         self.update_turn(&s, &[var[6], var[7]]);
         let bp = self.cfg.beta_prior[0];
         let mut reg = 0;
@@ -295,7 +260,7 @@ impl JointEstimator {
                 reg = a;
             }
         }
-        rank1_packed(&mut self.m_raw[reg], &s, 1.0);
+        self.defer(T_RAW, &s, reg);
 
         // Innovations filter of the common-mode SRP channel, applied to every signal.
         let nb = self.bank.poles();
@@ -338,7 +303,6 @@ impl JointEstimator {
                 *xk = ak * (*xk + pk * g);
             }
         }
-        rank1_packed(&mut self.m_filt, &sf, 1.0);
         let c = hn * hn / sv;
         // Column by column (wp is column-major); row i of column j as before:
         // (wp_ij − c pg_i pg_j) a_i a_j.
@@ -358,6 +322,7 @@ impl JointEstimator {
         for (i, &s) in self.bank.s.iter().enumerate().take(nb) {
             self.wp[(i, i)] += s * s;
         }
+        self.defer(T_FILT, &sf, 0);
     }
 
     /// The acceleration an attitude error of 1 rad about each axis turns the SRP `b`
@@ -526,8 +491,9 @@ impl JointEstimator {
                 [p[0][1] - sv * g0 * g1, p[1][1] - sv * g1 * g1],
             ];
         }
-        let [m0, m1] = &mut self.m_turn;
-        rank1_pair(m0, m1, &sfs[0], &sfs[1]);
+        let [s0, s1] = &sfs;
+        self.defer(T_TURN, s0, 0);
+        self.defer(T_TURN + 1, s1, 0);
     }
 
     /// Per turn row, the covariance of its white noise with its attitude error's
@@ -774,25 +740,40 @@ mod tests {
     }
 
     #[test]
-    fn rank1_pair_is_two_rank1_packed_to_the_bit() {
-        let a = Sig::from_fn(|i, _| [0.5, 0.0, -2.0, 3.25, 1e-3][i % 5] * (1.0 + i as f64));
-        let b = Sig::from_fn(|i, _| [0.0, 1.5, 0.3, -0.0, 7.0][i % 5] / (1.0 + i as f64));
-        let mut m0 = <Packed as bytemuck::Zeroable>::zeroed();
+    fn a_deferred_rank_four_update_is_four_rank_one_updates_to_the_bit() {
+        // Zeros in some columns (skipped per sample), a −0 in the matrix (where a
+        // skipped +0 product would change the bits), and subsets of the samples.
+        let vs: [Sig; PEND] = core::array::from_fn(|k| {
+            Sig::from_fn(|i, _| {
+                let x = [0.5, 0.0, -2.0, 3.25, 1e-3, -0.0, 7.0][(i + 2 * k) % 7];
+                x * (1.0 + i as f64) / (1.0 + k as f64)
+            })
+        });
+        let mut m = <Packed as bytemuck::Zeroable>::zeroed();
         for j in 0..NS {
-            for (i, x) in m0.column_mut(j).iter_mut().enumerate() {
+            for (i, x) in m.column_mut(j).iter_mut().enumerate() {
                 *x = ((i * 13 + j * 7) % 11) as f64 / 3.0 - 1.0;
             }
         }
-        let mut m1 = m0;
-        m1.column_mut(5)[2] = -0.0;
-        let (mut r0, mut r1) = (m0, m1);
-        rank1_packed(&mut r0, &a, 1.0);
-        rank1_packed(&mut r1, &b, 1.0);
-        rank1_pair(&mut m0, &mut m1, &a, &b);
-        for j in 0..NS {
-            for i in 0..=j {
-                assert_eq!(m0.get(i, j).to_bits(), r0.get(i, j).to_bits(), "({i}, {j})");
-                assert_eq!(m1.get(i, j).to_bits(), r1.get(i, j).to_bits(), "({i}, {j})");
+        m.column_mut(5)[2] = -0.0;
+        for pick in 0..16u32 {
+            let take: [bool; PEND] = core::array::from_fn(|k| pick & (1 << k) != 0);
+            let mut one_by_one = m;
+            for (v, &t) in vs.iter().zip(&take) {
+                if t {
+                    rank1_packed(&mut one_by_one, v, 1.0);
+                }
+            }
+            let mut at_once = m;
+            rank_n(&mut at_once, &vs, take, 1.0);
+            for j in 0..NS {
+                for i in 0..=j {
+                    assert_eq!(
+                        at_once.get(i, j).to_bits(),
+                        one_by_one.get(i, j).to_bits(),
+                        "({i}, {j}), samples {pick:04b}"
+                    );
+                }
             }
         }
     }
