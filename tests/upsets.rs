@@ -88,3 +88,62 @@ fn no_corrupted_estimate_or_checkpoint_leaves_a_call_a_bit_flipped_in() {
     assert_eq!(r.leaked, 0, "{r:?}");
     assert!(r.refused > 0, "{r:?}");
 }
+
+/// What an update writes is what it reseals (the parts it checks before and reseals
+/// after: `JointEstimator::PARTS`): a whole check (`estimate`) passes after every update
+/// of a campaign that starts late, has a gap, a corrupted sample and a clock jump,
+/// solves included. A part an update writes without resealing fails it.
+#[test]
+fn every_update_reseals_all_it_writes() {
+    use taiji::sim::capi::*;
+    use taiji::sim::msg::{EstimateMsg, SensorSample};
+    let c = Campaign::new(300.0, 3);
+    let mut samples: Vec<SensorSample> = c.samples[7..].to_vec();
+    samples.drain(500..800);
+    samples[1000].is[0].volts[0][0] = f64::NAN;
+    samples[1500].header.tick += 10_000_000;
+    samples[1501].header.tick += 10_000_000;
+    let mut mem = vec![0u64; taiji_estimator_size().div_ceil(8)];
+    let mut work = vec![0u64; taiji_solve_work_size().div_ceil(8)];
+    let p = mem.as_mut_ptr() as *mut u8;
+    let (w, wn) = (work.as_mut_ptr() as *mut u8, work.len() * 8);
+    // SAFETY: 8-aligned memory of the sizes the library asks for, a valid table.
+    unsafe {
+        assert_eq!(
+            taiji_estimator_init(
+                p,
+                mem.len() * 8,
+                &c.cfg,
+                TAIJI_ABI_VERSION,
+                size_of::<taiji::sim::estimate::EstimatorConfig>(),
+                size_of::<SensorSample>(),
+                size_of::<EstimateMsg>(),
+            ),
+            TAIJI_OK
+        );
+        let mut out = EstimateMsg::default();
+        for (i, s) in samples.iter().enumerate() {
+            let mut flags = 0u32;
+            assert_eq!(
+                taiji_estimator_update(p, s, std::ptr::null_mut(), &mut flags),
+                TAIJI_OK
+            );
+            assert_eq!(
+                taiji_estimator_estimate(p, &mut out),
+                TAIJI_OK,
+                "after update {i}"
+            );
+            if flags & TAIJI_SOLVE_DUE != 0 {
+                let rc = taiji_estimator_solve(p, w, wn);
+                assert!(rc == TAIJI_OK || rc == TAIJI_ERR_SOLVE, "solve {rc}");
+            }
+        }
+        assert_eq!(taiji_estimator_finish(p, w, wn, &mut out), TAIJI_OK);
+        assert!(
+            out.n_used > 2000 && out.n_rejected > 0,
+            "{} {}",
+            out.n_used,
+            out.n_rejected
+        );
+    }
+}

@@ -16,6 +16,9 @@ use crate::estimate::snapshot;
 use crate::msg::{EstimateMsg, SensorSample, EST_FINAL, LAYOUT_VERSION};
 use core::mem::{align_of, size_of};
 
+mod seal;
+use seal::{Mask, ALL, FLUSH, SEALED};
+
 /// Success.
 pub const TAIJI_OK: i32 = 0;
 /// A required pointer is null.
@@ -42,8 +45,8 @@ pub const TAIJI_ERR_FINISHED: i32 = 9;
 
 /// The state changed since the library last left it: a bit flipped in the caller's
 /// memory between calls (an upset), or in its statistics during a solve or finish,
-/// or something else wrote to it. Nothing of it is used and no estimate leaves;
-/// restore the last checkpoint (or init) to go on.
+/// or something else wrote to it. No estimate leaves; restore the last checkpoint (or
+/// init) to go on (the header's UPSETS: when each call finds it).
 pub const TAIJI_ERR_UPSET: i32 = 10;
 
 /// The scratch passed to `solve` or `finish` overlaps the state: it would overwrite
@@ -74,203 +77,15 @@ struct State {
     /// 1 after `finish` (any other value than 0 counts as finished).
     finished: u64,
     final_msg: EstimateMsg,
-    /// Digest of everything above but the magic word, as the library left it: every
-    /// call checks it before it reads the state, and every call that writes reseals it,
-    /// so a bit flipped while the state rests between calls is found before it is used.
-    seal: u64,
+    /// Each part's digest as the library left it (`seal`: the estimator's
+    /// `JointEstimator::PARTS`, then `finished` with the final estimate).
+    seals: [u64; SEALED],
+    /// The part the next update checks besides those it writes (taken modulo
+    /// `SEALED`, so any value will do).
+    scrub: u64,
 }
 
-/// The machine word the seal folds: 64 bits where the CPU has them (half the loads)
-/// and on SPARC, whose `ldd` loads two registers at once (a LEON3's update: 150 300
-/// instructions against 173 700 folding 32-bit words); 32 on the other 32-bit CPUs
-/// (a Cortex-M7's: 120 500 against 132 100 folding 64-bit ones, whose rotation costs
-/// there). The seal never leaves the state, so the CPUs need not agree.
-#[cfg(any(target_pointer_width = "64", target_arch = "sparc"))]
-#[cfg_attr(feature = "edac", allow(dead_code))]
-type Word = u64;
-#[cfg(not(any(target_pointer_width = "64", target_arch = "sparc")))]
-#[cfg_attr(feature = "edac", allow(dead_code))]
-type Word = u32;
-
-/// Bytes as the machine words the seal folds (whole, aligned words: every part the
-/// seal covers is; were one not, it would seal nothing rather than panic).
-#[cfg_attr(feature = "edac", allow(dead_code))]
-#[inline(always)]
-fn words(b: Option<&[u8]>) -> &[Word] {
-    bytemuck::try_cast_slice(b.unwrap_or(&[])).unwrap_or(&[])
-}
-
-/// Folds `words` into the digest `d`: each block of eight is XORed into one word, and
-/// the running digest is rotated by one bit before each block (and before each word
-/// of a part's last, shorter block). Any single flipped bit changes it. It is linear:
-/// the digest is the XOR of every word rotated by the number of steps that follow its
-/// own, so two flips cancel only when their bits line up after those rotations (the
-/// same bit in one block; bit i in one block and bit i + 1 in the next, and so on),
-/// which is what a single-event upset does not do. It runs about twice a call (check,
-/// reseal), so it is kept to about a load and an XOR a word.
-#[cfg_attr(feature = "edac", allow(dead_code))]
-#[inline(always)]
-fn fold(d: Word, words: &[Word]) -> Word {
-    let mut d = d;
-    let mut chunks = words.chunks_exact(8);
-    for c in &mut chunks {
-        let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
-        d = d.rotate_left(1) ^ x;
-    }
-    for w in chunks.remainder() {
-        d = d.rotate_left(1) ^ w;
-    }
-    d
-}
-
-/// The fold's steps over `n` words (one a block of eight, one a word of the rest).
-#[cfg_attr(feature = "edac", allow(dead_code))]
-const fn steps(n: usize) -> usize {
-    n / 8 + n % 8
-}
-
-/// The digests the seal is made of: of the estimator's statistics
-/// (`JointEstimator::STATISTICS`, which `solve` and `finish` only read), and of the
-/// rest of what it covers.
-#[cfg_attr(feature = "edac", allow(dead_code))]
-#[derive(Clone, Copy, PartialEq, Eq)]
-struct Digests {
-    stats: Word,
-    rest: Word,
-}
-
-impl Digests {
-    /// The seal: both digests in one word (a flip in either changes it).
-    #[cfg_attr(feature = "edac", allow(dead_code))]
-    #[allow(clippy::unnecessary_cast)]
-    fn seal(self) -> u64 {
-        (self.stats as u64).rotate_left(32) ^ self.rest as u64
-    }
-}
-
-/// The parts of the state the seal covers that are not statistics, in the order the
-/// rest's digest folds them: the estimator around its statistics, `finished`, the
-/// final estimate (plain numbers, 8-aligned, whole words).
-#[cfg_attr(feature = "edac", allow(dead_code))]
-fn rest_parts(st: &State) -> [&[u8]; 5] {
-    let e = bytemuck::bytes_of(&st.est);
-    let [s0, s1] = JointEstimator::STATISTICS;
-    [
-        e.get(..s0.start).unwrap_or(&[]),
-        e.get(s0.end..s1.start).unwrap_or(&[]),
-        e.get(s1.end..).unwrap_or(&[]),
-        bytemuck::bytes_of(&st.finished),
-        bytemuck::bytes_of(&st.final_msg),
-    ]
-}
-
-/// Both digests, in one pass over the state.
-#[cfg_attr(feature = "edac", allow(dead_code))]
-fn digests(st: &State) -> Digests {
-    let e = bytemuck::bytes_of(&st.est);
-    let mut stats: Word = 0;
-    for range in JointEstimator::STATISTICS {
-        stats = fold(stats, words(e.get(range)));
-    }
-    let mut rest: Word = 0;
-    for part in rest_parts(st) {
-        rest = fold(rest, words(Some(part)));
-    }
-    Digests { stats, rest }
-}
-
-/// The seal after the `u64` at byte `at` of the estimator (outside its statistics)
-/// changed from `old` to what it holds now, from the digests `d` the state had before:
-/// the fold is linear, so only that word's share of the rest's digest changes, and
-/// nothing else is read (a flip elsewhere meanwhile is not taken in: the next check
-/// finds it).
-#[cfg(not(feature = "edac"))]
-fn reseal_word(st: &mut State, d: Digests, at: usize, old: u64) {
-    const W: usize = size_of::<Word>();
-    let [s0, s1] = JointEstimator::STATISTICS;
-    let parts = rest_parts(st);
-    // Where each part of the rest starts in the estimator (the last two are not in it).
-    let starts = [0, s0.end, s1.end, usize::MAX, usize::MAX];
-    let total: usize = parts.iter().map(|p| steps(p.len() / W)).sum();
-    let (mut before, mut hit) = (0usize, None);
-    for (p, &start) in parts.iter().zip(&starts) {
-        if hit.is_none() && at >= start && at.saturating_add(8) <= start.saturating_add(p.len()) {
-            hit = Some((before, start, p.len() / W));
-        }
-        before += steps(p.len() / W);
-    }
-    let Some((first, start, n)) = hit else {
-        st.seal = digests(st).seal();
-        return;
-    };
-    let new = est_u64(st, at);
-    let word = |b: Option<&[u8]>| {
-        b.and_then(|b| <[u8; W]>::try_from(b).ok())
-            .map_or(0, Word::from_ne_bytes)
-    };
-    let full = n / 8 * 8;
-    let mut rest = d.rest;
-    let (old, new) = (old.to_ne_bytes(), new.to_ne_bytes());
-    for j in 0..8 / W {
-        let delta = word(old.get(j * W..(j + 1) * W)) ^ word(new.get(j * W..(j + 1) * W));
-        let i = (at - start) / W + j;
-        let step = first
-            + if i < full {
-                i / 8
-            } else {
-                full / 8 + (i - full)
-            };
-        let rot = (total.saturating_sub(1 + step) % Word::BITS as usize) as u32;
-        rest ^= delta.rotate_left(rot);
-    }
-    st.seal = Digests { rest, ..d }.seal();
-}
-
-#[cfg(not(feature = "edac"))]
-fn reseal(st: &mut State) {
-    st.seal = digests(st).seal();
-}
-
-/// With EDAC memory the hardware corrects what the seal would find: no seal.
-#[cfg(feature = "edac")]
-fn reseal(_: &mut State) {}
-
-/// The digests when the state still matches its seal.
-#[cfg(not(feature = "edac"))]
-fn sealed(st: &State) -> Option<Digests> {
-    let d = digests(st);
-    (d.seal() == st.seal).then_some(d)
-}
-
-/// Without a seal: always, and digests of nothing.
-#[cfg(feature = "edac")]
-fn sealed(_: &State) -> Option<Digests> {
-    Some(Digests { stats: 0, rest: 0 })
-}
-
-/// After a call's work: whether its statistics still have the digest `before` that
-/// its check found (when it only read them), and the seal, both from one pass.
-/// `Err(TAIJI_ERR_UPSET)` when they changed: a bit flipped during the call, and the
-/// state is left unsealed, so every call refuses it until a restore.
-#[cfg(not(feature = "edac"))]
-fn reseal_checking(st: &mut State, before: Option<Digests>) -> Result<(), i32> {
-    let d = digests(st);
-    if before.is_some_and(|b| b.stats != d.stats) {
-        return Err(TAIJI_ERR_UPSET);
-    }
-    st.seal = d.seal();
-    Ok(())
-}
-
-#[cfg(feature = "edac")]
-fn reseal_checking(_: &mut State, _: Option<Digests>) -> Result<(), i32> {
-    Ok(())
-}
-
-#[cfg(feature = "edac")]
-fn reseal_word(_: &mut State, _: Digests, _: usize, _: u64) {}
-
-/// 1 when this build seals the state (every call checks for upsets), 0 when it was
+/// 1 when this build seals the state (the calls check for upsets), 0 when it was
 /// built for EDAC memory (feature `edac`: no check, `TAIJI_ERR_UPSET` never returned).
 #[no_mangle]
 pub extern "C" fn taiji_upset_check() -> u32 {
@@ -353,10 +168,8 @@ fn state_mut<'a>(mem: *mut u8, size: usize) -> Result<&'a mut State, i32> {
     Ok(unsafe { &mut *(mem as *mut State) })
 }
 
-/// The initialised state behind `mem`, or why not: the magic word, and a state that
-/// could have come from `init` and `update` (its table passes its check, its counts
-/// index within their arrays).
-fn live<'a>(mem: *mut u8) -> Result<(&'a mut State, Digests), i32> {
+/// The state behind `mem` if it was initialised (its magic word), or why not.
+fn initialised<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
     let st = state_mut(mem, size_of::<State>())?;
     if st.magic != MAGIC {
         // A magic word a few bits from ours is an initialised state whose first word
@@ -368,39 +181,42 @@ fn live<'a>(mem: *mut u8) -> Result<(&'a mut State, Digests), i32> {
             TAIJI_ERR_STATE
         });
     }
-    let Some(d) = sealed(st) else {
-        return Err(TAIJI_ERR_UPSET);
-    };
+    Ok(st)
+}
+
+/// The initialised state behind `mem` with the parts in `mask` checked against their
+/// seal, or why not: it could have come from `init` and `update` (its table passes
+/// its check, its counts index within their arrays). A state that could not have is
+/// an upset where the seal says so.
+fn checked<'a>(mem: *mut u8, mask: Mask) -> Result<&'a mut State, i32> {
+    let st = initialised(mem)?;
+    seal::check(st, mask)?;
     if !st.est.is_sane() {
+        seal::check(st, ALL)?;
         return Err(TAIJI_ERR_STATE);
     }
-    Ok((st, d))
+    Ok(st)
 }
 
-/// Runs `f` on the running campaign's state and reseals it whatever `f` returns (a
-/// failed solve has written its status). `reads_statistics`: `f` only reads the
-/// statistics (a solve), so the pass that reseals also checks they did not change
-/// during it (`reseal_checking`).
-fn mutate(
-    mem: *mut u8,
-    reads_statistics: bool,
-    f: impl FnOnce(&mut State) -> Result<i32, i32>,
-) -> i32 {
-    code((|| {
-        let (st, d) = running(mem)?;
-        let r = f(st);
-        reseal_checking(st, reads_statistics.then_some(d))?;
-        r
-    })())
+/// The whole state, checked.
+fn live<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
+    checked(mem, ALL)
 }
 
-/// The initialised state of a campaign still running, and its digests.
-fn running<'a>(mem: *mut u8) -> Result<(&'a mut State, Digests), i32> {
-    let (st, d) = live(mem)?;
+/// The whole state of a campaign still running, checked.
+fn running<'a>(mem: *mut u8) -> Result<&'a mut State, i32> {
+    let st = live(mem)?;
     if st.finished != 0 {
         return Err(TAIJI_ERR_FINISHED);
     }
-    Ok((st, d))
+    Ok(st)
+}
+
+/// A solve's or `finish`'s start: every Gram brought up to date, and what that wrote
+/// resealed, so that the statistics' digests are those the solve must leave.
+fn flush_grams(st: &mut State) {
+    st.est.flush_grams();
+    seal::reseal(st, FLUSH);
 }
 
 fn code(r: Result<i32, i32>) -> i32 {
@@ -456,7 +272,8 @@ pub unsafe extern "C" fn taiji_estimator_init(
         JointEstimator::init_in_place(&mut st.est, cfg);
         st.finished = 0;
         st.final_msg = EstimateMsg::default();
-        reseal(st);
+        st.scrub = 0;
+        seal::reseal(st, ALL);
         st.magic = MAGIC;
         Ok(TAIJI_OK)
     })())
@@ -475,13 +292,25 @@ pub unsafe extern "C" fn taiji_estimator_update(
     rejected: *mut u64,
     flags: *mut u32,
 ) -> i32 {
-    mutate(mem, false, |st| {
+    code((|| {
+        let st = initialised(mem)?;
+        if st.finished != 0 {
+            seal::check(st, ALL)?;
+            return Err(TAIJI_ERR_FINISHED);
+        }
         if sample.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
+        // What this update may write, checked before it reads it and resealed after;
+        // and one more part in turn (the scrub).
+        let writes = seal::update_writes(&st.est);
+        let scrub = (st.scrub % SEALED as u64) as usize;
+        let st = checked(mem, writes | 1 << scrub)?;
+        st.scrub = (scrub + 1) as u64;
         // SAFETY: non-null; any bytes are a valid sample (plain numbers).
         let s = unsafe { core::ptr::read_unaligned(sample) };
         let causes = st.est.update(&s);
+        seal::reseal(st, writes);
         if !rejected.is_null() {
             // SAFETY: non-null, caller-provided.
             unsafe { rejected.write_unaligned(causes) };
@@ -496,7 +325,7 @@ pub unsafe extern "C" fn taiji_estimator_update(
             unsafe { flags.write_unaligned(f) };
         }
         Ok(TAIJI_OK)
-    })
+    })())
 }
 
 /// One Gauss–Newton iteration on everything taken so far (warm-started; the host
@@ -518,13 +347,19 @@ pub unsafe extern "C" fn taiji_estimator_solve(
         Ok(w) => w,
         Err(e) => return e,
     };
-    mutate(mem, true, |st| {
-        if st.est.solve_now_with(w) {
+    code((|| {
+        let st = running(mem)?;
+        flush_grams(st);
+        let r = if st.est.solve_now_with(w) {
             Ok(TAIJI_OK)
         } else {
             Err(TAIJI_ERR_SOLVE)
-        }
-    })
+        };
+        // Resealed whatever the solve returns (a failed one has written its status),
+        // unless its statistics changed during it.
+        seal::reseal_checking(st)?;
+        r
+    })())
 }
 
 /// The current estimate (β, k, r with σ, status word, rejection counts) into `out`.
@@ -536,7 +371,7 @@ pub unsafe extern "C" fn taiji_estimator_solve(
 #[no_mangle]
 pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut EstimateMsg) -> i32 {
     code((|| {
-        let (st, _) = live(mem)?;
+        let st = live(mem)?;
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -547,16 +382,14 @@ pub unsafe extern "C" fn taiji_estimator_estimate(mem: *mut u8, out: *mut Estima
         };
         // Made from what the check passed, unless a bit flipped during the call:
         // checked again before it leaves.
-        let Some(d) = sealed(st) else {
-            return Err(TAIJI_ERR_UPSET);
-        };
+        seal::check(st, ALL)?;
         if st.finished == 0 {
             // The message counts itself (its sequence number): that word's share of
-            // the seal alone, from the digests just checked.
+            // its part's seal alone, just checked.
             let at = JointEstimator::SEQ_OFFSET;
             let old = est_u64(st, at);
             st.est.message_sent();
-            reseal_word(st, d, at, old);
+            seal::reseal_word(st, at, old);
         }
         // SAFETY: non-null, caller-provided.
         unsafe { out.write_unaligned(m) };
@@ -589,7 +422,7 @@ pub unsafe extern "C" fn taiji_estimator_finish(
     out: *mut EstimateMsg,
 ) -> i32 {
     code((|| {
-        let (st, d) = live(mem)?;
+        let st = live(mem)?;
         if out.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -597,20 +430,19 @@ pub unsafe extern "C" fn taiji_estimator_finish(
         // not use it.
         let w = work_mut(mem, work, work_size)?;
         let m = if st.finished == 0 {
+            flush_grams(st);
             let mut m = st.est.finish_with(w);
             m.flags |= EST_FINAL;
             st.final_msg = m;
             st.finished = 1;
             // Its solves only read the statistics: a change is a flip during the
             // call, and no estimate leaves (the state stays unsealed until a restore).
-            reseal_checking(st, Some(d))?;
+            seal::reseal_checking(st)?;
             m
         } else {
             let m = st.final_msg;
             // Checked again before it leaves.
-            if sealed(st).is_none() {
-                return Err(TAIJI_ERR_UPSET);
-            }
+            seal::check(st, ALL)?;
             m
         };
         // SAFETY: non-null, caller-provided.
@@ -635,7 +467,7 @@ pub unsafe extern "C" fn taiji_estimator_checkpoint(
     written: *mut usize,
 ) -> i32 {
     code((|| {
-        let (st, _) = running(mem)?;
+        let st = running(mem)?;
         if buf.is_null() {
             return Err(TAIJI_ERR_NULL);
         }
@@ -645,7 +477,7 @@ pub unsafe extern "C" fn taiji_estimator_checkpoint(
         // Copied from what the check passed, unless a bit flipped during the call:
         // checked again, and a copy that may hold the flip is spoilt (its magic word
         // zeroed, so `restore` refuses it).
-        if sealed(st).is_none() {
+        if seal::check(st, ALL).is_err() {
             out.iter_mut().take(8).for_each(|b| *b = 0);
             return Err(TAIJI_ERR_UPSET);
         }
@@ -695,7 +527,8 @@ pub unsafe extern "C" fn taiji_estimator_restore(
         }
         st.finished = 0;
         st.final_msg = EstimateMsg::default();
-        reseal(st);
+        st.scrub = 0;
+        seal::reseal(st, ALL);
         st.magic = MAGIC;
         Ok(TAIJI_OK)
     })())

@@ -11,10 +11,10 @@
 use super::*;
 
 /// Samples that may wait for one Gram matrix.
-pub(super) const PEND: usize = 4;
+pub const PEND: usize = 4;
 /// The matrices that take them: the sample's regime's raw Gram, the SRP-whitened one,
 /// the two turn rows'.
-pub(super) const TARGETS: usize = 4;
+pub const TARGETS: usize = 4;
 pub(super) const T_RAW: usize = 0;
 pub(super) const T_FILT: usize = 1;
 pub(super) const T_TURN: usize = 2;
@@ -88,19 +88,24 @@ impl JointEstimator {
         self.flush_target(t);
     }
 
-    /// Which Gram matrix the next linear sample brings up to date, and for the raw
-    /// Grams which regimes' matrices that writes (bit r: `m_raw[r]`): what an update
-    /// may write there (the C ABI's seal).
+    /// The Gram matrices the next linear sample brings up to date, as bits of their
+    /// `Writer::Gram` numbers (0–2 `m_raw[r]`, 3 `m_filt`, 4–5 `m_turn[k]`): what an
+    /// update may write of them (the C ABI's seal), and the target whose waiting
+    /// samples it reads.
     pub fn due_grams(&self) -> (usize, u32) {
         let t = (self.pend_turn % TARGETS as u64) as usize;
-        let mut regs = 0;
-        if t == T_RAW {
-            let n = (self.pend_n[T_RAW] as usize).min(PEND);
-            for &r in self.pend_reg.iter().take(n) {
-                regs |= 1 << r.min(N_REG as u64 - 1);
+        let bits = match t {
+            T_RAW => {
+                let mut regs = 0;
+                for &r in self.pend_reg.iter().take(self.waiting(T_RAW)) {
+                    regs |= 1 << r.min(N_REG as u64 - 1);
+                }
+                regs
             }
-        }
-        (t, regs)
+            T_FILT => 1 << 3,
+            _ => 1 << (4 + t - T_TURN).min(5),
+        };
+        (t, bits)
     }
 
     /// A linear sample's signals `v` wait for Gram matrix `t` (`reg`: the raw Gram's

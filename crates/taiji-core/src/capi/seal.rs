@@ -1,0 +1,267 @@
+//! The seal: a digest of each part of the state (`JointEstimator::PARTS`, then the
+//! `finished` word with the final estimate), kept in the state. `update` checks the
+//! parts it may write before it runs and reseals them after, and checks one more part
+//! a call in turn (the scrub); every other call checks every part. A flip anywhere is
+//! so found before an update uses it where the update writes, and within `SEALED`
+//! updates, or at the next `solve`, `estimate`, `checkpoint` or `finish`, elsewhere;
+//! no estimate or checkpoint leaves unchecked.
+
+use super::{State, TAIJI_ERR_UPSET};
+use crate::estimate::joint::{JointEstimator, Rows, Writer, N_PARTS, PEND, POLE_ROW};
+
+/// The parts the seal keeps a digest of: the estimator's, and the tail (`finished`
+/// and the final estimate).
+pub(super) const SEALED: usize = N_PARTS + 1;
+const TAIL: usize = N_PARTS;
+
+/// A set of parts, bit i part i.
+pub(super) type Mask = u64;
+pub(super) const ALL: Mask = {
+    assert!(SEALED < 64);
+    (1 << SEALED) - 1
+};
+
+/// The parts whose writer is of kind `k`: 0 `Update`, 1 `Start`, 2 `Gram` (any).
+const fn parts_of(k: u8) -> Mask {
+    let mut m = 0;
+    let mut i = 0;
+    while i < N_PARTS {
+        let hit = match JointEstimator::PARTS[i].writer {
+            Writer::Update => k == 0,
+            Writer::Start => k == 1,
+            Writer::Gram(_) => k == 2,
+            _ => false,
+        };
+        if hit {
+            m |= 1 << i;
+        }
+        i += 1;
+    }
+    m
+}
+const UPDATE: Mask = parts_of(0);
+const START: Mask = parts_of(1);
+/// The statistics: what `solve` and `finish` leave as they found it once the Grams
+/// are up to date.
+pub(super) const STATISTICS: Mask = {
+    let mut m = 0;
+    let mut i = 0;
+    while i < N_PARTS {
+        if JointEstimator::PARTS[i].statistic {
+            m |= 1 << i;
+        }
+        i += 1;
+    }
+    m
+};
+/// Where bringing every Gram up to date writes (`flush_grams`): the Gram matrices
+/// and the waiting counts.
+pub(super) const FLUSH: Mask = parts_of(2) | 1 << (N_PARTS - 1);
+/// Part number of `Writer::Gram(g)`, and of `Writer::Pend(t, 0)`.
+const GRAM: [usize; 6] = {
+    let mut out = [0; 6];
+    let mut i = 0;
+    while i < N_PARTS {
+        if let Writer::Gram(g) = JointEstimator::PARTS[i].writer {
+            out[g as usize] = i;
+        }
+        i += 1;
+    }
+    out
+};
+const PEND0: usize = {
+    let mut i = 0;
+    while !matches!(JointEstimator::PARTS[i].writer, Writer::Pend(0, 0)) {
+        i += 1;
+    }
+    i
+};
+
+/// The machine word the seal folds: 64 bits where the CPU has them (half the loads)
+/// and on SPARC, whose `ldd` loads two registers at once; 32 on the other 32-bit CPUs
+/// (a Cortex-M7's, whose 64-bit rotation costs there). The seal never leaves the
+/// state, so the CPUs need not agree.
+#[cfg(any(target_pointer_width = "64", target_arch = "sparc"))]
+type Word = u64;
+#[cfg(not(any(target_pointer_width = "64", target_arch = "sparc")))]
+type Word = u32;
+const W: usize = size_of::<Word>();
+
+/// Bytes as the machine words the seal folds (whole, aligned words: every part is;
+/// were one not, it would seal nothing rather than panic).
+#[inline(always)]
+fn words(b: &[u8]) -> &[Word] {
+    bytemuck::try_cast_slice(b).unwrap_or(&[])
+}
+
+/// Folds `words` into the digest `d`: each block of eight is XORed into one word, and
+/// the running digest is rotated by one bit before each block (and before each word
+/// of the last, shorter block). Any single flipped bit changes it. It is linear: the
+/// digest is the XOR of every word rotated by the number of steps that follow its
+/// own, so two flips cancel only when their bits line up after those rotations (the
+/// same bit in one block; bit i in one block and bit i + 1 in the next, and so on),
+/// which is what a single-event upset does not do. About a load and an XOR a word.
+#[inline(always)]
+fn fold(d: Word, words: &[Word]) -> Word {
+    let mut d = d;
+    let mut chunks = words.chunks_exact(8);
+    for c in &mut chunks {
+        let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
+        d = d.rotate_left(1) ^ x;
+    }
+    for w in chunks.remainder() {
+        d = d.rotate_left(1) ^ w;
+    }
+    d
+}
+
+/// The fold's steps over `n` words (one a block of eight, one a word of the rest).
+const fn steps(n: usize) -> usize {
+    n / 8 + n % 8
+}
+
+/// Part `i`'s digest.
+fn digest(st: &State, i: usize) -> Word {
+    if i == TAIL {
+        let d = fold(0, words(bytemuck::bytes_of(&st.finished)));
+        return fold(d, words(bytemuck::bytes_of(&st.final_msg)));
+    }
+    let Some(p) = JointEstimator::PARTS.get(i) else {
+        return 0;
+    };
+    let b = bytemuck::bytes_of(&st.est)
+        .get(p.start..p.end)
+        .unwrap_or(&[]);
+    if p.rows == Rows::All {
+        return fold(0, words(b));
+    }
+    let n = st.est.poles_in_use();
+    let mut d = 0;
+    for (r, row) in b.chunks_exact(POLE_ROW).enumerate() {
+        let cols = p.rows.of_row(r, n);
+        d = fold(
+            d,
+            words(row.get(cols.start * 8..cols.end * 8).unwrap_or(&[])),
+        );
+    }
+    d
+}
+
+/// The parts an update may write, from the state before it: what it always may, the
+/// references while they wait, the Gram matrices it brings up to date and the slots
+/// of `pend` it reads and writes (`JointEstimator::due_grams`, `next_slot`).
+pub(super) fn update_writes(e: &JointEstimator) -> Mask {
+    let mut m = UPDATE;
+    if e.may_start() {
+        m |= START;
+    }
+    let (due, grams) = e.due_grams();
+    for (g, &part) in GRAM.iter().enumerate() {
+        if grams & (1 << g) != 0 {
+            m |= 1 << part;
+        }
+    }
+    for k in 0..e.waiting(due) {
+        m |= 1 << (PEND0 + due * PEND + k).min(N_PARTS - 1);
+    }
+    for t in 0..crate::estimate::joint::TARGETS {
+        m |= 1 << (PEND0 + t * PEND + e.next_slot(t)).min(N_PARTS - 1);
+    }
+    m
+}
+
+/// Whether every part in `mask` still has its digest (`Err(TAIJI_ERR_UPSET)` if not).
+/// With EDAC memory (feature `edac`) nothing is sealed, and everything passes.
+pub(super) fn check(st: &State, mask: Mask) -> Result<(), i32> {
+    if cfg!(feature = "edac") {
+        return Ok(());
+    }
+    for (i, &seal) in st.seals.iter().enumerate() {
+        if mask & (1 << i) != 0 && digest(st, i) as u64 != seal {
+            return Err(TAIJI_ERR_UPSET);
+        }
+    }
+    Ok(())
+}
+
+/// Takes the parts in `mask` as they are into the seal.
+pub(super) fn reseal(st: &mut State, mask: Mask) {
+    if cfg!(feature = "edac") {
+        return;
+    }
+    for i in 0..SEALED {
+        if mask & (1 << i) != 0 {
+            let d = digest(st, i) as u64;
+            if let Some(s) = st.seals.get_mut(i) {
+                *s = d;
+            }
+        }
+    }
+}
+
+/// After a call that only read the statistics (`solve`, `finish`, once the Grams were
+/// brought up to date and resealed): whether they still have their digests, and every
+/// part resealed, from one pass. `Err(TAIJI_ERR_UPSET)` when a statistic changed: a bit
+/// flipped during the call, and the state is left as the call wrote it, its seal not
+/// (every call refuses it until a restore).
+pub(super) fn reseal_checking(st: &mut State) -> Result<(), i32> {
+    if cfg!(feature = "edac") {
+        return Ok(());
+    }
+    let mut fresh = [0u64; SEALED];
+    for (i, f) in fresh.iter_mut().enumerate() {
+        *f = digest(st, i) as u64;
+    }
+    for (i, (f, s)) in fresh.iter().zip(&st.seals).enumerate() {
+        if STATISTICS & (1 << i) != 0 && f != s {
+            return Err(TAIJI_ERR_UPSET);
+        }
+    }
+    st.seals = fresh;
+    Ok(())
+}
+
+/// The seal after the `u64` at byte `at` of the estimator changed from `old` to what
+/// it holds now, in a part of whole rows (`Rows::All`): the fold is linear, so only
+/// that word's share of its part's digest changes, and nothing else is read (a flip
+/// elsewhere meanwhile is not taken in: the next check finds it).
+pub(super) fn reseal_word(st: &mut State, at: usize, old: u64) {
+    if cfg!(feature = "edac") {
+        return;
+    }
+    let Some((i, p)) = JointEstimator::PARTS
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.start <= at && at.saturating_add(8) <= p.end)
+    else {
+        return;
+    };
+    if p.rows != Rows::All {
+        reseal(st, 1 << i);
+        return;
+    }
+    let new = super::est_u64(st, at);
+    let word = |b: Option<&[u8]>| {
+        b.and_then(|b| <[u8; W]>::try_from(b).ok())
+            .map_or(0, Word::from_ne_bytes)
+    };
+    let n = (p.end - p.start) / W;
+    let full = n / 8 * 8;
+    let total = steps(n);
+    let (old, new) = (old.to_ne_bytes(), new.to_ne_bytes());
+    let mut d: Word = 0;
+    for j in 0..8 / W {
+        let delta = word(old.get(j * W..(j + 1) * W)) ^ word(new.get(j * W..(j + 1) * W));
+        let k = (at - p.start) / W + j;
+        let step = if k < full {
+            k / 8
+        } else {
+            full / 8 + (k - full)
+        };
+        let rot = (total.saturating_sub(1 + step) % Word::BITS as usize) as u32;
+        d ^= delta.rotate_left(rot);
+    }
+    if let Some(s) = st.seals.get_mut(i) {
+        *s ^= d as u64;
+    }
+}
