@@ -303,14 +303,15 @@ pub unsafe extern "C" fn taiji_estimator_update(
         }
         // What this update may write, checked before it reads it and resealed after;
         // and one more part in turn (the scrub).
-        let writes = seal::update_writes(&st.est);
+        let (reads, slots) = seal::update_reads(&st.est);
         let scrub = (st.scrub % SEALED as u64) as usize;
-        let st = checked(mem, writes | 1 << scrub)?;
+        let st = checked(mem, reads | 1 << scrub)?;
         st.scrub = (scrub + 1) as u64;
         // SAFETY: non-null; any bytes are a valid sample (plain numbers).
         let s = unsafe { core::ptr::read_unaligned(sample) };
         let causes = st.est.update(&s);
-        seal::reseal(st, writes);
+        let filled = seal::update_filled(&st.est, slots);
+        seal::reseal(st, reads | filled);
         if !rejected.is_null() {
             // SAFETY: non-null, caller-provided.
             unsafe { rejected.write_unaligned(causes) };

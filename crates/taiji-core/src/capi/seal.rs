@@ -7,7 +7,7 @@
 //! no estimate or checkpoint leaves unchecked.
 
 use super::{State, TAIJI_ERR_UPSET};
-use crate::estimate::joint::{JointEstimator, Rows, Writer, N_PARTS, PEND, POLE_ROW};
+use crate::estimate::joint::{Extent, JointEstimator, Writer, N_PARTS, PEND, TARGETS};
 
 /// The parts the seal keeps a digest of: the estimator's, and the tail (`finished`
 /// and the final estimate).
@@ -94,13 +94,13 @@ fn words(b: &[u8]) -> &[Word] {
     bytemuck::try_cast_slice(b).unwrap_or(&[])
 }
 
-/// Folds `words` into the digest `d`: each block of eight is XORed into one word, and
-/// the running digest is rotated by one bit before each block (and before each word
-/// of the last, shorter block). Any single flipped bit changes it. It is linear: the
-/// digest is the XOR of every word rotated by the number of steps that follow its
-/// own, so two flips cancel only when their bits line up after those rotations (the
-/// same bit in one block; bit i in one block and bit i + 1 in the next, and so on),
-/// which is what a single-event upset does not do. About a load and an XOR a word.
+/// Folds `words` into the digest `d`: each block of eight (the last may be shorter)
+/// is XORed into one word, and the running digest is rotated by one bit before each
+/// block. Any single flipped bit changes it. It is linear: the digest is the XOR of
+/// every word rotated by the number of blocks that follow its own, so two flips cancel
+/// only when their bits line up after those rotations (the same bit in one block; bit
+/// i in one block and bit i + 1 in the next, and so on), which is what a single-event
+/// upset does not do. About a load and an XOR a word.
 #[inline(always)]
 fn fold(d: Word, words: &[Word]) -> Word {
     let mut d = d;
@@ -109,15 +109,29 @@ fn fold(d: Word, words: &[Word]) -> Word {
         let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
         d = d.rotate_left(1) ^ x;
     }
-    for w in chunks.remainder() {
-        d = d.rotate_left(1) ^ w;
+    let rest = chunks.remainder();
+    if !rest.is_empty() {
+        let mut x = 0;
+        for w in rest {
+            x ^= w;
+        }
+        d = d.rotate_left(1) ^ x;
     }
     d
 }
 
-/// The fold's steps over `n` words (one a block of eight, one a word of the rest).
-const fn steps(n: usize) -> usize {
-    n / 8 + n % 8
+/// Part `i`'s words, as the seal folds them.
+fn part_words(st: &State, i: usize) -> &[Word] {
+    let Some(p) = JointEstimator::PARTS.get(i) else {
+        return &[];
+    };
+    // In 8-byte words of the part, then in the seal's words.
+    let held = p.extent.words((p.end - p.start) / 8, st.est.poles_in_use());
+    let (a, b) = (
+        (p.start + 8 * held.start) / W,
+        (p.start + 8 * held.end) / W,
+    );
+    words(bytemuck::bytes_of(&st.est)).get(a..b).unwrap_or(&[])
 }
 
 /// Part `i`'s digest.
@@ -126,31 +140,15 @@ fn digest(st: &State, i: usize) -> Word {
         let d = fold(0, words(bytemuck::bytes_of(&st.finished)));
         return fold(d, words(bytemuck::bytes_of(&st.final_msg)));
     }
-    let Some(p) = JointEstimator::PARTS.get(i) else {
-        return 0;
-    };
-    let b = bytemuck::bytes_of(&st.est)
-        .get(p.start..p.end)
-        .unwrap_or(&[]);
-    if p.rows == Rows::All {
-        return fold(0, words(b));
-    }
-    let n = st.est.poles_in_use();
-    let mut d = 0;
-    for (r, row) in b.chunks_exact(POLE_ROW).enumerate() {
-        let cols = p.rows.of_row(r, n);
-        d = fold(
-            d,
-            words(row.get(cols.start * 8..cols.end * 8).unwrap_or(&[])),
-        );
-    }
-    d
+    fold(0, part_words(st, i))
 }
 
-/// The parts an update may write, from the state before it: what it always may, the
-/// references while they wait, the Gram matrices it brings up to date and the slots
-/// of `pend` it reads and writes (`JointEstimator::due_grams`, `next_slot`).
-pub(super) fn update_writes(e: &JointEstimator) -> Mask {
+/// The parts an update may read before it writes them, from the state before it: what
+/// it always may, the references while they wait, the Gram matrices it brings up to
+/// date and the samples waiting for them (`JointEstimator::due_grams`); and the slot of
+/// `pend` each Gram matrix's next sample would go to (`next_slot`), which it only
+/// writes.
+pub(super) fn update_reads(e: &JointEstimator) -> (Mask, [usize; TARGETS]) {
     let mut m = UPDATE;
     if e.may_start() {
         m |= START;
@@ -164,8 +162,17 @@ pub(super) fn update_writes(e: &JointEstimator) -> Mask {
     for k in 0..e.waiting(due) {
         m |= 1 << (PEND0 + due * PEND + k).min(N_PARTS - 1);
     }
-    for t in 0..crate::estimate::joint::TARGETS {
-        m |= 1 << (PEND0 + t * PEND + e.next_slot(t)).min(N_PARTS - 1);
+    (m, core::array::from_fn(|t| e.next_slot(t)))
+}
+
+/// The slots of `pend` an update wrote, from the slots `next` it would write
+/// (`update_reads`): those it filled (whole: nothing of what they held is read).
+pub(super) fn update_filled(e: &JointEstimator, next: [usize; TARGETS]) -> Mask {
+    let mut m = 0;
+    for (t, &k) in next.iter().enumerate() {
+        if e.waiting(t) > k {
+            m |= 1 << (PEND0 + t * PEND + k).min(N_PARTS - 1);
+        }
     }
     m
 }
@@ -236,7 +243,7 @@ pub(super) fn reseal_word(st: &mut State, at: usize, old: u64) {
     else {
         return;
     };
-    if p.rows != Rows::All {
+    if p.extent != Extent::All {
         reseal(st, 1 << i);
         return;
     }
@@ -245,20 +252,13 @@ pub(super) fn reseal_word(st: &mut State, at: usize, old: u64) {
         b.and_then(|b| <[u8; W]>::try_from(b).ok())
             .map_or(0, Word::from_ne_bytes)
     };
-    let n = (p.end - p.start) / W;
-    let full = n / 8 * 8;
-    let total = steps(n);
+    let blocks = ((p.end - p.start) / W).div_ceil(8);
     let (old, new) = (old.to_ne_bytes(), new.to_ne_bytes());
     let mut d: Word = 0;
     for j in 0..8 / W {
         let delta = word(old.get(j * W..(j + 1) * W)) ^ word(new.get(j * W..(j + 1) * W));
-        let k = (at - p.start) / W + j;
-        let step = if k < full {
-            k / 8
-        } else {
-            full / 8 + (k - full)
-        };
-        let rot = (total.saturating_sub(1 + step) % Word::BITS as usize) as u32;
+        let block = ((at - p.start) / W + j) / 8;
+        let rot = (blocks.saturating_sub(1 + block) % Word::BITS as usize) as u32;
         d ^= delta.rotate_left(rot);
     }
     if let Some(s) = st.seals.get_mut(i) {

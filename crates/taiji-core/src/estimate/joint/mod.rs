@@ -59,7 +59,7 @@ use gates::*;
 use layout::*;
 pub use layout::{NP, NS, P_BETA, P_R};
 use model::*;
-pub use parts::{Part, Rows, Writer, N_PARTS, POLE_ROW};
+pub use parts::{Extent, Part, Writer, N_PARTS};
 pub use solve::SolveWork;
 use solve::*;
 use whiten::*;
@@ -115,9 +115,14 @@ pub struct JointEstimator {
     m_raw: [Packed; N_REG],
     m_filt: Packed,
     bank: PowerLawBank,
-    wp: SMatrix<f64, MAX_POLES, MAX_POLES>,
+    /// The SRP filter's state covariance over the `n = bank.poles()` poles in use, n × n
+    /// column by column in the first n² words (`(i, j)` at `j n + i`), and each
+    /// signal's filter state, pole by pole in the first `n NS` words (pole k of signal
+    /// m at `k NS + m`): what an update writes is one run of words (the seal's parts).
     #[serde(with = "array_serde")]
-    wx: [[f64; MAX_POLES]; NS],
+    wp: [f64; MAX_POLES * MAX_POLES],
+    #[serde(with = "array_serde")]
+    wx: [f64; MAX_POLES * NS],
     /// Gain of the SRP state onto the whitened common-mode channel.
     hn: f64,
     /// Row mapping the 6 linear residuals onto that channel: u0ᵀ L0⁻¹.
@@ -360,8 +365,11 @@ impl JointEstimator {
             tuning::SRP_PSD_EXPONENT,
             cfg.fs,
         );
-        for k in 0..dst.bank.poles() {
-            dst.wp[(k, k)] = dst.bank.var[k];
+        let nb = dst.bank.poles();
+        for (k, &v) in dst.bank.var.iter().enumerate().take(nb) {
+            if let Some(w) = dst.wp.get_mut(k * nb + k) {
+                *w = v;
+            }
         }
         dst.cfg = cfg;
         dst.q_ref = UnitQuaternion::identity();
@@ -689,7 +697,7 @@ mod tests {
         assert_eq!(a.p[P_BETA], cfg.beta_prior[0][0]);
         assert_eq!(a.p_prior, a.p);
         assert_eq!(a.status, ST_NO_SOLUTION);
-        assert_eq!(a.wp[(0, 0)], a.bank.var[0]);
+        assert_eq!(a.wp[0], a.bank.var[0]);
     }
 
     fn quiet(tick: u64) -> SensorSample {

@@ -23,41 +23,40 @@ pub enum Writer {
     Pend(u8, u8),
 }
 
-/// Which words of a part's rows of `MAX_POLES` words (`wp`'s columns, `wx`'s rows)
-/// the part holds, `n` being the SRP filter's poles in use (`poles_in_use`).
+/// Which of a part's words the part holds: `wp` and `wx` keep the SRP filter's `n`
+/// poles in use (`poles_in_use`) in their first words (n² and n `NS`), which an update
+/// writes, and the rest never changes after `init`.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Rows {
+pub enum Extent {
     /// All its words.
     All,
-    /// What an update writes: of each row the first `n` words, of the first `n` rows
-    /// only when `square` (`wp`, an n × n block), else of every row (`wx`).
+    /// The first n² words (`square`: `wp`) or n `NS` (`wx`).
     Poles { square: bool },
-    /// The other words of the rows (never written after `init`).
+    /// The words after those.
     Rest { square: bool },
 }
 
-impl Rows {
-    /// The words of row `r` the part holds, of a row of `MAX_POLES` words.
-    pub fn of_row(self, r: usize, n: usize) -> core::ops::Range<usize> {
+impl Extent {
+    /// The words held of a part of `len` words, `n` poles in use.
+    pub fn words(self, len: usize, n: usize) -> core::ops::Range<usize> {
         let n = n.min(MAX_POLES);
+        let used = |square: bool| (if square { n * n } else { n * NS }).min(len);
         match self {
-            Rows::All => 0..MAX_POLES,
-            Rows::Poles { square } if square && r >= n => 0..0,
-            Rows::Poles { .. } => 0..n,
-            Rows::Rest { square } if square && r >= n => 0..MAX_POLES,
-            Rows::Rest { .. } => n..MAX_POLES,
+            Extent::All => 0..len,
+            Extent::Poles { square } => 0..used(square),
+            Extent::Rest { square } => used(square)..len,
         }
     }
 }
 
-/// A part of the estimator's bytes: `start..end`, `rows` of them, written by `writer`;
+/// A part of the estimator's bytes: `start..end`, `extent` of them, written by `writer`;
 /// `statistic`: `solve` and `finish` leave it as they found it once the Grams are up
 /// to date (so the C ABI checks after them that it did not change).
 #[derive(Clone, Copy, Debug)]
 pub struct Part {
     pub start: usize,
     pub end: usize,
-    pub rows: Rows,
+    pub extent: Extent,
     pub writer: Writer,
     pub statistic: bool,
 }
@@ -66,7 +65,7 @@ const fn part(start: usize, end: usize, writer: Writer, statistic: bool) -> Part
     Part {
         start,
         end,
-        rows: Rows::All,
+        extent: Extent::All,
         writer,
         statistic,
     }
@@ -75,8 +74,6 @@ const fn part(start: usize, end: usize, writer: Writer, statistic: bool) -> Part
 /// How many parts (`JointEstimator::PARTS`).
 pub const N_PARTS: usize = 22 + TARGETS * PEND;
 
-/// Bytes of a row of `wp` and `wx`.
-pub const POLE_ROW: usize = MAX_POLES * 8;
 
 impl JointEstimator {
     /// The parts, in the order of the bytes: every byte of the estimator in exactly one
@@ -114,19 +111,19 @@ impl JointEstimator {
         out[5] = part(filt, bank, Gram(3), true);
         out[6] = part(bank, wp, Never, true);
         out[7] = Part {
-            rows: Rows::Poles { square: true },
+            extent: Extent::Poles { square: true },
             ..part(wp, wx, Update, true)
         };
         out[8] = Part {
-            rows: Rows::Rest { square: true },
+            extent: Extent::Rest { square: true },
             ..part(wp, wx, Never, true)
         };
         out[9] = Part {
-            rows: Rows::Poles { square: false },
+            extent: Extent::Poles { square: false },
             ..part(wx, hn, Update, true)
         };
         out[10] = Part {
-            rows: Rows::Rest { square: false },
+            extent: Extent::Rest { square: false },
             ..part(wx, hn, Never, true)
         };
         out[11] = part(hn, turn, Start, false);
@@ -148,15 +145,15 @@ impl JointEstimator {
         out[N_PARTS - 1] = part(pend_n, size_of::<Self>(), Update, true);
         // The layout these parts assume (`repr(C)`, fields in this order).
         assert!(filt == raw + N_REG * g && tx == turn + 2 * g);
-        assert!(wx == wp + MAX_POLES * POLE_ROW && hn == wx + NS * POLE_ROW);
+        assert!(wx == wp + MAX_POLES * MAX_POLES * 8 && hn == wx + NS * MAX_POLES * 8);
         assert!(pend_n == pend + TARGETS * PEND * s);
         let mut i = 0;
         let mut end = 0;
         while i < N_PARTS {
             let q = out[i];
             assert!(q.start % 8 == 0 && q.end % 8 == 0 && q.start <= q.end);
-            match q.rows {
-                Rows::Rest { .. } => assert!(q.start == out[i - 1].start && q.end == end),
+            match q.extent {
+                Extent::Rest { .. } => assert!(q.start == out[i - 1].start && q.end == end),
                 _ => assert!(q.start == end),
             }
             end = q.end;
@@ -166,7 +163,7 @@ impl JointEstimator {
         out
     };
 
-    /// The SRP filter's poles in use (`Rows`), at most
+    /// The SRP filter's poles in use (`Extent`), at most
     /// `MAX_POLES` whatever the state holds.
     pub fn poles_in_use(&self) -> usize {
         self.bank.poles().min(MAX_POLES)

@@ -269,8 +269,9 @@ impl JointEstimator {
         // as `Iterator::sum`, from −0): contiguous, so it vectorises.
         let mut pg = [0.0; MAX_POLES];
         pg[..nb].fill(-0.0);
-        for col in self.wp.as_slice().chunks_exact(MAX_POLES).take(nb) {
-            for (p, w) in pg[..nb].iter_mut().zip(&col[..nb]) {
+        let (wp, wx) = (self.wp_in_use(), self.wx_in_use());
+        for col in self.wp.get(wp.clone()).unwrap_or(&[]).chunks_exact(nb.max(1)) {
+            for (p, w) in pg[..nb].iter_mut().zip(col) {
                 *p += w;
             }
         }
@@ -286,20 +287,29 @@ impl JointEstimator {
         let a = &self.bank.a[..nb];
         let pg = &pg[..nb];
         // Each signal's sum over its poles, in pole order from −0 (`Iterator::sum`),
-        // all signals side by side: 32 independent chains instead of one at a time.
+        // all signals side by side: 38 independent chains instead of one at a time.
         let mut sums = [-0.0; NS];
-        for k in 0..nb {
-            for (sm, x) in sums.iter_mut().zip(&self.wx) {
-                *sm += x[k];
+        for row in self.wx.get(wx.clone()).unwrap_or(&[]).chunks_exact(NS) {
+            for (sm, x) in sums.iter_mut().zip(row) {
+                *sm += x;
             }
         }
-        for ((m, x), sum) in self.wx.iter_mut().enumerate().zip(sums) {
-            let x = &mut x[..nb];
+        let mut gain = [0.0; NS];
+        for (((f, g), sum), sm) in sf.iter_mut().zip(&mut gain).zip(sums).zip(s.iter()) {
             let pred = sum * hn;
-            let innov = s[m] - pred;
-            sf[m] = innov * inv_sqrt;
-            let g = hn * innov / sv;
-            for ((xk, ak), pk) in x.iter_mut().zip(a).zip(pg) {
+            let innov = sm - pred;
+            *f = innov * inv_sqrt;
+            *g = hn * innov / sv;
+        }
+        for ((row, ak), pk) in self
+            .wx
+            .get_mut(wx)
+            .unwrap_or(&mut [])
+            .chunks_exact_mut(NS)
+            .zip(a)
+            .zip(pg)
+        {
+            for (xk, g) in row.iter_mut().zip(&gain) {
                 *xk = ak * (*xk + pk * g);
             }
         }
@@ -307,20 +317,22 @@ impl JointEstimator {
         // Column by column (wp is column-major); row i of column j as before:
         // (wp_ij − c pg_i pg_j) a_i a_j.
         let cpg: [f64; MAX_POLES] = core::array::from_fn(|i| c * pg.get(i).unwrap_or(&0.0));
-        for (j, col) in self
+        for ((col, &pj), &aj) in self
             .wp
-            .as_mut_slice()
-            .chunks_exact_mut(MAX_POLES)
-            .take(nb)
-            .enumerate()
+            .get_mut(wp)
+            .unwrap_or(&mut [])
+            .chunks_exact_mut(nb.max(1))
+            .zip(pg)
+            .zip(a)
         {
-            let (pj, aj) = (pg[j], a[j]);
-            for ((w, ci), ai) in col[..nb].iter_mut().zip(&cpg).zip(a) {
+            for ((w, ci), ai) in col.iter_mut().zip(&cpg).zip(a) {
                 *w = (*w - ci * pj) * ai * aj;
             }
         }
         for (i, &s) in self.bank.s.iter().enumerate().take(nb) {
-            self.wp[(i, i)] += s * s;
+            if let Some(w) = self.wp.get_mut(i * nb + i) {
+                *w += s * s;
+            }
         }
         self.defer(T_FILT, &sf, 0);
     }
@@ -571,22 +583,44 @@ impl JointEstimator {
                 x * a
             }
         };
-        // Indices clamped to the arrays (no-ops: nb ≤ MAX_POLES), so that no bounds
-        // check is linked (tools/panic-proof).
-        for x in self.wx.iter_mut() {
-            for k in 0..nb {
-                let k = k.min(MAX_POLES - 1);
-                x[k] = decay(x[k], self.bank.a[k]);
+        let (wp, wx) = (self.wp_in_use(), self.wx_in_use());
+        for (row, &a) in self
+            .wx
+            .get_mut(wx)
+            .unwrap_or(&mut [])
+            .chunks_exact_mut(NS)
+            .zip(&self.bank.a)
+        {
+            for x in row {
+                *x = decay(*x, a);
             }
         }
-        for i in 0..nb {
-            let i = i.min(MAX_POLES - 1);
-            for j in 0..nb {
-                let j = j.min(MAX_POLES - 1);
-                self.wp[(i, j)] = decay(self.wp[(i, j)], self.bank.a[i] * self.bank.a[j]);
+        for (col, &aj) in self
+            .wp
+            .get_mut(wp)
+            .unwrap_or(&mut [])
+            .chunks_exact_mut(nb.max(1))
+            .zip(&self.bank.a)
+        {
+            for (w, &ai) in col.iter_mut().zip(&self.bank.a) {
+                *w = decay(*w, ai * aj);
             }
-            self.wp[(i, i)] += self.bank.s[i] * self.bank.s[i];
         }
+        for (i, &s) in self.bank.s.iter().enumerate().take(nb) {
+            if let Some(w) = self.wp.get_mut(i * nb + i) {
+                *w += s * s;
+            }
+        }
+    }
+
+    /// The words of `wp` and `wx` the poles in use take (the rest stay 0).
+    pub(super) fn wp_in_use(&self) -> core::ops::Range<usize> {
+        let nb = self.bank.poles();
+        0..nb * nb
+    }
+
+    pub(super) fn wx_in_use(&self) -> core::ops::Range<usize> {
+        0..self.bank.poles() * NS
     }
 }
 
@@ -604,12 +638,10 @@ mod tests {
         let mut e = JointEstimator::new(test_config());
         let nb = e.bank.poles();
         assert!(nb > 0 && e.bank.a[..nb].iter().all(|&a| a > 1e-20 && a < 1.0));
-        for x in e.wx.iter_mut() {
-            x[..nb].fill(1.0);
-        }
+        e.wx[..nb * NS].fill(1.0);
         for _ in 0..5000 {
             e.whitening_time_update();
-            for v in e.wx.iter().flat_map(|x| &x[..nb]).chain(e.wp.iter()) {
+            for v in e.wx.iter().chain(e.wp.iter()) {
                 assert!(!v.is_subnormal(), "{v:e}");
             }
         }
@@ -617,7 +649,7 @@ mod tests {
         let fast = (0..nb)
             .min_by(|&i, &j| e.bank.a[i].total_cmp(&e.bank.a[j]))
             .unwrap();
-        assert!(e.wx.iter().all(|x| x[fast] == 0.0));
+        assert!(e.wx[fast * NS..(fast + 1) * NS].iter().all(|&x| x == 0.0));
         const { assert!(tuning::FLUSH_BELOW > 1e20 * f64::MIN_POSITIVE) };
     }
 
