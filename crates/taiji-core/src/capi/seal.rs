@@ -127,10 +127,7 @@ fn part_words(st: &State, i: usize) -> &[Word] {
     };
     // In 8-byte words of the part, then in the seal's words.
     let held = p.extent.words((p.end - p.start) / 8, st.est.poles_in_use());
-    let (a, b) = (
-        (p.start + 8 * held.start) / W,
-        (p.start + 8 * held.end) / W,
-    );
+    let (a, b) = ((p.start + 8 * held.start) / W, (p.start + 8 * held.end) / W);
     words(bytemuck::bytes_of(&st.est)).get(a..b).unwrap_or(&[])
 }
 

@@ -173,6 +173,7 @@ impl JointEstimator {
     /// error. The same upset shifts that IS's linear channel on the same electrode
     /// pair: it must fit the current solution (ω̇ from this IS alone) within its
     /// learned spread, or the axis is dropped (bridged). Returns whether any was.
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     pub(super) fn lone_misfit(
         &mut self,
         data: &[IsData; 2],
@@ -250,6 +251,7 @@ impl JointEstimator {
 
     /// The linear group's whitened residuals at the current solution, each against
     /// its track (widened by the solution's uncertainty); every one must pass.
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     pub(super) fn linear_consistent(&mut self, sig: &Sig, var: &[f64; 6]) -> bool {
         // By reference: the owned matrices would be copied (gate_c is 1.5 kB) every
         // sample, which the lint does not know.

@@ -74,7 +74,6 @@ const fn part(start: usize, end: usize, writer: Writer, statistic: bool) -> Part
 /// How many parts (`JointEstimator::PARTS`).
 pub const N_PARTS: usize = 22 + TARGETS * PEND;
 
-
 impl JointEstimator {
     /// The parts, in the order of the bytes: every byte of the estimator in exactly one
     /// (`wp` and `wx` in two each: the words of the poles in use, and the rest), in

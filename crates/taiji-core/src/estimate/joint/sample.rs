@@ -6,6 +6,7 @@ use super::*;
 impl JointEstimator {
     /// First usable sample: references, the coloured-noise direction and whitening,
     /// and the residual rows the linear input test uses.
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     pub(super) fn start(&mut self, data: &[IsData; 2]) {
         let n = self.n_is();
         for i in 0..n {

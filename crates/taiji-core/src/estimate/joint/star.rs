@@ -46,6 +46,7 @@ impl JointEstimator {
         crate::model::attitude::rotation_vector(&self.q_model) - Vector3::from(self.phi_hat)
     }
 
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     pub(super) fn update_star(&mut self, s: &SensorSample, kappa: &Vector3<f64>, t: f64) {
         if s.star.valid == 0 {
             return; // no sample this tick

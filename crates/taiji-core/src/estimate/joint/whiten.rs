@@ -223,7 +223,11 @@ impl JointEstimator {
     /// the same operations on every element, so the same bits (no fused multiply-add:
     /// Rust never contracts `a * b + c`).
     /// `cm_var`: the common-mode channel's white variance at this sample
-    /// (`row_white_vars`).
+    /// (`row_white_vars`). Out of line on the flight CPUs: its arrays in a frame of
+    /// their own, so that `process`'s stays small enough for the CPUs' short
+    /// stack offsets (a LEON3 reaches ±4 KB from its frame pointer in one instruction,
+    /// three beyond).
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     pub(super) fn update_linear(&mut self, s: &Sig, dv: &[[f64; 3]; 2], var: &[f64; 8]) {
         #[cfg(target_arch = "x86_64")]
         if crate::simd::has_avx2() {
@@ -270,7 +274,12 @@ impl JointEstimator {
         let mut pg = [0.0; MAX_POLES];
         pg[..nb].fill(-0.0);
         let (wp, wx) = (self.wp_in_use(), self.wx_in_use());
-        for col in self.wp.get(wp.clone()).unwrap_or(&[]).chunks_exact(nb.max(1)) {
+        for col in self
+            .wp
+            .get(wp.clone())
+            .unwrap_or(&[])
+            .chunks_exact(nb.max(1))
+        {
             for (p, w) in pg[..nb].iter_mut().zip(col) {
                 *p += w;
             }
@@ -569,6 +578,7 @@ impl JointEstimator {
     }
 
     /// A sample without linear data: the SRP model still evolves.
+    #[cfg_attr(not(target_arch = "x86_64"), inline(never))]
     pub(super) fn whitening_time_update(&mut self) {
         self.turn_time_update();
         let nb = self.bank.poles();
