@@ -523,7 +523,8 @@ fn a_c_host_runs_a_short_recording_through_every_call_and_every_refusal() {
         let flips: &[(usize, u32)] = if cfg!(feature = "edac") {
             &[]
         } else {
-            &[(1, 0), (size / 16, 62), (size / 8 - 1, 7)]
+            // (The state's last word, which part the next update scrubs, is not sealed.)
+            &[(1, 0), (size / 16, 62), (size / 8 - 2, 7)]
         };
         for &(word, bit) in flips {
             let at = (q as *mut u64).add(word);

@@ -94,30 +94,36 @@ fn words(b: &[u8]) -> &[Word] {
     bytemuck::try_cast_slice(b).unwrap_or(&[])
 }
 
-/// Folds `words` into the digest `d`: each block of eight (the last may be shorter)
-/// is XORed into one word, and the running digest is rotated by one bit before each
-/// block. Any single flipped bit changes it. It is linear: the digest is the XOR of
-/// every word rotated by the number of blocks that follow its own, so two flips cancel
-/// only when their bits line up after those rotations (the same bit in one block; bit
-/// i in one block and bit i + 1 in the next, and so on), which is what a single-event
-/// upset does not do. About a load and an XOR a word.
+/// Folds `words` into the digest `d`: each block of eight words (the last may be
+/// shorter) is XORed into one word, and the blocks are summed (wrapping). Any single
+/// flipped bit changes its block's word by ±2ⁱ, so the sum. Two flips cancel only in
+/// one block at the same bit, or in two blocks at the same bit flipped in opposite
+/// directions (0 → 1 and 1 → 0), which is what a single-event upset does not do. About a
+/// load and an XOR a word; the blocks are summed, not rotated, because a 64-bit
+/// rotation costs a LEON3 six instructions and an addition two.
 #[inline(always)]
 fn fold(d: Word, words: &[Word]) -> Word {
     let mut d = d;
     let mut chunks = words.chunks_exact(8);
     for c in &mut chunks {
         let x = (c[0] ^ c[1]) ^ (c[2] ^ c[3]) ^ (c[4] ^ c[5]) ^ (c[6] ^ c[7]);
-        d = d.rotate_left(1) ^ x;
+        d = d.wrapping_add(x);
     }
     let rest = chunks.remainder();
     if !rest.is_empty() {
-        let mut x = 0;
-        for w in rest {
-            x ^= w;
-        }
-        d = d.rotate_left(1) ^ x;
+        d = d.wrapping_add(xor(rest));
     }
     d
+}
+
+/// The XOR of `words`.
+#[inline(always)]
+fn xor(words: &[Word]) -> Word {
+    let mut x = 0;
+    for w in words {
+        x ^= w;
+    }
+    x
 }
 
 /// Part `i`'s words, as the seal folds them.
@@ -226,9 +232,10 @@ pub(super) fn reseal_checking(st: &mut State) -> Result<(), i32> {
 }
 
 /// The seal after the `u64` at byte `at` of the estimator changed from `old` to what
-/// it holds now, in a part of whole rows (`Rows::All`): the fold is linear, so only
-/// that word's share of its part's digest changes, and nothing else is read (a flip
-/// elsewhere meanwhile is not taken in: the next check finds it).
+/// it holds now, in a part it holds whole (`Extent::All`): only its block's share of
+/// the part's digest changes (the block's XOR, old and new, from its words now and the
+/// word's change). A flip elsewhere in the block meanwhile leaves the seal off by what
+/// it changed, so the next check finds it.
 pub(super) fn reseal_word(st: &mut State, at: usize, old: u64) {
     if cfg!(feature = "edac") {
         return;
@@ -244,21 +251,18 @@ pub(super) fn reseal_word(st: &mut State, at: usize, old: u64) {
         reseal(st, 1 << i);
         return;
     }
-    let new = super::est_u64(st, at);
-    let word = |b: Option<&[u8]>| {
-        b.and_then(|b| <[u8; W]>::try_from(b).ok())
-            .map_or(0, Word::from_ne_bytes)
-    };
-    let blocks = ((p.end - p.start) / W).div_ceil(8);
-    let (old, new) = (old.to_ne_bytes(), new.to_ne_bytes());
-    let mut d: Word = 0;
-    for j in 0..8 / W {
-        let delta = word(old.get(j * W..(j + 1) * W)) ^ word(new.get(j * W..(j + 1) * W));
-        let block = ((at - p.start) / W + j) / 8;
-        let rot = (blocks.saturating_sub(1 + block) % Word::BITS as usize) as u32;
-        d ^= delta.rotate_left(rot);
+    // The u64 is one or two of the seal's words, in one block (8-aligned in the part).
+    let k = (at - p.start) / W;
+    let block = k / 8 * 8;
+    let now = xor(part_words(st, i)
+        .get(block..(block + 8).min((p.end - p.start) / W))
+        .unwrap_or(&[]));
+    let mut change: Word = 0;
+    for h in (old ^ super::est_u64(st, at)).to_ne_bytes().chunks_exact(W) {
+        change ^= <[u8; W]>::try_from(h).map_or(0, Word::from_ne_bytes);
     }
+    let before = now ^ change;
     if let Some(s) = st.seals.get_mut(i) {
-        *s ^= d as u64;
+        *s = (*s as Word).wrapping_sub(before).wrapping_add(now) as u64;
     }
 }
