@@ -155,7 +155,7 @@ fn updates_that_bridge_a_long_gap_stay_within_16_kb_on_every_cpu() {
 
 /// The build for EDAC RAM (`--edac`, feature `edac`: no seal) gives the default build's
 /// bits on both emulated CPUs, says it does not check for upsets, and saves each update
-/// the seal's two passes over the state.
+/// the seal's checks and reseals of the parts it writes.
 #[test]
 fn the_edac_build_gives_the_same_bits_without_the_seals_instructions() {
     let dir = support::tmp("flight-edac");
@@ -180,9 +180,9 @@ fn the_edac_build_gives_the_same_bits_without_the_seals_instructions() {
             (Some(1), Some(0))
         );
         let p50 = |f: &serde_json::Value| f["update_instructions"]["p50"].as_u64().unwrap();
-        // The seal is about half of an update on both CPUs (47 % on a LEON3, 51 % on a
-        // Cortex-M7).
-        assert!(10 * p50(fe) < 6 * p50(fs), "{fs} {fe}");
+        // The seal is a quarter to a third of an update (25 % on a LEON3, 33 % on a
+        // Cortex-M7 over the default campaign).
+        assert!(10 * p50(fe) < 9 * p50(fs), "{fs} {fe}");
     }
 }
 

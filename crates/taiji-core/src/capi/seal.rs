@@ -77,14 +77,9 @@ const PEND0: usize = {
     i
 };
 
-/// The machine word the seal folds: 64 bits where the CPU has them (half the loads)
-/// and on SPARC, whose `ldd` loads two registers at once; 32 on the other 32-bit CPUs
-/// (a Cortex-M7's, whose 64-bit rotation costs there). The seal never leaves the
-/// state, so the CPUs need not agree.
-#[cfg(any(target_pointer_width = "64", target_arch = "sparc"))]
+/// The machine word the seal folds: 64 bits on every CPU (a Cortex-M7's `ldrd` and a
+/// LEON3's `ldd` load two registers at once, and a 64-bit sum is two instructions).
 type Word = u64;
-#[cfg(not(any(target_pointer_width = "64", target_arch = "sparc")))]
-type Word = u32;
 const W: usize = size_of::<Word>();
 
 /// Bytes as the machine words the seal folds (whole, aligned words: every part is;
