@@ -63,8 +63,8 @@
  *        their words, any single flipped bit changes it; JointEstimator::PARTS).
  *        solve, estimate, checkpoint and finish first check every part and return
  *        TAIJI_ERR_UPSET, reading nothing, when one differs. update checks the parts it
- *        may write (what every update writes, the one Gram matrix it brings up to date
- *        and the samples waiting for it) before it reads them and reseals them after,
+ *        may write (what every update writes, the Gram matrix it brings up to date and
+ *        the samples waiting for it) before it reads them and reseals them after,
  *        and checks one more part in turn (the scrub). Worst detection latency of a bit
  *        flipped while the state rests between calls: where the next update writes,
  *        that update (before it uses it); elsewhere 39 updates (3.9 s at 10 Hz) or the
@@ -87,9 +87,10 @@
  *        finish, which only read them once the Grams are brought up to date, is found
  *        before the call returns (TAIJI_ERR_UPSET, no estimate leaves, the state stays
  *        unsealed until a restore). Not covered, the window that remains: a flip
- *        during update in a part it writes, or in the rest of the state during solve or
- *        finish, after the check has read that word and before the reseal reads it:
- *        the reseal takes it in. docs/validation.md#flight-cpus has the cost and
+ *        during update in a part it checks, during the bringing up to date of the Grams
+ *        that starts solve and finish (in the Grams or the waiting samples' counts), or
+ *        in the rest of the state during solve or finish, after the check has read that
+ *        word and before the reseal reads it: the reseal takes it in. docs/validation.md#flight-cpus has the cost and
  *        docs/integrity.md both upset campaigns, between calls and during them.
  *
  * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.

@@ -91,11 +91,12 @@ fn words(b: &[u8]) -> &[Word] {
 
 /// Folds `words` into the digest `d`: each block of eight words (the last may be
 /// shorter) is XORed into one word, and the blocks are summed (wrapping). Any single
-/// flipped bit changes its block's word by ±2ⁱ, so the sum. Two flips cancel only in
-/// one block at the same bit, or in two blocks at the same bit flipped in opposite
-/// directions (0 → 1 and 1 → 0), which is what a single-event upset does not do. About a
-/// load and an XOR a word; the blocks are summed, not rotated, because a 64-bit
-/// rotation costs a LEON3 six instructions and an addition two.
+/// flipped bit changes its block's word by ±2ⁱ, so the sum. Two flips cancel only at
+/// the same bit i, in one block, or in two blocks whose words change by +2ⁱ and −2ⁱ
+/// (which depends on the bit's value in each block's XOR; at bit 63 both signs
+/// cancel): what a single-event upset does not do. About a load and an XOR a word; the
+/// blocks are summed, not rotated, because a 64-bit rotation costs a LEON3 six
+/// instructions and an addition two.
 #[inline(always)]
 fn fold(d: Word, words: &[Word]) -> Word {
     let mut d = d;

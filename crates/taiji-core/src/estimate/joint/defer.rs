@@ -2,8 +2,8 @@
 //! four Gram matrices a linear sample adds to (its regime's `m_raw`, `m_filt`, the two
 //! `m_turn`) takes the samples waiting for it at once, one matrix a sample. An element
 //! is then loaded and stored once for up to `PEND` samples instead of once for each,
-//! and an update writes one Gram matrix instead of four (what the C ABI's seal passes
-//! over). Every element takes the same products and sums in the same order as
+//! and an update writes one Gram matrix instead of four (the raw Grams: one per regime
+//! among the waiting samples), which is what the C ABI's seal passes over. Every element takes the same products and sums in the same order as
 //! rank-one updates sample by sample would give it, so the same bits; whatever reads
 //! the Grams (`solve`, the bound's fits) brings them all up to date first
 //! (`flush_grams`).
@@ -166,6 +166,19 @@ impl JointEstimator {
         for t in 0..TARGETS {
             self.flush_target(t);
         }
+    }
+
+    /// Whether the samples waiting are as updates leave them: the matrix whose turn is
+    /// next (`pend_turn`) waits for at most `PEND`, the one after it for `PEND` − 1, and
+    /// so on (each took one sample a linear sample since its turn). A state that holds
+    /// more (not one `update` made) is refused, so the next update writes only what
+    /// `due_grams` and `next_slot` say.
+    pub(super) fn waiting_as_updates_leave_it(&self) -> bool {
+        let due = (self.pend_turn % TARGETS as u64) as usize;
+        (0..TARGETS).all(|j| {
+            let n = self.pend_n.get((due + j) % TARGETS).copied().unwrap_or(0);
+            n <= (PEND - j) as u64
+        })
     }
 
     /// Whether no sample waits for a Gram matrix.

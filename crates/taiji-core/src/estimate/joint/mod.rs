@@ -281,53 +281,12 @@ fn finish_converged(moved: Option<[f64; 5]>) -> bool {
 }
 
 impl JointEstimator {
-    /// The bytes of the estimator that hold its sufficient statistics: the Gram
-    /// matrices (`m_raw`, `m_filt`, `m_turn`) and the innovations filters their signals
-    /// pass through (the SRP's `bank`, `wp`, `wx`; the turn filters' `tx`, `tp`).
-    /// `update` writes them, and nothing else does (`solve` and `finish` only read
-    /// them), so the C ABI checks after a solve that they did not change during it.
-    /// Nearly nine tenths of the state's bytes.
-    pub const STATISTICS: [core::ops::Range<usize>; 2] = {
-        use core::mem::{offset_of, size_of};
-        let (raw, filt) = (offset_of!(Self, m_raw), offset_of!(Self, m_filt));
-        let (bank, wp, wx) = (
-            offset_of!(Self, bank),
-            offset_of!(Self, wp),
-            offset_of!(Self, wx),
-        );
-        let (turn, tx, tp) = (
-            offset_of!(Self, m_turn),
-            offset_of!(Self, tx),
-            offset_of!(Self, tp),
-        );
-        // Declared in this order, one after the other (`repr(C)`): nothing else lies
-        // inside the two ranges.
-        let g = size_of::<Packed>();
-        assert!(filt == raw + N_REG * g && bank == filt + g);
-        assert!(
-            wp == bank + size_of::<PowerLawBank>()
-                && wx == wp + size_of::<SMatrix<f64, MAX_POLES, MAX_POLES>>()
-        );
-        assert!(tx == turn + 2 * g && tp == tx + 2 * size_of::<SMatrix<f64, NS, 2>>());
-        let (end0, end1) = (
-            wx + size_of::<[[f64; MAX_POLES]; NS]>(),
-            tp + size_of::<[[[f64; 2]; 2]; 2]>(),
-        );
-        // Whole 8-byte words (the seal folds them), in order.
-        assert!(raw % 8 == 0 && end0 % 8 == 0 && turn % 8 == 0 && end1 % 8 == 0);
-        assert!(end0 <= turn);
-        [raw..end0, turn..end1]
-    };
-
     /// Byte offset of the message sequence number (`seq`, a `u64`) in the estimator:
-    /// `estimate` counts its message there and updates the seal for that word alone.
-    /// It lies outside [`Self::STATISTICS`].
+    /// `estimate` counts its message there and updates the seal of that word's part
+    /// alone (`capi::seal::reseal_word`).
     pub const SEQ_OFFSET: usize = {
         let at = core::mem::offset_of!(Self, seq);
-        let [a, b] = Self::STATISTICS;
-        assert!(
-            at % 8 == 0 && (at + 8 <= a.start || at >= a.end) && (at + 8 <= b.start || at >= b.end)
-        );
+        assert!(at % 8 == 0);
         at
     };
 
@@ -392,8 +351,8 @@ impl JointEstimator {
             && self.started <= START_ANGULAR
             && self.q_ref_set <= 1
             && self.solve_due[0] <= 1 + tuning::FOLLOW_UPS
-            && self.pend_n.iter().all(|&n| n <= PEND as u64)
             && self.pend_reg.iter().all(|&r| r < N_REG as u64)
+            && self.waiting_as_updates_leave_it()
     }
 
     /// Every tick below this one has been processed or bridged.
@@ -683,6 +642,26 @@ pub(super) fn gaussian(mut seed: u64) -> impl FnMut() -> f64 {
 mod tests {
     use super::*;
     use crate::tuning::BRIDGE_PER_UPDATE;
+
+    /// The samples waiting for the Gram matrices as updates leave them (the matrix due
+    /// next at most `PEND`, each after it one fewer) are sane; more are refused, so an
+    /// update writes only the Grams and slots `due_grams` and `next_slot` name.
+    #[test]
+    fn waiting_counts_no_update_leaves_are_refused() {
+        let mut e = JointEstimator::new(test_config());
+        assert!(e.is_sane());
+        // Due next: matrix 1 (5 mod 4), then 2, 3, 0.
+        e.pend_turn = 5;
+        e.pend_n = [1, 4, 3, 2];
+        assert!(e.is_sane());
+        e.pend_n = [2, 4, 3, 2];
+        assert!(!e.is_sane());
+        e.pend_n = [1, 4, 4, 2];
+        assert!(!e.is_sane());
+        e.pend_n = [0, 0, 0, 0];
+        e.pend_reg[2] = N_REG as u64;
+        assert!(!e.is_sane());
+    }
 
     #[test]
     fn init_in_place_gives_the_same_bytes_whatever_the_memory_held() {
