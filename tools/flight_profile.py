@@ -5,8 +5,8 @@ symbols, and prints the instructions executed per function, the most first.
 
     tools/flight_profile.py IMAGE LOG [--nm NM] [--top N] [--lines PATTERN]
 
---lines PATTERN also prints, for the functions whose name holds PATTERN, the
-instructions executed per source line (llvm-addr2line: the innermost inlined frame in the project's own code).
+--lines PATTERN also prints, for the functions whose name holds PATTERN (or one of its
+`|`-separated alternatives), the instructions executed per source line (llvm-addr2line: the innermost inlined frame in the project's own code).
 
 Called by `tools/flight-qemu --profile N` (LOG a FIFO); the counts are QEMU's
 instructions, as `-icount shift=0` counts them."""
@@ -89,11 +89,13 @@ def main():
 
 
 def source_lines(a, addrs, names, runs, pcs):
-    """Instructions per source line inside the functions whose name holds a.lines."""
+    """Instructions per source line inside the functions whose name holds one of a.lines's
+    `|`-separated alternatives."""
+    wanted = a.lines.split("|")
     per_pc = {}
     for block, k in runs.items():
         i = bisect.bisect_right(addrs, block) - 1
-        if i < 0 or a.lines not in names[i]:
+        if i < 0 or not any(w in names[i] for w in wanted):
             continue
         for pc in pcs.get(block, []):
             per_pc[pc] = per_pc.get(pc, 0) + k
