@@ -122,8 +122,9 @@ def source_lines(a, addrs, names, runs, pcs):
         loc = re.sub(r".*/(crates|tools)/", r"\1/", loc) + f":{f.get('Line', 0)}"
         per_line[loc] = per_line.get(loc, 0) + per_pc[pc]
     total = sum(per_line.values())
-    print(f"\n{total:,} instructions in functions matching `{a.lines}`, per source line (of crates/taiji-core/src)\n"
-          .replace(",", " "))
+    named = ", ".join(f"`{w.split('::')[-1]}`" for w in a.lines.split("|"))
+    total_s = f"{total:,}".replace(",", " ")
+    print(f"\n{total_s} instructions in the functions named {named}, per source line (of crates/taiji-core/src)\n")
     print("| line | instructions | share |")
     print("|---|---|---|")
     for loc, k in sorted(per_line.items(), key=lambda x: -x[1])[: a.top * 2]:
