@@ -59,21 +59,24 @@
  *        and gives slightly different (equally valid) estimates. A host that never solves
  *        gets only finish's iterations, on all data: a degraded result.
  *
- * UPSETS The library keeps a digest of each part of the state (39 parts: a fold of
- *        their words, any single flipped bit changes it; JointEstimator::PARTS).
- *        solve, estimate, checkpoint and finish first check every part and return
- *        TAIJI_ERR_UPSET, reading nothing, when one differs. update checks the parts it
- *        may write (what every update writes, the Gram matrix it brings up to date and
- *        the samples waiting for it) before it reads them and reseals them after,
- *        and checks one more part in turn (the scrub). Worst detection latency of a bit
- *        flipped while the state rests between calls: where the next update writes,
- *        that update (before it uses it); elsewhere 39 updates (3.9 s at 10 Hz) or the
- *        next solve, estimate, checkpoint or finish, whichever comes first. Until then
- *        updates may have used the flipped word, but no estimate or checkpoint leaves
- *        from a state that fails its check: restore the last checkpoint (and replay
- *        the samples since) or init. The state's last word says which part the scrub
- *        takes next (any value will do: it is taken modulo 39) and is not sealed. A
- *        library built for RAM that corrects its own errors (EDAC, as a BM3803's:
+ * UPSETS The library keeps a digest of each part of the state (a fold of its words:
+ *        any single flipped bit changes it; JointEstimator::PARTS). solve, estimate,
+ *        checkpoint and finish first check every part and return TAIJI_ERR_UPSET,
+ *        reading nothing, when one differs. update checks the parts it may write (what
+ *        every update writes, the Gram matrix it brings up to date and the samples
+ *        waiting for it) before it reads them and reseals them after, and checks in
+ *        turn one of the TAIJI_SCRUB_PARTS parts it reads but does not write (the
+ *        table, the SRP filter's poles, the references, the solution, the gates' rows,
+ *        the final estimate: the scrub). Worst detection latency of a bit flipped while
+ *        the state rests between calls: in a part the next update writes, that update,
+ *        before it uses the word; in a part updates only read, TAIJI_SCRUB_PARTS
+ *        updates, during which they may have used it; in a part no update reads (a Gram
+ *        matrix or waiting sample not yet due, pole words not in use), the update that
+ *        reads it or the next solve, estimate, checkpoint or finish, before anything
+ *        uses it. No estimate or checkpoint leaves from a state that fails its check:
+ *        restore the last checkpoint (and replay the samples since) or init. The
+ *        state's last word says which part the scrub takes next (any value will do: it
+ *        is taken modulo TAIJI_SCRUB_PARTS) and is not sealed. A library built for RAM that corrects its own errors (EDAC, as a BM3803's:
  *        cargo build --profile flight -p taiji-c --features edac) has no seal: no call
  *        checks or reseals, TAIJI_ERR_UPSET is never returned, and taiji_upset_check()
  *        returns 0 (1 in the default build). The state's first 8 bytes, a magic word,
@@ -90,8 +93,9 @@
  *        during update in a part it checks, during the bringing up to date of the Grams
  *        that starts solve and finish (in the Grams or the waiting samples' counts), or
  *        in the rest of the state during solve or finish, after the check has read that
- *        word and before the reseal reads it: the reseal takes it in. docs/validation.md#flight-cpus has the cost and
- *        docs/integrity.md both upset campaigns, between calls and during them.
+ *        word and before the reseal reads it: the reseal takes it in.
+ *        docs/validation.md#flight-cpus has the cost and docs/integrity.md both upset
+ *        campaigns, between calls and during them.
  *
  * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.
  *        finish is terminal and idempotent: it returns the same final estimate every
@@ -174,6 +178,12 @@
 
 // `update` flag: a solve is due (the host may run it now or in its slower rate group).
 #define TAIJI_SOLVE_DUE 1
+
+// Parts of the state an update reads but does not write (the table, the SRP filter's
+// poles, the references, the solution, the gates' rows, the final estimate): `update`
+// checks one of them in turn besides those it writes, so a flip there is found within
+// this many updates (header, UPSETS).
+#define TAIJI_SCRUB_PARTS 7
 
 // Version of the layouts of these messages and of the estimator's state: bump it
 // whenever a field changes. It is part of every bus payload's type name

@@ -581,9 +581,10 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
                 TAIJI_ERR_UPSET,
                 "word {w} bit {b}"
             );
-            // An update checks what it writes and one more part in turn: it finds the
-            // flip within one round of the parts (at most 64 calls).
-            let found = (0..64).position(|k| {
+            // An update checks what it writes and, in turn, one of the parts it only
+            // reads (the table is one, word 1): it finds a flip there within a round of
+            // them; elsewhere it finds it or leaves it standing for the next whole check.
+            let found = (0..u64::from(TAIJI_SCRUB_PARTS)).position(|k| {
                 taiji_estimator_update(
                     p,
                     &quiet(50 + k),
@@ -591,7 +592,10 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
                     std::ptr::null_mut(),
                 ) == TAIJI_ERR_UPSET
             });
-            assert!(found.is_some(), "word {w} bit {b}: no update found it");
+            assert!(
+                w != 1 || found.is_some(),
+                "word {w} bit {b}: no update found it"
+            );
             assert_eq!(solve(p), TAIJI_ERR_UPSET);
             assert_eq!(finish(p, &mut out), TAIJI_ERR_UPSET);
         }

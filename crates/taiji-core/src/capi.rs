@@ -17,7 +17,7 @@ use crate::msg::{EstimateMsg, SensorSample, EST_FINAL, LAYOUT_VERSION};
 use core::mem::{align_of, size_of};
 
 mod seal;
-use seal::{Mask, ALL, FLUSH, SEALED};
+use seal::{Mask, ALL, FLUSH, SCRUB_PARTS, SEALED};
 
 /// Success.
 pub const TAIJI_OK: i32 = 0;
@@ -62,6 +62,13 @@ pub const TAIJI_ABI_VERSION: u32 = 4;
 /// `update` flag: a solve is due (the host may run it now or in its slower rate group).
 pub const TAIJI_SOLVE_DUE: u32 = 1;
 
+/// Parts of the state an update reads but does not write (the table, the SRP filter's
+/// poles, the references, the solution, the gates' rows, the final estimate): `update`
+/// checks one of them in turn besides those it writes, so a flip there is found within
+/// this many updates (header, UPSETS).
+pub const TAIJI_SCRUB_PARTS: u32 = 7;
+const _: () = assert!(TAIJI_SCRUB_PARTS as usize == SCRUB_PARTS);
+
 /// Marks initialised state ("TAIJIEST").
 const MAGIC: u64 = 0x5453_4549_4A49_4154;
 /// Bits of the magic word an upset may have flipped and still be told from memory
@@ -80,8 +87,8 @@ struct State {
     /// Each part's digest as the library left it (`seal`: the estimator's
     /// `JointEstimator::PARTS`, then `finished` with the final estimate).
     seals: [u64; SEALED],
-    /// The part the next update checks besides those it writes (taken modulo
-    /// `SEALED`, so any value will do).
+    /// Which part the next update checks besides those it writes (`seal::scrubbed`:
+    /// taken modulo `TAIJI_SCRUB_PARTS`, so any value will do).
     scrub: u64,
 }
 
@@ -304,9 +311,9 @@ pub unsafe extern "C" fn taiji_estimator_update(
         // What this update may write, checked before it reads it and resealed after;
         // and one more part in turn (the scrub).
         let (reads, slots) = seal::update_reads(&st.est);
-        let scrub = (st.scrub % SEALED as u64) as usize;
-        let st = checked(mem, reads | 1 << scrub)?;
-        st.scrub = (scrub + 1) as u64;
+        let scrub = st.scrub % SCRUB_PARTS as u64;
+        let st = checked(mem, reads | 1 << seal::scrubbed(scrub))?;
+        st.scrub = scrub + 1;
         // SAFETY: non-null; any bytes are a valid sample (plain numbers).
         let s = unsafe { core::ptr::read_unaligned(sample) };
         let causes = st.est.update(&s);

@@ -524,6 +524,9 @@ fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figure
             |(bi, b), (i, &c)| if c > b { (i, c) } else { (bi, b) },
         )
         .0;
+    // The mean, from the ticks' sum (the mean load's figure).
+    let sum: u64 = costs.iter().map(|&c| u64::from(c)).sum();
+    let mean = (sum as f64 / costs.len().max(1) as f64 / fig.ticks_per_instr).round() as u64;
     costs.sort_unstable();
     let pick = |q: f64| {
         costs
@@ -541,7 +544,8 @@ fn print_figures<B: Board>(out: &mut impl Write, costs: &mut [u32], fig: &Figure
     );
     let _ = writeln!(
         out,
-        "    \"update_instructions\": {{\"p50\": {}, \"p99\": {}, \"max\": {}, \"max_at\": {}}},",
+        "    \"update_instructions\": {{\"mean\": {}, \"p50\": {}, \"p99\": {}, \"max\": {}, \"max_at\": {}}},",
+        mean,
         instr(pick(0.5)),
         instr(pick(0.99)),
         instr(costs.last().copied().unwrap_or(0)),

@@ -41,6 +41,44 @@ const fn parts_of(k: u8) -> Mask {
 }
 const UPDATE: Mask = parts_of(0);
 const START: Mask = parts_of(1);
+/// The parts an update may read but not write, which only the scrub checks between
+/// whole checks: the table, the SRP filter's poles, the references, the solution, the
+/// gates' rows (`Writer::Never` and `Writer::Start` of every word) and the tail. The
+/// parts no update reads (the Grams and waiting samples not due, the pole words not in
+/// use) are checked by the update that reads them or by the next whole check, before
+/// anything uses them.
+const SCRUBBED: [usize; SCRUB_PARTS] = {
+    let mut out = [TAIL; SCRUB_PARTS];
+    let (mut i, mut k) = (0, 0);
+    while i < N_PARTS {
+        let p = JointEstimator::PARTS[i];
+        if matches!(p.writer, Writer::Never | Writer::Start) && matches!(p.extent, Extent::All) {
+            out[k] = i;
+            k += 1;
+        }
+        i += 1;
+    }
+    assert!(k + 1 == SCRUB_PARTS);
+    out
+};
+/// How many parts the scrub takes in turn, one an update (`SCRUBBED`).
+pub(super) const SCRUB_PARTS: usize = {
+    let mut k = 1;
+    let mut i = 0;
+    while i < N_PARTS {
+        let p = JointEstimator::PARTS[i];
+        if matches!(p.writer, Writer::Never | Writer::Start) && matches!(p.extent, Extent::All) {
+            k += 1;
+        }
+        i += 1;
+    }
+    k
+};
+
+/// The part the scrub checks at cursor `c` (any value).
+pub(super) fn scrubbed(c: u64) -> usize {
+    SCRUBBED[(c % SCRUB_PARTS as u64) as usize % SCRUB_PARTS]
+}
 /// The statistics: what `solve` and `finish` leave as they found it once the Grams
 /// are up to date.
 pub(super) const STATISTICS: Mask = {
