@@ -51,29 +51,30 @@ const SCRUBBED: [usize; SCRUB_PARTS] = {
     let mut out = [TAIL; SCRUB_PARTS];
     let (mut i, mut k) = (0, 0);
     while i < N_PARTS {
-        let p = JointEstimator::PARTS[i];
-        if matches!(p.writer, Writer::Never | Writer::Start) && matches!(p.extent, Extent::All) {
+        if only_read(i) {
             out[k] = i;
             k += 1;
         }
         i += 1;
     }
-    assert!(k + 1 == SCRUB_PARTS);
     out
 };
-/// How many parts the scrub takes in turn, one an update (`SCRUBBED`).
+/// How many parts the scrub takes in turn, one an update (`SCRUBBED`, the tail last).
 pub(super) const SCRUB_PARTS: usize = {
     let mut k = 1;
     let mut i = 0;
     while i < N_PARTS {
-        let p = JointEstimator::PARTS[i];
-        if matches!(p.writer, Writer::Never | Writer::Start) && matches!(p.extent, Extent::All) {
-            k += 1;
-        }
+        k += only_read(i) as usize;
         i += 1;
     }
     k
 };
+
+/// Whether updates read every word of part `i` but write none (`SCRUBBED`).
+const fn only_read(i: usize) -> bool {
+    let p = JointEstimator::PARTS[i];
+    matches!(p.writer, Writer::Never | Writer::Start) && matches!(p.extent, Extent::All)
+}
 
 /// The part the scrub checks at cursor `c` (any value).
 pub(super) fn scrubbed(c: u64) -> usize {
