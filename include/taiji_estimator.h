@@ -59,43 +59,42 @@
  *        and gives slightly different (equally valid) estimates. A host that never solves
  *        gets only finish's iterations, on all data: a degraded result.
  *
- * UPSETS The library keeps a digest of each part of the state (a fold of its words:
- *        any single flipped bit changes it; JointEstimator::PARTS). solve, estimate,
- *        checkpoint and finish first check every part and return TAIJI_ERR_UPSET,
- *        reading nothing, when one differs. update checks the parts it may write (what
- *        every update writes, the Gram matrix it brings up to date and the samples
- *        waiting for it) before it reads them and reseals them after, and checks in
- *        turn one of the TAIJI_SCRUB_PARTS parts it reads but does not write (the
- *        table, the SRP filter's poles, the references, the solution, the gates' rows,
- *        the final estimate: the scrub). Worst detection latency of a bit flipped while
- *        the state rests between calls: in a part the next update writes, that update,
- *        before it uses the word; in a part updates only read, TAIJI_SCRUB_PARTS
+ * UPSETS The library keeps a digest of each part of the state (a fold of its words: any
+ *        single flipped bit changes it; JointEstimator::PARTS). solve, estimate,
+ *        checkpoint and finish first check every part and return TAIJI_ERR_UPSET, reading
+ *        nothing, when one differs. update checks the parts it may write (what every
+ *        update writes, the Gram matrix it brings up to date and the samples waiting for
+ *        it) before it reads them and reseals them after, and checks in turn one of the
+ *        TAIJI_SCRUB_PARTS parts it reads but does not write (the table, the SRP filter's
+ *        poles, the common-mode gain and row, the turn rows, the solution, the gates'
+ *        rows, the final estimate: the scrub). Worst detection latency of a bit flipped
+ *        while the state rests between calls: in a part the next update writes, that
+ *        update, before it uses the word; in a part updates only read, TAIJI_SCRUB_PARTS
  *        updates, during which they may have used it; in a part no update reads (a Gram
  *        matrix or waiting sample not yet due, pole words not in use), the update that
- *        reads it or the next solve, estimate, checkpoint or finish, before anything
- *        uses it. No estimate or checkpoint leaves from a state that fails its check:
- *        restore the last checkpoint (and replay the samples since) or init. The
- *        state's last word says which part the scrub takes next (any value will do: it
- *        is taken modulo TAIJI_SCRUB_PARTS) and is not sealed. A library built for RAM that corrects its own errors (EDAC, as a BM3803's:
- *        cargo build --profile flight -p taiji-c --features edac) has no seal: no call
- *        checks or reseals, TAIJI_ERR_UPSET is never returned, and taiji_upset_check()
- *        returns 0 (1 in the default build). The state's first 8 bytes, a magic word,
- *        are not sealed: up to 4 bits flipped there is TAIJI_ERR_UPSET too; memory
- *        whose word is further from it never held a state (TAIJI_ERR_STATE; init and
- *        restore write 0 there until they succeed). During a call: a flip in a word
- *        before the call's check has read it is found by that check. estimate and
- *        checkpoint check the state again before what they made leaves (a spoilt
- *        checkpoint is refused by restore). A flip in the statistics (the Gram
- *        matrices, the waiting samples and the filters' states) during solve or
- *        finish, which only read them once the Grams are brought up to date, is found
- *        before the call returns (TAIJI_ERR_UPSET, no estimate leaves, the state stays
- *        unsealed until a restore). Not covered, the window that remains: a flip
- *        during update in a part it checks, during the bringing up to date of the Grams
- *        that starts solve and finish (in the Grams or the waiting samples' counts), or
- *        in the rest of the state during solve or finish, after the check has read that
- *        word and before the reseal reads it: the reseal takes it in.
- *        docs/validation.md#flight-cpus has the cost and docs/integrity.md both upset
- *        campaigns, between calls and during them.
+ *        reads it or the next solve, estimate, checkpoint or finish, before anything uses
+ *        it. No estimate or checkpoint leaves from a state that fails its check: restore
+ *        the last checkpoint (and replay the samples since) or init. The state's last word
+ *        says which part the scrub takes next (any value will do: it is taken modulo
+ *        TAIJI_SCRUB_PARTS) and is not sealed. A library built for RAM that corrects its
+ *        own errors (EDAC, as a BM3803's: cargo build --profile flight -p taiji-c
+ *        --features edac) has no seal: no call checks or reseals, TAIJI_ERR_UPSET is never
+ *        returned, and taiji_upset_check() returns 0 (1 in the default build). The state's
+ *        first 8 bytes, a magic word, are not sealed: up to 4 bits flipped there is
+ *        TAIJI_ERR_UPSET too; memory whose word is further from it never held a state
+ *        (TAIJI_ERR_STATE; init and restore write 0 there until they succeed). During a
+ *        call: a flip in a word before the call's check has read it is found by that
+ *        check. estimate and checkpoint check the state again before what they made leaves
+ *        (a spoilt checkpoint is refused by restore). A flip in the statistics (the Gram
+ *        matrices, the waiting samples and the filters' states) during solve or finish,
+ *        which only read them once the Grams are brought up to date, is found before the
+ *        call returns (TAIJI_ERR_UPSET, no estimate leaves, the state stays unsealed until
+ *        a restore). Not covered, the window that remains: a flip during update in a part
+ *        it checks, during the bringing up to date of the Grams that starts solve and
+ *        finish (in the Grams or the waiting samples' counts), or in the rest of the state
+ *        during solve or finish, after the check has read that word and before the reseal
+ *        reads it: the reseal takes it in. docs/validation.md#flight-cpus has the cost and
+ *        docs/integrity.md both upset campaigns, between calls and during them.
  *
  * LIFECYCLE  init (or restore) -> update* / solve* / estimate* / checkpoint* -> finish.
  *        finish is terminal and idempotent: it returns the same final estimate every
@@ -180,9 +179,9 @@
 #define TAIJI_SOLVE_DUE 1
 
 // Parts of the state an update reads but does not write (the table, the SRP filter's
-// poles, the references, the solution, the gates' rows, the final estimate): `update`
-// checks one of them in turn besides those it writes, so a flip there is found within
-// this many updates (header, UPSETS).
+// poles, the common-mode gain and row, the turn rows, the solution, the gates' rows,
+// the final estimate): `update` checks one of them in turn besides those it writes, so
+// a flip there is found within this many updates (header, UPSETS).
 #define TAIJI_SCRUB_PARTS 7
 
 // Version of the layouts of these messages and of the estimator's state: bump it

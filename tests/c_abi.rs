@@ -592,10 +592,15 @@ fn a_bit_flipped_between_calls_is_found_before_the_state_is_used() {
                     std::ptr::null_mut(),
                 ) == TAIJI_ERR_UPSET
             });
-            assert!(
-                w != 1 || found.is_some(),
-                "word {w} bit {b}: no update found it"
-            );
+            // Word 1 is the table's (read only), words - 3 the seal of the part every update
+            // writes last (the waiting counts), words - 2 the final estimate's (read only).
+            match w {
+                _ if w == words - 3 => assert_eq!(found, Some(0), "word {w} bit {b}"),
+                _ if w == 1 || w == words - 2 => {
+                    assert!(found.is_some(), "word {w} bit {b}: no update found it")
+                }
+                _ => {}
+            }
             assert_eq!(solve(p), TAIJI_ERR_UPSET);
             assert_eq!(finish(p, &mut out), TAIJI_ERR_UPSET);
         }

@@ -237,6 +237,47 @@ enum Life {
 }
 
 /// 8-aligned memory of exactly `bytes` bytes (a multiple of 8), as a host allocates it.
+/// What an update does with a word of the state (the library's layout: magic word,
+/// estimator, `finished`, final estimate, one seal per part, the scrub's cursor).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// Every update checks it (the magic word, a part every update writes, its seal).
+    Written,
+    /// Updates read it but never write it: checked in turn, within `TAIJI_SCRUB_PARTS`.
+    OnlyRead,
+    /// A waiting sample's slot (or its seal): an update may write it whole.
+    Slot,
+    /// Checked when an update reads it, or by a whole check (a Gram matrix, the SRP
+    /// filter's words, whose split between poles in use and not depends on the table).
+    Other,
+}
+
+fn part_kind(word: usize, mem_words: usize) -> Kind {
+    use taiji_core::estimate::joint::{Extent, JointEstimator, Writer, N_PARTS};
+    let of_part = |i: usize| match JointEstimator::PARTS.get(i) {
+        None => Kind::OnlyRead,
+        Some(p) if p.extent != Extent::All => Kind::Other,
+        Some(p) => match p.writer {
+            Writer::Update => Kind::Written,
+            Writer::Never | Writer::Start => Kind::OnlyRead,
+            Writer::Pend(..) => Kind::Slot,
+            Writer::Gram(_) => Kind::Other,
+        },
+    };
+    let est = size_of::<JointEstimator>() / 8;
+    let seals = mem_words - 1 - (N_PARTS + 1);
+    match word {
+        0 => Kind::Written,
+        w if w <= est => {
+            let at = (w - 1) * 8;
+            let i = JointEstimator::PARTS.iter().position(|p| p.start <= at && at < p.end);
+            i.map_or(Kind::Other, of_part)
+        }
+        w if w < seals => Kind::OnlyRead,
+        w => of_part(w - seals),
+    }
+}
+
 fn words(bytes: usize) -> Vec<u64> {
     assert_eq!(bytes % 8, 0);
     vec![0u64; bytes / 8]
@@ -249,6 +290,8 @@ struct Host {
     life: Life,
     /// A bit of the state flipped since the library left it: (word, bit).
     flipped: Option<(usize, u32)>,
+    /// Updates that returned `TAIJI_OK` over the flip.
+    flip_age: u32,
     tick: u64,
     last_sample: SensorSample,
     last_checkpoint: Option<Vec<u8>>,
@@ -392,15 +435,27 @@ impl Host {
         // SAFETY: valid pointers (or null) of the sizes the header declares.
         let rc = unsafe { taiji_estimator_update(p, buf.as_ptr() as *const SensorSample, r, f) };
         let want = self.state_code(TAIJI_OK);
-        if self.flipped.is_some() && self.life != Life::Uninit && rc == TAIJI_OK {
-            // An update checks the parts it writes and one more in turn: a flip elsewhere
-            // stands until a later check. It stands unless the update wrote that word
-            // whole (a waiting sample's slot): a whole check (estimate) says which.
+        if let (Some((w, _)), true, TAIJI_OK) = (self.flipped, self.life != Life::Uninit, rc) {
+            // An update checks the parts it writes, and in turn one of those it only
+            // reads: a flip elsewhere stands until a later check, unless the update wrote
+            // that word whole (a waiting sample's slot). A whole check (estimate) says
+            // which.
+            let kind = part_kind(w, self.mem.len());
+            assert!(kind != Kind::Written, "update over a flip in word {w}, a part it writes");
+            self.flip_age += 1;
+            assert!(
+                kind != Kind::OnlyRead || self.flip_age < TAIJI_SCRUB_PARTS,
+                "a flip in word {w} stood {} updates",
+                self.flip_age
+            );
             let mut out = EstimateMsg::default();
             // SAFETY: the state and an output of the header's size.
             match unsafe { taiji_estimator_estimate(p, &mut out) } {
                 TAIJI_ERR_UPSET => {}
-                TAIJI_OK => self.flipped = None,
+                TAIJI_OK => {
+                    assert_eq!(kind, Kind::Slot, "a flip in word {w} vanished");
+                    self.flipped = None;
+                }
                 other => panic!("estimate after an update over a flip: {other}"),
             }
         } else {
@@ -639,7 +694,10 @@ impl Host {
                 self.mem[w] ^= 1 << b;
                 return;
             }
-            None => self.flipped = Some((w, b)),
+            None => {
+                self.flipped = Some((w, b));
+                self.flip_age = 0;
+            }
         }
         if self.flipped.is_some() {
             // The next call must find it (and change nothing).
@@ -756,6 +814,7 @@ fn run(input: &Input) {
         last_checkpoint: None,
         final_msg: None,
         updates: 0,
+        flip_age: 0,
         solves: 0,
     };
     // Memory never initialised is no state.

@@ -63,9 +63,9 @@ pub const TAIJI_ABI_VERSION: u32 = 4;
 pub const TAIJI_SOLVE_DUE: u32 = 1;
 
 /// Parts of the state an update reads but does not write (the table, the SRP filter's
-/// poles, the references, the solution, the gates' rows, the final estimate): `update`
-/// checks one of them in turn besides those it writes, so a flip there is found within
-/// this many updates (header, UPSETS).
+/// poles, the common-mode gain and row, the turn rows, the solution, the gates' rows,
+/// the final estimate): `update` checks one of them in turn besides those it writes, so
+/// a flip there is found within this many updates (header, UPSETS).
 pub const TAIJI_SCRUB_PARTS: u32 = 7;
 const _: () = assert!(TAIJI_SCRUB_PARTS as usize == SCRUB_PARTS);
 

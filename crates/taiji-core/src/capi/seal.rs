@@ -1,10 +1,12 @@
 //! The seal: a digest of each part of the state (`JointEstimator::PARTS`, then the
 //! `finished` word with the final estimate), kept in the state. `update` checks the
-//! parts it may write before it runs and reseals them after, and checks one more part
-//! a call in turn (the scrub); every other call checks every part. A flip anywhere is
-//! so found before an update uses it where the update writes, and within `SEALED`
-//! updates, or at the next `solve`, `estimate`, `checkpoint` or `finish`, elsewhere;
-//! no estimate or checkpoint leaves unchecked.
+//! parts it may write before it runs and reseals them after, and checks in turn one of
+//! the parts it reads but never writes (the scrub, `SCRUBBED`); every other call
+//! checks every part. A flip is so found before an update uses it where the update
+//! writes, within `TAIJI_SCRUB_PARTS` updates where updates only read, and before
+//! anything uses it where no update reads (the update that reads it, or the next
+//! `solve`, `estimate`, `checkpoint` or `finish`); no estimate or checkpoint leaves
+//! unchecked.
 
 use super::{State, TAIJI_ERR_UPSET};
 use crate::estimate::joint::{Extent, JointEstimator, Writer, N_PARTS, PEND, TARGETS};

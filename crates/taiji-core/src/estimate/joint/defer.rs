@@ -2,11 +2,11 @@
 //! four Gram matrices a linear sample adds to (its regime's `m_raw`, `m_filt`, the two
 //! `m_turn`) takes the samples waiting for it at once, one matrix a sample. An element
 //! is then loaded and stored once for up to `PEND` samples instead of once for each,
-//! and an update writes one Gram matrix instead of four (the raw Grams: one per regime
-//! among the waiting samples), which is what the C ABI's seal passes over. Every element takes the same products and sums in the same order as
-//! rank-one updates sample by sample would give it, so the same bits; whatever reads
-//! the Grams (`solve`, the bound's fits) brings them all up to date first
-//! (`flush_grams`).
+//! and an update writes one Gram matrix instead of four (the raw Grams: one per
+//! regime among the waiting samples), which is what the C ABI's seal passes over.
+//! Every element takes the same products and sums in the same order as rank-one
+//! updates sample by sample would give it, so the same bits; whatever reads the Grams
+//! (`solve`, the bound's fits) brings them all up to date first (`flush_grams`).
 
 use super::*;
 

@@ -1,6 +1,6 @@
 //! The estimator's bytes as the parts the C ABI's seal keeps a digest of, and which
-//! call writes each: an update checks and reseals only what it may write, and scrubs
-//! the rest a part a call (`capi`).
+//! call writes each: an update checks and reseals only what it may write, and checks
+//! in turn one of the parts it reads but never writes (`capi::seal`).
 
 use super::*;
 use core::mem::{offset_of, size_of};
